@@ -1,0 +1,209 @@
+//! `cargo xtask <command>`: the project's jobs, with no dependency beyond cargo.
+//!
+//! - `test`        every test: host suite, then the model checks on the Cortex-M4F in QEMU.
+//!   Prints `host: N passed, M failed` and `qemu: N passed, M failed`.
+//! - `qemu-bench`  instruction counts and f32-vs-f64 precision on the Cortex-M4F, with libm
+//!   and with micromath.
+//! - `bench`       criterion benchmarks on the host.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{exit, Command, Stdio};
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let code = match args.first().map(String::as_str) {
+        Some("test") => test(),
+        Some("qemu-bench") => qemu_bench(),
+        Some("bench") => run_status(
+            Command::new(cargo())
+                .args(["bench", "-p", "pam-model"])
+                .current_dir(root()),
+        ),
+        _ => {
+            eprintln!("usage: cargo xtask <test | qemu-bench | bench>");
+            2
+        }
+    };
+    exit(code);
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+fn cargo() -> String {
+    std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
+}
+
+fn run_status(cmd: &mut Command) -> i32 {
+    match cmd.status() {
+        Ok(s) => s.code().unwrap_or(1),
+        Err(e) => {
+            eprintln!("xtask: could not start {:?}: {e}", cmd.get_program());
+            1
+        }
+    }
+}
+
+/// Runs a command, echoing its stdout line by line to ours, and returns (exit code, lines).
+fn run_streaming(cmd: &mut Command) -> (i32, Vec<String>) {
+    let mut child = match cmd.stdout(Stdio::piped()).spawn() {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("xtask: could not start {:?}: {e}", cmd.get_program());
+            return (1, Vec::new());
+        }
+    };
+    let mut lines = Vec::new();
+    for line in BufReader::new(child.stdout.take().unwrap())
+        .lines()
+        .map_while(Result::ok)
+    {
+        println!("{line}");
+        lines.push(line);
+    }
+    let code = child.wait().map(|s| s.code().unwrap_or(1)).unwrap_or(1);
+    (code, lines)
+}
+
+/// Sums cargo's `test result: ok. N passed; M failed; ...` lines.
+fn cargo_test_counts(lines: &[String]) -> (u64, u64) {
+    let (mut passed, mut failed) = (0, 0);
+    for l in lines.iter().filter(|l| l.starts_with("test result:")) {
+        let num_before = |word: &str| -> u64 {
+            l.split(';')
+                .find(|part| part.trim_end().ends_with(word))
+                .and_then(|part| {
+                    part.split_whitespace()
+                        .rev()
+                        .nth(1)
+                        .and_then(|n| n.parse().ok())
+                })
+                .unwrap_or(0)
+        };
+        passed += num_before("passed");
+        failed += num_before("failed");
+    }
+    (passed, failed)
+}
+
+/// Makes sure `qemu-system-arm` is on the PATH, installing Debian's package when we are
+/// root on a Debian-like system; otherwise says exactly what to do.
+fn ensure_qemu() -> bool {
+    let found = |_: ()| {
+        Command::new("qemu-system-arm")
+            .arg("--version")
+            .stdout(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if found(()) {
+        return true;
+    }
+    let is_root = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| o.stdout.starts_with(b"0"))
+        .unwrap_or(false);
+    let has_apt = Path::new("/usr/bin/apt-get").exists();
+    if is_root && has_apt {
+        eprintln!("xtask: qemu-system-arm not found; installing Debian's qemu-system-arm package");
+        let env = [("DEBIAN_FRONTEND", "noninteractive")];
+        let ok = run_status(Command::new("apt-get").args(["update", "-qq"]).envs(env)) == 0
+            && run_status(
+                Command::new("apt-get")
+                    .args(["install", "-y", "-qq", "qemu-system-arm"])
+                    .envs(env),
+            ) == 0;
+        if ok && found(()) {
+            return true;
+        }
+    }
+    eprintln!(
+        "xtask: qemu-system-arm is needed for the Cortex-M4F tests. Install it with\n    sudo apt-get install qemu-system-arm\n(Debian/Ubuntu), then run `cargo xtask test` again."
+    );
+    false
+}
+
+/// Builds and runs the model checks in QEMU; returns (exit code, lines).
+fn run_qemu(features: &[&str]) -> (i32, Vec<String>) {
+    let mut cmd = Command::new(cargo());
+    cmd.args(["run", "--release", "--quiet"])
+        .args(features)
+        .current_dir(root().join("qemu-tests"));
+    run_streaming(&mut cmd)
+}
+
+fn qemu_counts(lines: &[String]) -> Option<(u64, u64)> {
+    let l = lines.iter().rev().find(|l| l.starts_with("qemu: "))?;
+    let mut nums = l
+        .split(|c: char| !c.is_ascii_digit())
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse::<u64>());
+    Some((nums.next()?.ok()?, nums.next()?.ok()?))
+}
+
+fn test() -> i32 {
+    println!("== host: cargo test --workspace");
+    let (host_code, host_lines) = run_streaming(
+        Command::new(cargo())
+            .args(["test", "--workspace"])
+            .current_dir(root()),
+    );
+    let (host_passed, mut host_failed) = cargo_test_counts(&host_lines);
+    if host_code != 0 && host_failed == 0 {
+        host_failed = 1; // build failure or crash: count it, never report green
+    }
+
+    println!("== qemu: model checks on Cortex-M4F (mps2-an386)");
+    let (qemu_passed, qemu_failed) = if ensure_qemu() {
+        let (code, lines) = run_qemu(&[]);
+        match qemu_counts(&lines) {
+            Some((p, f)) if code == 0 || f > 0 => (p, f),
+            Some((p, _)) => (p, 1),
+            None => (0, 1),
+        }
+    } else {
+        (0, 1)
+    };
+
+    println!();
+    println!("host: {host_passed} passed, {host_failed} failed");
+    println!("qemu: {qemu_passed} passed, {qemu_failed} failed");
+    if host_failed == 0 && qemu_failed == 0 && host_code == 0 {
+        0
+    } else {
+        1
+    }
+}
+
+fn qemu_bench() -> i32 {
+    if !ensure_qemu() {
+        return 1;
+    }
+    let mut summary = Vec::new();
+    for (label, features) in [
+        ("libm + own f32 sincos (default)", &[][..]),
+        ("micromath", &["--features", "micromath"][..]),
+    ] {
+        println!("== Cortex-M4F, f32 transcendental functions: {label}");
+        let (_, lines) = run_qemu(features);
+        summary.extend(
+            lines
+                .into_iter()
+                .filter(|l| {
+                    l.starts_with("bench") || l.starts_with("precision") || l.starts_with("qemu:")
+                })
+                .map(|l| format!("[{label}] {l}")),
+        );
+    }
+    println!("\n== summary");
+    for l in &summary {
+        println!("{l}");
+    }
+    0
+}
