@@ -11,6 +11,7 @@ use core::hint::black_box;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
+use pam_control::{Controller, Mode, SafetyConfig, Sensors};
 use pam_model::checks::{precision, workload, Check, CHECKS_F32, CHECKS_F64};
 use pam_model::kinematics::Kinematics;
 use pam_model::RobotModel;
@@ -77,6 +78,24 @@ fn main() -> ! {
     );
     run("f32", CHECKS_F32, &mut passed, &mut failed);
     run("f64", CHECKS_F64, &mut passed, &mut failed);
+    for c in pam_control::checks::CHECKS {
+        match (c.run)() {
+            Ok(()) => {
+                passed += 1;
+                hprintln!("ok   control {}", c.name);
+            }
+            Err(e) => {
+                failed += 1;
+                hprintln!(
+                    "FAIL control {}: {} got {} expected {}",
+                    c.name,
+                    e.what,
+                    e.got,
+                    e.expected
+                );
+            }
+        }
+    }
 
     // Precision of the f32 model against the f64 reference, both computed here.
     let report = precision::compare();
@@ -147,6 +166,36 @@ fn main() -> ! {
     });
     let per_force = (force_ticks.saturating_sub(empty_ticks)) as f32 * insn_per_tick / n;
     hprintln!("bench force path (load-cell rotation + gain plane + J^T F + inverse, both joints), f32/{}: {:.0} instructions per evaluation", math, per_force);
+
+    // One full control step, sensors in -> outputs out: supervisor, load-cell rotation,
+    // mode (force with feed-forward: the longest path), slew limits, currents.
+    let mut ctl = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+    let _ = ctl.arm();
+    let _ = ctl.set_mode(Mode::Force {
+        force_n: [9.1, -4.0],
+        stiffness_nm_per_rad: [60.0, 27.0],
+        feed_forward: true,
+    });
+    let mut k = 0u32;
+    let step_ticks = ticks(|| {
+        for _ in 0..REPS {
+            for w in inputs.iter() {
+                ctl.heartbeat();
+                k += 1;
+                let a = [
+                    w.alpha_rad[0] * 0.001 * (k & 7) as f32,
+                    w.alpha_rad[1] * 0.001 * (k & 7) as f32,
+                ];
+                let s = Sensors {
+                    alpha_rad: a,
+                    force_sensor_n: [w.torque_nm[0] * 0.1, w.torque_nm[1] * 0.1],
+                };
+                black_box(ctl.step(black_box(&s)));
+            }
+        }
+    });
+    let per_step = (step_ticks.saturating_sub(empty_ticks)) as f32 * insn_per_tick / n;
+    hprintln!("bench control step (sensors in -> outputs out, force mode + feed-forward + supervisor), f32/{}: {:.0} instructions per step; state {:?}", math, per_step, ctl.state());
 
     hprintln!("qemu: {} passed, {} failed", passed, failed);
     if failed == 0 {

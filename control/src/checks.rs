@@ -1,0 +1,427 @@
+//! Checks of the state machine and every fault path, run by `cargo test` on the host and
+//! on the Cortex-M4F under QEMU (`qemu-tests/`).
+
+use crate::supervisor::*;
+use pam_model::{Limited, RobotModel};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Failure {
+    pub what: &'static str,
+    pub got: f32,
+    pub expected: f32,
+}
+
+pub type CheckResult = Result<(), Failure>;
+
+#[derive(Clone, Copy)]
+pub struct Check {
+    pub name: &'static str,
+    pub run: fn() -> CheckResult,
+}
+
+fn holds(what: &'static str, ok: bool) -> CheckResult {
+    if ok {
+        Ok(())
+    } else {
+        Err(Failure {
+            what,
+            got: 0.0,
+            expected: 1.0,
+        })
+    }
+}
+
+fn near(what: &'static str, got: f32, expected: f32, tol: f32) -> CheckResult {
+    if (got - expected).abs() <= tol {
+        Ok(())
+    } else {
+        Err(Failure {
+            what,
+            got,
+            expected,
+        })
+    }
+}
+
+fn controller() -> Controller {
+    Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz())
+}
+
+/// Neutral pose with a little load-cell dither, as a live sensor has.
+fn sensors(k: u32) -> Sensors {
+    let d = if k.is_multiple_of(2) { 0.01 } else { -0.01 };
+    Sensors {
+        alpha_rad: [0.0, 0.0],
+        force_sensor_n: [0.5 + d, -0.3],
+    }
+}
+
+fn run_steps(c: &mut Controller, n: u32, start: u32) -> StepOutput {
+    let mut out = c.step(&sensors(start));
+    for k in 1..n {
+        c.heartbeat();
+        out = c.step(&sensors(start + k));
+    }
+    out
+}
+
+fn is_vent(out: &StepOutput) -> bool {
+    out.current_ma.iter().all(|&i| i == 4.0) && out.pressure_bar.iter().all(|&p| p == 0.1)
+}
+
+pub fn boots_disarmed_and_vented() -> CheckResult {
+    let mut c = controller();
+    holds("boots disarmed", c.state() == State::Disarmed)?;
+    let out = c.step(&sensors(0));
+    holds("vented at boot", is_vent(&out))
+}
+
+pub fn pressures_mode_slews_to_target() -> CheckResult {
+    let mut c = controller();
+    c.arm().map_err(|_| Failure {
+        what: "arm",
+        got: 0.0,
+        expected: 1.0,
+    })?;
+    let target = [2.3, 2.3, 3.0, 1.0];
+    holds(
+        "mode accepted",
+        c.set_mode(Mode::Pressures {
+            pressure_bar: target,
+        })
+        .is_ok(),
+    )?;
+    let first = c.step(&sensors(0));
+    // 50 bar/s at 1 ms: at most 0.05 bar per step from the 0.1 bar vent
+    near("first step slew-limited", first.pressure_bar[2], 0.15, 1e-5)?;
+    holds("slew flagged", first.output_limited)?;
+    let out = run_steps(&mut c, 200, 1);
+    for ch in 0..4 {
+        near("target reached", out.pressure_bar[ch], target[ch], 1e-4)?;
+    }
+    near(
+        "current for 2.3 bar",
+        out.current_ma[0],
+        (2.3 + 1.63) / 0.32667,
+        1e-3,
+    )?;
+    holds(
+        "still armed",
+        out.state == State::Armed && out.faults.is_none(),
+    )
+}
+
+pub fn out_of_range_command_refused_and_nothing_changes() -> CheckResult {
+    let mut c = controller();
+    c.arm().ok();
+    c.set_mode(Mode::Pressures {
+        pressure_bar: [1.0; 4],
+    })
+    .ok();
+    let before = c.mode();
+    let bad = [
+        Mode::Pressures {
+            pressure_bar: [1.0, 1.0, 6.0, 1.0],
+        },
+        Mode::Pressures {
+            pressure_bar: [1.0, f32::NAN, 1.0, 1.0],
+        },
+        Mode::Joint {
+            alpha_rad: [0.0, 1.0],
+            torque_nm: [0.0; 2],
+            stiffness_nm_per_rad: [60.0, 27.0],
+        },
+        Mode::Joint {
+            alpha_rad: [0.0; 2],
+            torque_nm: [1e6, 0.0],
+            stiffness_nm_per_rad: [60.0, 27.0],
+        },
+        Mode::Force {
+            force_n: [0.0, f32::INFINITY],
+            stiffness_nm_per_rad: [60.0, 27.0],
+            feed_forward: false,
+        },
+        Mode::Force {
+            force_n: [0.0, 0.0],
+            stiffness_nm_per_rad: [-1.0, 27.0],
+            feed_forward: false,
+        },
+    ];
+    for m in bad {
+        holds("refused", c.set_mode(m) == Err(Reject::OutOfRange))?;
+        holds("mode unchanged", c.mode() == before)?;
+    }
+    let mut s = *c.safety();
+    s.command_timeout_s = f32::NAN;
+    holds("safety config with NaN refused", c.set_safety(s).is_err())?;
+    s.command_timeout_s = 0.1;
+    s.period_s = 0.02;
+    holds("period beyond 10 ms refused", c.set_safety(s).is_err())?;
+    holds("safety unchanged", c.safety().period_s == 0.001)
+}
+
+pub fn non_finite_sensor_faults_vents_and_latches() -> CheckResult {
+    let mut c = controller();
+    c.arm().ok();
+    c.set_mode(Mode::Pressures {
+        pressure_bar: [3.0; 4],
+    })
+    .ok();
+    run_steps(&mut c, 100, 0);
+    let bad = Sensors {
+        alpha_rad: [f32::NAN, 0.0],
+        force_sensor_n: [0.0, 0.0],
+    };
+    let out = c.step(&bad);
+    holds(
+        "NaN faults",
+        out.faults.contains(Faults::NON_FINITE) && out.state == State::Faulted,
+    )?;
+    holds("vented at once", is_vent(&out))?;
+    holds(
+        "clear refused while NaN persists",
+        c.clear_faults(&bad) == Err(Reject::FaultStillPresent),
+    )?;
+    let out = run_steps(&mut c, 10, 200);
+    holds(
+        "fault latched after sensors recover",
+        out.state == State::Faulted && is_vent(&out),
+    )?;
+    holds(
+        "arm refused while faulted",
+        c.arm() == Err(Reject::WrongState),
+    )?;
+    holds("clear accepted", c.clear_faults(&sensors(0)).is_ok())?;
+    holds(
+        "disarmed after clear",
+        c.state() == State::Disarmed && c.faults().is_none(),
+    )?;
+    holds("re-arm", c.arm().is_ok())
+}
+
+fn faults_once(sensor_seq: &[Sensors], expect: Faults) -> CheckResult {
+    let mut c = controller();
+    c.arm().ok();
+    c.set_mode(Mode::Pressures {
+        pressure_bar: [2.0; 4],
+    })
+    .ok();
+    run_steps(&mut c, 50, 0);
+    let mut out = None;
+    for s in sensor_seq {
+        c.heartbeat();
+        out = Some(c.step(s));
+    }
+    let out = out.unwrap_or_else(|| c.step(&sensors(0)));
+    holds("expected fault bit", out.faults.contains(expect))?;
+    holds(
+        "faulted and vented",
+        out.state == State::Faulted && is_vent(&out),
+    )
+}
+
+pub fn angle_out_of_range_faults() -> CheckResult {
+    faults_once(
+        &[
+            Sensors {
+                alpha_rad: [0.0, 0.0],
+                force_sensor_n: [0.1, 0.2],
+            },
+            Sensors {
+                alpha_rad: [0.0, 0.9],
+                force_sensor_n: [0.2, 0.1],
+            },
+        ],
+        Faults::ANGLE_OUT_OF_RANGE,
+    )
+}
+
+pub fn encoder_jump_faults() -> CheckResult {
+    // 0.1 rad in 1 ms is 100 rad/s: not a human arm
+    faults_once(
+        &[Sensors {
+            alpha_rad: [0.1, 0.0],
+            force_sensor_n: [0.1, 0.2],
+        }],
+        Faults::ENCODER_JUMP,
+    )
+}
+
+pub fn loadcell_saturation_faults() -> CheckResult {
+    faults_once(
+        &[Sensors {
+            alpha_rad: [0.0, 0.0],
+            force_sensor_n: [250.0, 0.0],
+        }],
+        Faults::LOADCELL_SATURATED,
+    )
+}
+
+pub fn loadcell_stuck_faults() -> CheckResult {
+    let stuck = [Sensors {
+        alpha_rad: [0.0, 0.0],
+        force_sensor_n: [1.25, -0.5],
+    }; 501];
+    faults_once(&stuck, Faults::LOADCELL_STUCK)?;
+    // one sample short of the limit is not a fault
+    let mut c = controller();
+    c.arm().ok();
+    for s in stuck.iter().take(499) {
+        c.heartbeat();
+        let out = c.step(s);
+        holds("not stuck yet", out.faults.is_none())?;
+    }
+    Ok(())
+}
+
+pub fn command_timeout_ramps_to_safe_state() -> CheckResult {
+    let mut c = controller();
+    c.arm().ok();
+    c.set_mode(Mode::Pressures {
+        pressure_bar: [4.0; 4],
+    })
+    .ok();
+    run_steps(&mut c, 200, 0);
+    // host goes quiet: no heartbeat from here on
+    let mut k = 0;
+    let mut out = c.step(&sensors(1000));
+    while out.faults.is_none() && k < 1000 {
+        k += 1;
+        out = c.step(&sensors(1000 + k));
+    }
+    holds("timeout detected", out.faults == Faults::COMMAND_TIMEOUT)?;
+    // the last step of run_steps followed the last command; k + 2 periods have passed
+    near(
+        "detected in the first period past 100 ms [periods]",
+        k as f32 + 2.0,
+        101.0,
+        0.0,
+    )?;
+    let after_first = out.pressure_bar[0];
+    holds(
+        "ramps, does not cut",
+        after_first > 3.9 && after_first < 4.0,
+    )?;
+    // 5 bar/s from 4.0 to 0.1 bar: 0.78 s
+    let mut steps = 0;
+    while out.pressure_bar[0] > 0.1 + 1e-6 && steps < 2000 {
+        steps += 1;
+        out = c.step(&sensors(3000 + steps));
+    }
+    near(
+        "reaches the safe state in (4.0-0.1)/5 s [ms]",
+        steps as f32,
+        779.0,
+        2.0,
+    )?;
+    holds("latched", c.state() == State::Faulted)
+}
+
+pub fn disarm_vents_at_once() -> CheckResult {
+    let mut c = controller();
+    c.arm().ok();
+    c.set_mode(Mode::Pressures {
+        pressure_bar: [3.0; 4],
+    })
+    .ok();
+    run_steps(&mut c, 100, 0);
+    c.disarm();
+    let out = c.step(&sensors(500));
+    holds(
+        "disarmed vents",
+        is_vent(&out) && out.state == State::Disarmed,
+    )?;
+    holds("mode reset", c.mode() == Mode::Idle)
+}
+
+pub fn unattainable_joint_request_is_clamped_and_flagged() -> CheckResult {
+    let mut c = controller();
+    c.arm().ok();
+    holds(
+        "accepted (inside absolute limits)",
+        c.set_mode(Mode::Joint {
+            alpha_rad: [0.0; 2],
+            torque_nm: [150.0, 0.0],
+            stiffness_nm_per_rad: [60.0, 27.0],
+        })
+        .is_ok(),
+    )?;
+    let out = run_steps(&mut c, 200, 0);
+    holds(
+        "torque clamp flagged",
+        out.limited.contains(Limited::TORQUE),
+    )?;
+    holds(
+        "pressures within limits",
+        out.pressure_bar.iter().all(|&p| (0.0..=5.0).contains(&p)),
+    )?;
+    holds("still armed", out.state == State::Armed)
+}
+
+pub fn force_mode_commands_pressures() -> CheckResult {
+    let mut c = controller();
+    c.arm().ok();
+    c.set_mode(Mode::Force {
+        force_n: [9.1, 0.0],
+        stiffness_nm_per_rad: [60.0, 27.0],
+        feed_forward: false,
+    })
+    .ok();
+    let plain = run_steps(&mut c, 300, 0);
+    c.set_mode(Mode::Force {
+        force_n: [9.1, 0.0],
+        stiffness_nm_per_rad: [60.0, 27.0],
+        feed_forward: true,
+    })
+    .ok();
+    let ff = run_steps(&mut c, 300, 300);
+    holds(
+        "armed, no fault",
+        plain.faults.is_none() && ff.faults.is_none(),
+    )?;
+    // joint 2 pressures differ more with the 1/0.57 correction
+    let d_plain = (plain.pressure_bar[2] - plain.pressure_bar[3]).abs();
+    let d_ff = (ff.pressure_bar[2] - ff.pressure_bar[3]).abs();
+    holds("feed-forward enlarges the command", d_ff > d_plain * 1.3)
+}
+
+pub fn hardware_faults_latch() -> CheckResult {
+    let mut c = controller();
+    c.arm().ok();
+    c.raise(Faults::WATCHDOG_RESET);
+    let out = c.step(&sensors(0));
+    holds(
+        "watchdog fault latched and vented",
+        out.faults.contains(Faults::WATCHDOG_RESET) && is_vent(&out),
+    )?;
+    holds(
+        "clearable when sensors are fine",
+        c.clear_faults(&sensors(1)).is_ok(),
+    )
+}
+
+macro_rules! register {
+    ($($name:ident),* $(,)?) => {
+        pub const CHECKS: &[Check] = &[$(Check { name: stringify!($name), run: $name }),*];
+        #[cfg(test)]
+        mod on_host {
+            $(#[test] fn $name() { if let Err(e) = super::$name() { panic!("{e:?}") } })*
+        }
+    };
+}
+
+register!(
+    boots_disarmed_and_vented,
+    pressures_mode_slews_to_target,
+    out_of_range_command_refused_and_nothing_changes,
+    non_finite_sensor_faults_vents_and_latches,
+    angle_out_of_range_faults,
+    encoder_jump_faults,
+    loadcell_saturation_faults,
+    loadcell_stuck_faults,
+    command_timeout_ramps_to_safe_state,
+    disarm_vents_at_once,
+    unattainable_joint_request_is_clamped_and_flagged,
+    force_mode_commands_pressures,
+    hardware_faults_latch,
+);

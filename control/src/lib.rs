@@ -1,0 +1,30 @@
+//! The control logic of the firmware, free of any peripheral: modes, the arm/disarm/fault
+//! state machine and the safety supervisor. The firmware feeds it sensor readings once per
+//! period and writes what it returns to the four current outputs; the emulator runs the
+//! same code against the digital twin.
+//!
+//! # Safe state: vent
+//!
+//! On a fault, a disarm or at boot the four I/P converters get the minimum loop current
+//! (4 mA): every muscle vents to the converter's floor (0.1 bar) and the arm goes limp.
+//! The alternative, holding the 2.3 bar pretension, keeps the cables seated but leaves a
+//! spring of 60–120 N·m/rad pulling the patient's arm toward the neutral pose, driven by a
+//! controller that has just declared itself untrustworthy. A limp planar arm on a table
+//! cannot hurt the patient (no gravity load in the plane); slack cables are an equipment
+//! problem, handled by re-tensioning when the operator re-arms. Venting is also what the
+//! hardware does by itself when the board resets or loses power (current below 4 mA), so
+//! software and hardware fail the same way.
+//!
+//! Faults cut to the safe state at once; a command timeout (the host went quiet) ramps
+//! down at the configured slew rate, since nothing is known to be wrong with the plant.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+#![allow(clippy::needless_range_loop)]
+
+pub mod supervisor;
+
+#[cfg(any(test, feature = "checks"))]
+pub mod checks;
+
+pub use supervisor::*;

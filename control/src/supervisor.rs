@@ -1,0 +1,493 @@
+//! Modes, state machine and supervisor. f32 throughout (the target's type).
+
+use pam_model::kinematics::Kinematics;
+use pam_model::{Limited, Real, RobotModel, Vec2};
+
+/// What the robot is asked to do while armed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mode {
+    /// Safe outputs (vent).
+    Idle,
+    /// Four channel pressures, bar.
+    Pressures { pressure_bar: [f32; 4] },
+    /// Per joint: equilibrium angle, torque and stiffness → inverse model.
+    Joint {
+        alpha_rad: Vec2<f32>,
+        torque_nm: Vec2<f32>,
+        stiffness_nm_per_rad: Vec2<f32>,
+    },
+    /// Handle force in the user frame → τ = Jᵀ F → inverse model at the measured pose.
+    Force {
+        force_n: Vec2<f32>,
+        stiffness_nm_per_rad: Vec2<f32>,
+        feed_forward: bool,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum State {
+    Disarmed,
+    Armed,
+    Faulted,
+}
+
+/// Latched fault bits, reported with their code.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Faults(pub u16);
+
+impl Faults {
+    pub const NONE: Faults = Faults(0);
+    pub const COMMAND_TIMEOUT: Faults = Faults(1 << 0);
+    pub const NON_FINITE: Faults = Faults(1 << 1);
+    pub const ANGLE_OUT_OF_RANGE: Faults = Faults(1 << 2);
+    pub const ENCODER_JUMP: Faults = Faults(1 << 3);
+    pub const LOADCELL_SATURATED: Faults = Faults(1 << 4);
+    pub const LOADCELL_STUCK: Faults = Faults(1 << 5);
+    pub const OUTPUT_NON_FINITE: Faults = Faults(1 << 6);
+    /// Set by the firmware when the watchdog caused the last reset.
+    pub const WATCHDOG_RESET: Faults = Faults(1 << 7);
+    /// Set by the firmware when the current-loop stage reports an open loop.
+    pub const OUTPUT_OPEN_LOOP: Faults = Faults(1 << 8);
+
+    pub const fn with(self, o: Faults) -> Faults {
+        Faults(self.0 | o.0)
+    }
+    pub const fn contains(self, o: Faults) -> bool {
+        self.0 & o.0 == o.0 && o.0 != 0
+    }
+    pub const fn is_none(self) -> bool {
+        self.0 == 0
+    }
+}
+
+/// Limits the firmware enforces whatever the host says.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SafetyConfig {
+    pub period_s: f32,
+    pub command_timeout_s: f32,
+    /// Per-channel slew limit of the commanded pressure.
+    pub slew_bar_per_s: f32,
+    /// Ramp rate to the safe state after a command timeout.
+    pub timeout_ramp_bar_per_s: f32,
+    /// Largest believable joint speed; a bigger step between two samples is an encoder fault.
+    pub max_joint_speed_rad_s: f32,
+    /// Margin beyond the joint range before an angle is a fault (the joint has hard stops).
+    pub angle_margin_rad: f32,
+    /// A sensor-frame force beyond this is saturation.
+    pub loadcell_limit_n: f32,
+    /// This many identical consecutive load-cell samples while armed is a stuck sensor.
+    pub loadcell_stuck_samples: u32,
+    /// Largest |torque| a joint request may carry before it is refused outright.
+    pub max_request_torque_nm: f32,
+    pub max_request_stiffness_nm_per_rad: f32,
+    pub max_request_force_n: f32,
+}
+
+impl SafetyConfig {
+    pub const fn default_1khz() -> Self {
+        SafetyConfig {
+            period_s: 0.001,
+            command_timeout_s: 0.100,
+            slew_bar_per_s: 50.0,
+            timeout_ramp_bar_per_s: 5.0,
+            max_joint_speed_rad_s: 20.0,
+            angle_margin_rad: 0.05,
+            loadcell_limit_n: 190.0,
+            loadcell_stuck_samples: 500,
+            max_request_torque_nm: 200.0,
+            max_request_stiffness_nm_per_rad: 500.0,
+            max_request_force_n: 100.0,
+        }
+    }
+
+    /// Refuses configurations that would disable a protection.
+    pub fn validate(&self) -> Result<(), Reject> {
+        let positive = [
+            self.command_timeout_s,
+            self.slew_bar_per_s,
+            self.timeout_ramp_bar_per_s,
+            self.max_joint_speed_rad_s,
+            self.loadcell_limit_n,
+            self.max_request_torque_nm,
+            self.max_request_stiffness_nm_per_rad,
+            self.max_request_force_n,
+        ];
+        if !(self.period_s >= 0.001 && self.period_s <= 0.010) {
+            return Err(Reject::OutOfRange);
+        }
+        if positive.iter().any(|v| !(v.is_finite() && *v > 0.0))
+            || !(self.angle_margin_rad >= 0.0)
+            || self.loadcell_stuck_samples < 2
+        {
+            return Err(Reject::OutOfRange);
+        }
+        if self.command_timeout_s > 1.0 {
+            return Err(Reject::OutOfRange);
+        }
+        Ok(())
+    }
+}
+
+/// Why a command was refused. A refused command changes nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reject {
+    /// A value is NaN/∞ or outside the absolute limits.
+    OutOfRange,
+    /// Not allowed in the present state (e.g. arm while faulted).
+    WrongState,
+    /// Clear refused: a fault condition is still present.
+    FaultStillPresent,
+}
+
+/// One period's sensor readings, already in physical units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sensors {
+    pub alpha_rad: Vec2<f32>,
+    /// Load cell in its own frame (X, Z), N.
+    pub force_sensor_n: Vec2<f32>,
+}
+
+/// What one step decided.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepOutput {
+    pub pressure_bar: [f32; 4],
+    pub current_ma: [f32; 4],
+    /// Force at the handle in the user frame, N.
+    pub force_user_n: Vec2<f32>,
+    pub state: State,
+    pub faults: Faults,
+    /// What the model clamped this step (joint 1 | joint 2).
+    pub limited: Limited,
+    /// The slew limit or a converter's range changed the command this step.
+    pub output_limited: bool,
+}
+
+pub struct Controller {
+    model: RobotModel<f32>,
+    safety: SafetyConfig,
+    state: State,
+    mode: Mode,
+    faults: Faults,
+    /// Control periods since the last accepted command (an integer: no drift).
+    periods_since_command: u32,
+    /// Last output, for the slew limit.
+    pressure_bar: [f32; 4],
+    last_alpha_rad: Option<Vec2<f32>>,
+    last_force_raw: Vec2<f32>,
+    same_force_count: u32,
+}
+
+impl Controller {
+    pub fn new(model: RobotModel<f32>, safety: SafetyConfig) -> Self {
+        let vent = model.params.ip.output_min_bar;
+        Controller {
+            model,
+            safety,
+            state: State::Disarmed,
+            mode: Mode::Idle,
+            faults: Faults::NONE,
+            periods_since_command: 0,
+            pressure_bar: [vent; 4],
+            last_alpha_rad: None,
+            last_force_raw: [f32::NAN; 2],
+            same_force_count: 0,
+        }
+    }
+
+    pub fn state(&self) -> State {
+        self.state
+    }
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+    pub fn faults(&self) -> Faults {
+        self.faults
+    }
+    pub fn safety(&self) -> &SafetyConfig {
+        &self.safety
+    }
+    pub fn model(&self) -> &RobotModel<f32> {
+        &self.model
+    }
+
+    /// Any accepted command resets the command timeout.
+    fn accepted(&mut self) {
+        self.periods_since_command = 0;
+    }
+
+    /// A keep-alive with no other effect.
+    pub fn heartbeat(&mut self) {
+        self.accepted();
+    }
+
+    pub fn arm(&mut self) -> Result<(), Reject> {
+        match self.state {
+            State::Disarmed if self.faults.is_none() => {
+                self.state = State::Armed;
+                self.accepted();
+                Ok(())
+            }
+            _ => Err(Reject::WrongState),
+        }
+    }
+
+    pub fn disarm(&mut self) {
+        if self.state == State::Armed {
+            self.state = State::Disarmed;
+        }
+        self.mode = Mode::Idle;
+        self.accepted();
+    }
+
+    /// Clears latched faults; refused while a condition persists. Leaves the robot disarmed.
+    pub fn clear_faults(&mut self, sensors: &Sensors) -> Result<(), Reject> {
+        let present = self.sensor_faults(sensors, false);
+        if !present.is_none() {
+            return Err(Reject::FaultStillPresent);
+        }
+        self.faults = Faults::NONE;
+        self.state = State::Disarmed;
+        self.mode = Mode::Idle;
+        self.last_alpha_rad = None;
+        self.same_force_count = 0;
+        self.accepted();
+        Ok(())
+    }
+
+    /// Sets the mode after checking every value against the absolute limits. Values
+    /// inside them but beyond what the robot can do at the pose are clamped each step and
+    /// flagged in [`StepOutput::limited`].
+    pub fn set_mode(&mut self, mode: Mode) -> Result<(), Reject> {
+        let s = &self.safety;
+        let p = &self.model.params;
+        let finite_in = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
+        let ok = match &mode {
+            Mode::Idle => true,
+            Mode::Pressures { pressure_bar } => pressure_bar
+                .iter()
+                .all(|&x| finite_in(x, p.pressure.min_bar, p.pressure.max_bar)),
+            Mode::Joint {
+                alpha_rad,
+                torque_nm,
+                stiffness_nm_per_rad,
+            } => (0..2).all(|j| {
+                finite_in(
+                    alpha_rad[j],
+                    p.joints[j].alpha_min_rad,
+                    p.joints[j].alpha_max_rad,
+                ) && finite_in(
+                    torque_nm[j],
+                    -s.max_request_torque_nm,
+                    s.max_request_torque_nm,
+                ) && finite_in(
+                    stiffness_nm_per_rad[j],
+                    0.0,
+                    s.max_request_stiffness_nm_per_rad,
+                )
+            }),
+            Mode::Force {
+                force_n,
+                stiffness_nm_per_rad,
+                ..
+            } => (0..2).all(|j| {
+                finite_in(force_n[j], -s.max_request_force_n, s.max_request_force_n)
+                    && finite_in(
+                        stiffness_nm_per_rad[j],
+                        0.0,
+                        s.max_request_stiffness_nm_per_rad,
+                    )
+            }),
+        };
+        if !ok {
+            return Err(Reject::OutOfRange);
+        }
+        self.mode = mode;
+        self.accepted();
+        Ok(())
+    }
+
+    /// Replaces the safety configuration (refused if it would disable a protection).
+    pub fn set_safety(&mut self, safety: SafetyConfig) -> Result<(), Reject> {
+        safety.validate()?;
+        self.safety = safety;
+        self.accepted();
+        Ok(())
+    }
+
+    /// The firmware reports a hardware fault (watchdog reset, open current loop).
+    pub fn raise(&mut self, fault: Faults) {
+        self.faults = self.faults.with(fault);
+        self.state = State::Faulted;
+    }
+
+    fn sensor_faults(&self, s: &Sensors, track_history: bool) -> Faults {
+        let mut f = Faults::NONE;
+        let finite = s
+            .alpha_rad
+            .iter()
+            .chain(s.force_sensor_n.iter())
+            .all(|x| x.is_finite());
+        if !finite {
+            return f.with(Faults::NON_FINITE);
+        }
+        for j in 0..2 {
+            let jp = &self.model.params.joints[j];
+            let m = self.safety.angle_margin_rad;
+            if s.alpha_rad[j] < jp.alpha_min_rad - m || s.alpha_rad[j] > jp.alpha_max_rad + m {
+                f = f.with(Faults::ANGLE_OUT_OF_RANGE);
+            }
+        }
+        if track_history {
+            if let Some(last) = self.last_alpha_rad {
+                let max_step = self.safety.max_joint_speed_rad_s * self.safety.period_s;
+                if (0..2).any(|j| (s.alpha_rad[j] - last[j]).abs() > max_step) {
+                    f = f.with(Faults::ENCODER_JUMP);
+                }
+            }
+        }
+        if s.force_sensor_n
+            .iter()
+            .any(|x| x.abs() > self.safety.loadcell_limit_n)
+        {
+            f = f.with(Faults::LOADCELL_SATURATED);
+        }
+        f
+    }
+
+    /// One control period: supervise the sensors, compute the command of the mode, enforce
+    /// the limits, and return the outputs to write. Never panics; every path ends in finite
+    /// outputs inside the converters' range.
+    pub fn step(&mut self, sensors: &Sensors) -> StepOutput {
+        let dt = self.safety.period_s;
+        let mut faults = self.sensor_faults(sensors, true);
+        // stuck load cell: bit-identical samples while armed (a live ADC always dithers)
+        if sensors.force_sensor_n == self.last_force_raw {
+            self.same_force_count = self.same_force_count.saturating_add(1);
+        } else {
+            self.same_force_count = 0;
+        }
+        self.last_force_raw = sensors.force_sensor_n;
+        if self.state == State::Armed && self.same_force_count >= self.safety.loadcell_stuck_samples
+        {
+            faults = faults.with(Faults::LOADCELL_STUCK);
+        }
+        if !faults.contains(Faults::NON_FINITE) {
+            self.last_alpha_rad = Some(sensors.alpha_rad);
+        }
+        self.periods_since_command = self.periods_since_command.saturating_add(1);
+        let timeout_periods = (self.safety.command_timeout_s / dt + 0.5) as u32;
+        let timed_out = self.state == State::Armed && self.periods_since_command > timeout_periods;
+        if timed_out {
+            faults = faults.with(Faults::COMMAND_TIMEOUT);
+        }
+        if !faults.is_none() {
+            self.faults = self.faults.with(faults);
+            self.state = State::Faulted;
+        }
+
+        let ip = &self.model.params.ip;
+        let vent = ip.output_min_bar;
+        let alpha = sensors.alpha_rad;
+        // sin/cos of the pose once per step, shared by the load-cell rotation and τ = Jᵀ F
+        let trig = self
+            .model
+            .kinematics
+            .trig(if faults.contains(Faults::NON_FINITE) {
+                [0.0; 2]
+            } else {
+                alpha
+            });
+        let force_user_n = if faults.contains(Faults::NON_FINITE) {
+            [0.0; 2]
+        } else {
+            Kinematics::sensor_to_user_at(&trig, sensors.force_sensor_n)
+        };
+
+        let mut limited = Limited::NONE;
+        let (target, slew, cut) = match self.state {
+            State::Armed => {
+                let target = match self.mode {
+                    Mode::Idle => [vent; 4],
+                    Mode::Pressures { pressure_bar } => pressure_bar,
+                    Mode::Joint {
+                        alpha_rad,
+                        torque_nm,
+                        stiffness_nm_per_rad,
+                    } => {
+                        let sol = self
+                            .model
+                            .inverse(alpha_rad, torque_nm, stiffness_nm_per_rad);
+                        limited = sol[0].limited.with(sol[1].limited);
+                        self.model
+                            .channel_pressures_bar([sol[0].pressure_bar, sol[1].pressure_bar])
+                    }
+                    Mode::Force {
+                        force_n,
+                        stiffness_nm_per_rad,
+                        feed_forward,
+                    } => {
+                        let cmd = self.model.force_command_at(
+                            alpha,
+                            &trig,
+                            force_n,
+                            stiffness_nm_per_rad,
+                            feed_forward,
+                        );
+                        limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
+                        self.model.channel_pressures_bar([
+                            cmd.joints[0].pressure_bar,
+                            cmd.joints[1].pressure_bar,
+                        ])
+                    }
+                };
+                (target, self.safety.slew_bar_per_s, false)
+            }
+            // A timeout alone ramps down; any other fault (or a disarm) vents at once.
+            State::Faulted if self.faults == Faults::COMMAND_TIMEOUT => {
+                ([vent; 4], self.safety.timeout_ramp_bar_per_s, false)
+            }
+            State::Faulted | State::Disarmed => ([vent; 4], 0.0, true),
+        };
+
+        let mut output_limited = false;
+        let max_step = slew * dt;
+        let mut out = [vent; 4];
+        let mut current = [ip.current_min_ma; 4];
+        for c in 0..4 {
+            let mut p = target[c];
+            if !p.is_finite() {
+                // the model never returns NaN, but the output path does not rely on that
+                self.faults = self.faults.with(Faults::OUTPUT_NON_FINITE);
+                self.state = State::Faulted;
+                p = vent;
+            }
+            let p_in = p;
+            p = p.clamp_to(
+                self.model.params.pressure.min_bar,
+                self.model.params.pressure.max_bar,
+            );
+            if !cut {
+                let prev = self.pressure_bar[c];
+                p = p.clamp_to(prev - max_step, prev + max_step);
+            }
+            let cmd = ip.current_for(p);
+            output_limited |= (p - p_in).abs() > 1e-6 || cmd.saturated;
+            out[c] = if cut { vent } else { p };
+            current[c] = if cut {
+                ip.current_min_ma
+            } else {
+                cmd.current_ma
+            };
+        }
+        self.pressure_bar = out;
+        StepOutput {
+            pressure_bar: out,
+            current_ma: current,
+            force_user_n,
+            state: self.state,
+            faults: self.faults,
+            limited,
+            output_limited,
+        }
+    }
+}
