@@ -5,6 +5,7 @@
 //! - `qemu-bench`  instruction counts and f32-vs-f64 precision on the Cortex-M4F, with libm
 //!   and with micromath.
 //! - `bench`       criterion benchmarks on the host.
+//! - `firmware`    release build of the board firmware, with its flash and static-RAM size.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -15,13 +16,14 @@ fn main() {
     let code = match args.first().map(String::as_str) {
         Some("test") => test(),
         Some("qemu-bench") => qemu_bench(),
+        Some("firmware") => firmware().map(|_| 0).unwrap_or(1),
         Some("bench") => run_status(
             Command::new(cargo())
                 .args(["bench", "-p", "pam-model"])
                 .current_dir(root()),
         ),
         _ => {
-            eprintln!("usage: cargo xtask <test | qemu-bench | bench>");
+            eprintln!("usage: cargo xtask <test | qemu-bench | bench | firmware>");
             2
         }
     };
@@ -171,10 +173,16 @@ fn test() -> i32 {
         (0, 1)
     };
 
+    println!("== firmware: release build for the NUCLEO-G474RE");
+    let firmware_ok = firmware().is_ok();
+
     println!();
+    if !firmware_ok {
+        println!("firmware: build or size check FAILED");
+    }
     println!("host: {host_passed} passed, {host_failed} failed");
     println!("qemu: {qemu_passed} passed, {qemu_failed} failed");
-    if host_failed == 0 && qemu_failed == 0 && host_code == 0 {
+    if host_failed == 0 && qemu_failed == 0 && host_code == 0 && firmware_ok {
         0
     } else {
         1
@@ -206,4 +214,71 @@ fn qemu_bench() -> i32 {
         println!("{l}");
     }
     0
+}
+
+/// Flash and static-RAM budget of the firmware (issue 4).
+const FLASH_LIMIT_BYTES: u64 = 128 * 1024;
+const RAM_LIMIT_BYTES: u64 = 32 * 1024;
+
+/// Builds the firmware in release mode and checks its size against the budget.
+fn firmware() -> Result<(), ()> {
+    let dir = root().join("firmware");
+    if run_status(
+        Command::new(cargo())
+            .args(["build", "--release", "--quiet"])
+            .current_dir(&dir),
+    ) != 0
+    {
+        eprintln!("xtask: firmware build failed");
+        return Err(());
+    }
+    let elf = dir.join("target/thumbv7em-none-eabihf/release/pam-firmware");
+    let bytes =
+        std::fs::read(&elf).map_err(|e| eprintln!("xtask: cannot read {}: {e}", elf.display()))?;
+    let (flash, ram) = elf32_sizes(&bytes)
+        .ok_or_else(|| eprintln!("xtask: {} is not a 32-bit little-endian ELF", elf.display()))?;
+    println!(
+        "firmware: flash {flash} B ({:.1} KiB of {} KiB), static RAM {ram} B ({:.1} KiB of {} KiB)",
+        flash as f64 / 1024.0,
+        FLASH_LIMIT_BYTES / 1024,
+        ram as f64 / 1024.0,
+        RAM_LIMIT_BYTES / 1024
+    );
+    if flash > FLASH_LIMIT_BYTES || ram > RAM_LIMIT_BYTES {
+        eprintln!("xtask: firmware over its size budget");
+        return Err(());
+    }
+    Ok(())
+}
+
+/// (flash, static RAM) of an ELF32 image: flash is every allocated section with contents
+/// (code, read-only data, the initial values of .data); RAM is every allocated writable
+/// section (.data, .bss, .uninit). The stack is not counted: it takes what RAM is left.
+fn elf32_sizes(b: &[u8]) -> Option<(u64, u64)> {
+    const SHT_NOBITS: u32 = 8;
+    const SHF_WRITE: u32 = 1;
+    const SHF_ALLOC: u32 = 2;
+    if b.len() < 52 || &b[0..4] != b"\x7fELF" || b[4] != 1 || b[5] != 1 {
+        return None;
+    }
+    let u16_at = |o: usize| Some(u16::from_le_bytes(b.get(o..o + 2)?.try_into().ok()?));
+    let u32_at = |o: usize| Some(u32::from_le_bytes(b.get(o..o + 4)?.try_into().ok()?));
+    let shoff = u32_at(32)? as usize;
+    let shentsize = u16_at(46)? as usize;
+    let shnum = u16_at(48)? as usize;
+    let (mut flash, mut ram) = (0u64, 0u64);
+    for i in 0..shnum {
+        let h = shoff + i * shentsize;
+        let (kind, flags, size) = (u32_at(h + 4)?, u32_at(h + 8)?, u32_at(h + 20)? as u64);
+        if flags & SHF_ALLOC == 0 {
+            continue;
+        }
+        if kind != SHT_NOBITS {
+            flash += size;
+        }
+        if flags & SHF_WRITE != 0 {
+            ram += size;
+        }
+    }
+    Some((flash, ram))
 }
