@@ -4,20 +4,7 @@
 use crate::supervisor::*;
 use pam_model::{Limited, RobotModel};
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Failure {
-    pub what: &'static str,
-    pub got: f32,
-    pub expected: f32,
-}
-
-pub type CheckResult = Result<(), Failure>;
-
-#[derive(Clone, Copy)]
-pub struct Check {
-    pub name: &'static str,
-    pub run: fn() -> CheckResult,
-}
+pub use pam_model::checks::{Check, CheckResult, Failure};
 
 fn holds(what: &'static str, ok: bool) -> CheckResult {
     if ok {
@@ -27,6 +14,8 @@ fn holds(what: &'static str, ok: bool) -> CheckResult {
             what,
             got: 0.0,
             expected: 1.0,
+            tolerance: 0.0,
+            index: 0,
         })
     }
 }
@@ -37,8 +26,10 @@ fn near(what: &'static str, got: f32, expected: f32, tol: f32) -> CheckResult {
     } else {
         Err(Failure {
             what,
-            got,
-            expected,
+            got: got as f64,
+            expected: expected as f64,
+            tolerance: tol as f64,
+            index: 0,
         })
     }
 }
@@ -78,11 +69,7 @@ pub fn boots_disarmed_and_vented() -> CheckResult {
 
 pub fn pressures_mode_slews_to_target() -> CheckResult {
     let mut c = controller();
-    c.arm().map_err(|_| Failure {
-        what: "arm",
-        got: 0.0,
-        expected: 1.0,
-    })?;
+    holds("arm", c.arm().is_ok())?;
     let target = [2.3, 2.3, 3.0, 1.0];
     holds(
         "mode accepted",
