@@ -1,0 +1,17 @@
+//! Identification of the PAM rehabilitation robot from logs, as in the thesis (§4.3–4.6,
+//! §5.3), and the model loop: compare the model with a measurement, find which physical
+//! effect is missing, add it and watch the held-out error fall.
+//!
+//! Host only, f64. Uses only what a log contains: time, encoder angles, measured force,
+//! the force reference of step experiments.
+
+pub mod filter;
+pub mod freq;
+pub mod lm;
+pub mod lsq;
+pub mod msd;
+pub mod spectrum;
+pub mod step;
+pub mod trial;
+
+pub use trial::{FilterSettings, Prepared, Trial};

@@ -1,0 +1,178 @@
+//! What a log gives the identification: time, encoder angles, measured force, and the
+//! force reference when one is active. Everything else (handle position, velocity,
+//! acceleration) is derived here through the robot's forward kinematics.
+
+use crate::filter::Butterworth;
+use pam_model::RobotModel;
+
+/// The columns of one trial, in SI units, user frame.
+#[derive(Clone, Debug, Default)]
+pub struct Trial {
+    pub t_s: Vec<f64>,
+    pub alpha_rad: [Vec<f64>; 2],
+    /// Force the robot exerts on whatever holds the handle (log columns fx_n, fy_n).
+    pub force_n: [Vec<f64>; 2],
+    /// Force reference (fx_ref_n, fy_ref_n), present in step experiments.
+    pub force_ref_n: Option<[Vec<f64>; 2]>,
+}
+
+/// Settings of the derivative filter (thesis: 10th order Butterworth at 8 Hz).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterSettings {
+    pub order: usize,
+    pub cutoff_hz: f64,
+}
+
+impl Default for FilterSettings {
+    fn default() -> Self {
+        FilterSettings {
+            order: 10,
+            cutoff_hz: 8.0,
+        }
+    }
+}
+
+/// A trial with handle kinematics derived from the encoders.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    pub t_s: Vec<f64>,
+    pub dt_s: f64,
+    pub alpha_rad: [Vec<f64>; 2],
+    /// Handle position, user frame.
+    pub x_m: [Vec<f64>; 2],
+    /// Displacement from the equilibrium (the position at the start of the trial).
+    pub dx_m: [Vec<f64>; 2],
+    pub x0_m: [f64; 2],
+    pub v_m_s: [Vec<f64>; 2],
+    pub a_m_s2: [Vec<f64>; 2],
+    pub force_n: [Vec<f64>; 2],
+    pub force_ref_n: Option<[Vec<f64>; 2]>,
+    /// First sample of the held-out part (the last 20 %).
+    pub split: usize,
+}
+
+impl Trial {
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// Checks lengths, finiteness and monotonic time (a log reader normally already did).
+    pub fn validate(&self) -> Result<(), String> {
+        let n = self.t_s.len();
+        if n < 20 {
+            return Err(format!("trial has {n} samples; at least 20 are needed"));
+        }
+        let mut cols: Vec<(&str, &Vec<f64>)> = vec![
+            ("alpha1_rad", &self.alpha_rad[0]),
+            ("alpha2_rad", &self.alpha_rad[1]),
+            ("fx_n", &self.force_n[0]),
+            ("fy_n", &self.force_n[1]),
+        ];
+        if let Some(r) = &self.force_ref_n {
+            cols.push(("fx_ref_n", &r[0]));
+            cols.push(("fy_ref_n", &r[1]));
+        }
+        for (name, c) in &cols {
+            if c.len() != n {
+                return Err(format!("column {name} has {} values, t_s has {n}", c.len()));
+            }
+            if let Some(i) = c.iter().position(|v| !v.is_finite()) {
+                return Err(format!("column {name}, row {}: not a finite number", i + 1));
+            }
+        }
+        for i in 1..n {
+            if !(self.t_s[i] > self.t_s[i - 1]) {
+                return Err(format!("t_s is not increasing at row {}", i + 1));
+            }
+        }
+        Ok(())
+    }
+
+    /// Positions by forward kinematics, velocities and accelerations by central differences
+    /// followed by zero-phase Butterworth filtering (thesis §4.2, with central instead of
+    /// forward differences so the derivative carries no half-sample delay).
+    pub fn prepare(&self, model: &RobotModel<f64>, filt: FilterSettings) -> Result<Prepared, String> {
+        self.validate()?;
+        let n = self.len();
+        let dt = (self.t_s[n - 1] - self.t_s[0]) / (n - 1) as f64;
+        let fs = 1.0 / dt;
+        let cutoff = filt.cutoff_hz.min(0.45 * fs);
+        let bw = Butterworth::lowpass(filt.order, cutoff, fs)?;
+        let mut x = [Vec::with_capacity(n), Vec::with_capacity(n)];
+        for i in 0..n {
+            let p = model
+                .kinematics
+                .forward_user([self.alpha_rad[0][i], self.alpha_rad[1][i]]);
+            x[0].push(p[0]);
+            x[1].push(p[1]);
+        }
+        let start = n.min(((0.1 / dt).round() as usize).max(1));
+        let x0 = [mean(&x[0][..start]), mean(&x[1][..start])];
+        let dx = [
+            x[0].iter().map(|v| v - x0[0]).collect(),
+            x[1].iter().map(|v| v - x0[1]).collect(),
+        ];
+        let deriv = |s: &[f64]| -> Vec<f64> {
+            let raw = central_difference(s, &self.t_s);
+            bw.filtfilt(&raw, fs, cutoff)
+        };
+        let v = [deriv(&x[0]), deriv(&x[1])];
+        let a = [deriv(&v[0]), deriv(&v[1])];
+        Ok(Prepared {
+            t_s: self.t_s.clone(),
+            dt_s: dt,
+            alpha_rad: self.alpha_rad.clone(),
+            x_m: x,
+            dx_m: dx,
+            x0_m: x0,
+            v_m_s: v,
+            a_m_s2: a,
+            force_n: self.force_n.clone(),
+            force_ref_n: self.force_ref_n.clone(),
+            split: (n * 4) / 5,
+        })
+    }
+}
+
+impl Prepared {
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+}
+
+pub fn central_difference(s: &[f64], t: &[f64]) -> Vec<f64> {
+    let n = s.len();
+    let mut d = vec![0.0; n];
+    if n < 2 {
+        return d;
+    }
+    for i in 1..n - 1 {
+        d[i] = (s[i + 1] - s[i - 1]) / (t[i + 1] - t[i - 1]);
+    }
+    d[0] = (s[1] - s[0]) / (t[1] - t[0]);
+    d[n - 1] = (s[n - 1] - s[n - 2]) / (t[n - 1] - t[n - 2]);
+    d
+}
+
+pub fn mean(s: &[f64]) -> f64 {
+    if s.is_empty() {
+        0.0
+    } else {
+        s.iter().sum::<f64>() / s.len() as f64
+    }
+}
+
+pub fn std_dev(s: &[f64]) -> f64 {
+    let m = mean(s);
+    (s.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / s.len().max(1) as f64).sqrt()
+}
+
+pub fn rms(s: &[f64]) -> f64 {
+    (s.iter().map(|v| v * v).sum::<f64>() / s.len().max(1) as f64).sqrt()
+}
