@@ -14,4 +14,7 @@ pub mod spectrum;
 pub mod step;
 pub mod trial;
 
+
+pub mod diagnose;
+pub mod effects;
 pub use trial::{FilterSettings, Prepared, Trial};

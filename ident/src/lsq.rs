@@ -55,20 +55,32 @@ pub struct Normal {
 }
 
 pub fn normal_equations(cols: &[Column], target: &[&[f64]; 2], rows: Range<usize>) -> Normal {
+    normal_equations_strided(cols, target, rows, 1)
+}
+
+fn dot_strided(a: &[f64], b: &[f64], stride: usize) -> f64 {
+    if stride <= 1 {
+        return dot(a, b);
+    }
+    a.iter().step_by(stride).zip(b.iter().step_by(stride)).map(|(x, y)| x * y).sum()
+}
+
+/// Normal equations on every `stride`-th row (a cheap fit for choosing shape parameters).
+pub fn normal_equations_strided(cols: &[Column], target: &[&[f64]; 2], rows: Range<usize>, stride: usize) -> Normal {
     let p = cols.len();
     let mut gram = vec![vec![0.0; p]; p];
     let mut rhs = vec![0.0; p];
     for j in 0..p {
         for a in 0..2 {
             if let Some(cj) = &cols[j].axis[a] {
-                rhs[j] += dot(&cj[rows.clone()], &target[a][rows.clone()]);
+                rhs[j] += dot_strided(&cj[rows.clone()], &target[a][rows.clone()], stride);
             }
         }
         for k in j..p {
             let mut s = 0.0;
             for a in 0..2 {
                 if let (Some(cj), Some(ck)) = (&cols[j].axis[a], &cols[k].axis[a]) {
-                    s += dot(&cj[rows.clone()], &ck[rows.clone()]);
+                    s += dot_strided(&cj[rows.clone()], &ck[rows.clone()], stride);
                 }
             }
             gram[j][k] = s;
@@ -188,6 +200,18 @@ pub fn solve(n: &Normal, positive: &[usize]) -> Vec<f64> {
             None => return x,
         }
     }
+}
+
+/// Residual sum of squares from the normal equations: yᵀy − 2θᵀb + θᵀGθ.
+pub fn rss(n: &Normal, yty: f64, theta: &[f64]) -> f64 {
+    let p = theta.len();
+    let mut q = 0.0;
+    for i in 0..p {
+        for j in 0..p {
+            q += theta[i] * n.gram[i][j] * theta[j];
+        }
+    }
+    yty - 2.0 * theta.iter().zip(&n.rhs).map(|(a, b)| a * b).sum::<f64>() + q
 }
 
 /// Prediction of the columns with parameters `theta` on all samples, per axis.

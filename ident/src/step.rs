@@ -184,8 +184,10 @@ pub struct StepParams {
     pub omega_n_rad_s: f64,
     /// Transport delay of the reference.
     pub delay_s: f64,
-    /// ωn when the force falls divided by ωn when it rises (asymmetric I/P rates).
-    pub fall_rate_ratio: f64,
+    /// Largest rates at which the driving force may rise and fall (flow-limited I/P
+    /// converters), N/s.
+    pub rise_n_per_s: f64,
+    pub fall_n_per_s: f64,
     /// The output force is confined to [low, high] (pressure saturation).
     pub sat_low_n: f64,
     pub sat_high_n: f64,
@@ -205,7 +207,8 @@ impl StepParams {
             zeta,
             omega_n_rad_s,
             delay_s: 0.0,
-            fall_rate_ratio: 1.0,
+            rise_n_per_s: f64::INFINITY,
+            fall_n_per_s: f64::INFINITY,
             sat_low_n: f64::NEG_INFINITY,
             sat_high_n: f64::INFINITY,
             gain_slope_per_rad: [0.0; 2],
@@ -231,9 +234,8 @@ pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], alpha: [&[f64]; 2], y_st
     let mut yd = 0.0;
     let mut last_dir = 0.0;
     let mut prev_u = u[0];
-    // transition of the homogeneous part depends on ωn only: two cached versions
-    let rise = Zoh::new(p.zeta, p.omega_n_rad_s, dt);
-    let fall = Zoh::new(p.zeta, p.omega_n_rad_s * p.fall_rate_ratio.max(1e-3), dt);
+    let zoh = Zoh::new(p.zeta, p.omega_n_rad_s, dt);
+    let mut driven: Option<f64> = None;
     for i in 0..n {
         let offset = p.offset_n + p.drift_n_per_s * (t_s[i] - t0);
         out[i] = y + offset;
@@ -256,8 +258,14 @@ pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], alpha: [&[f64]; 2], y_st
         prev_u = ud;
         let g = p.gain + p.gain_slope_per_rad[0] * alpha[0][i] + p.gain_slope_per_rad[1] * alpha[1][i];
         let target = (g * ud + p.hysteresis_n * last_dir).clamp(p.sat_low_n.min(p.sat_high_n), p.sat_high_n.max(p.sat_low_n));
-        let z = if target >= y { &rise } else { &fall };
-        let (ny, nyd) = z.step(y - target, yd);
+        // the driving force follows the target no faster than the rate limits
+        let d = match driven {
+            None => target,
+            Some(prev) => target.clamp(prev - p.fall_n_per_s.max(1e-9) * dt, prev + p.rise_n_per_s.max(1e-9) * dt),
+        };
+        driven = Some(d);
+        let target = d;
+        let (ny, nyd) = zoh.step(y - target, yd);
         y = ny + target;
         yd = nyd;
     }
@@ -315,7 +323,7 @@ fn mat_mul(a: &[[f64; 2]; 2], b: &[[f64; 2]; 2]) -> [[f64; 2]; 2] {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StepExtra {
     Delay,
-    FallRate,
+    SlewRate,
     Saturation,
     PoseGain,
     Hysteresis,
@@ -327,7 +335,10 @@ fn pack(p: &StepParams, extras: &[StepExtra]) -> Vec<f64> {
     for e in extras {
         match e {
             StepExtra::Delay => v.push(p.delay_s),
-            StepExtra::FallRate => v.push(p.fall_rate_ratio),
+            StepExtra::SlewRate => {
+                v.push(p.rise_n_per_s);
+                v.push(p.fall_n_per_s)
+            }
             StepExtra::Saturation => {
                 v.push(p.sat_low_n);
                 v.push(p.sat_high_n)
@@ -352,7 +363,11 @@ fn unpack(v: &[f64], extras: &[StepExtra], template: &StepParams) -> StepParams 
     for e in extras {
         match e {
             StepExtra::Delay => p.delay_s = v[i],
-            StepExtra::FallRate => p.fall_rate_ratio = v[i],
+            StepExtra::SlewRate => {
+                p.rise_n_per_s = v[i];
+                p.fall_n_per_s = v[i + 1];
+                i += 1
+            }
             StepExtra::Saturation => {
                 p.sat_low_n = v[i];
                 p.sat_high_n = v[i + 1];
@@ -402,6 +417,14 @@ pub fn fit_axis(
         first.sat_high_n = hi + 0.05 * span;
         init = pack(&first, extras);
     }
+    // start the rate limits at the fastest slope seen, so they begin just active
+    if extras.contains(&StepExtra::SlewRate) {
+        let w = ((0.01 / p.dt_s).round() as usize).max(1);
+        let max_slope = (w..n).map(|i| (y[i] - y[i - w]).abs() / (w as f64 * p.dt_s)).fold(1.0, f64::max);
+        first.rise_n_per_s = max_slope;
+        first.fall_n_per_s = max_slope;
+        init = pack(&first, extras);
+    }
     let sel: Vec<usize> = (0..n).step_by(stride.max(1)).collect();
     let mut buf = vec![0.0; n];
     let t = &p.t_s[..n];
@@ -423,11 +446,14 @@ fn lower_bounds(extras: &[StepExtra]) -> Vec<(usize, f64)> {
     for e in extras {
         match e {
             StepExtra::Delay => v.push((i, 0.0)),
-            StepExtra::FallRate => v.push((i, 0.05)),
+            StepExtra::SlewRate => {
+                v.push((i, 0.1));
+                v.push((i + 1, 0.1))
+            }
             _ => {}
         }
         i += match e {
-            StepExtra::Saturation | StepExtra::PoseGain | StepExtra::Drift => 2,
+            StepExtra::Saturation | StepExtra::PoseGain | StepExtra::Drift | StepExtra::SlewRate => 2,
             _ => 1,
         };
     }

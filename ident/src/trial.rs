@@ -14,6 +14,8 @@ pub struct Trial {
     pub force_n: [Vec<f64>; 2],
     /// Force reference (fx_ref_n, fy_ref_n), present in step experiments.
     pub force_ref_n: Option<[Vec<f64>; 2]>,
+    /// Commanded I/P currents i1..i4 (mA), when the log has them.
+    pub current_ma: Option<[Vec<f64>; 4]>,
 }
 
 /// Settings of the derivative filter (thesis: 10th order Butterworth at 8 Hz).
@@ -47,11 +49,48 @@ pub struct Prepared {
     pub a_m_s2: [Vec<f64>; 2],
     pub force_n: [Vec<f64>; 2],
     pub force_ref_n: Option<[Vec<f64>; 2]>,
+    /// Encoder angles low-passed like the derivatives (for direction-dependent effects,
+    /// which must not flip on encoder quantisation).
+    pub alpha_smooth_rad: [Vec<f64>; 2],
+    /// Equilibrium joint angles (mean over the first 0.1 s, like `x0_m`).
+    pub alpha0_rad: [f64; 2],
+    pub current_ma: Option<[Vec<f64>; 4]>,
     /// First sample of the held-out part (the last 20 %).
     pub split: usize,
 }
 
 impl Trial {
+    /// The columns the identification uses, from a log (which has already been checked
+    /// for malformed values by pam-log).
+    pub fn from_log(log: &pam_log::Log) -> Result<Self, String> {
+        use pam_log::col;
+        let need = |name: &str| log.require(name).map(|c| c.to_vec()).map_err(|e| e.to_string());
+        let force_ref_n = match (log.column(col::FX_REF_N), log.column(col::FY_REF_N)) {
+            (Some(x), Some(y)) => Some([x.to_vec(), y.to_vec()]),
+            (None, None) => None,
+            (Some(x), None) => Some([x.to_vec(), vec![0.0; x.len()]]),
+            (None, Some(y)) => Some([vec![0.0; y.len()], y.to_vec()]),
+        };
+        let current_ma = match col::CURRENTS_MA.map(|c| log.column(c)) {
+            [Some(a), Some(b), Some(c), Some(d)] => Some([a.to_vec(), b.to_vec(), c.to_vec(), d.to_vec()]),
+            _ => None,
+        };
+        let trial = Trial {
+            t_s: need(col::T_S)?,
+            alpha_rad: [need(col::ALPHA1_RAD)?, need(col::ALPHA2_RAD)?],
+            force_n: [need(col::FX_N)?, need(col::FY_N)?],
+            force_ref_n,
+            current_ma,
+        };
+        let src = log
+            .source
+            .as_ref()
+            .map(|p| format!("{}: ", p.display()))
+            .unwrap_or_default();
+        trial.validate().map_err(|e| format!("{src}{e}"))?;
+        Ok(trial)
+    }
+
     pub fn len(&self) -> usize {
         self.t_s.len()
     }
@@ -120,6 +159,11 @@ impl Trial {
             bw.filtfilt(&raw, fs, cutoff)
         };
         let v = [deriv(&x[0]), deriv(&x[1])];
+        let alpha_smooth_rad = [
+            bw.filtfilt(&self.alpha_rad[0], fs, cutoff),
+            bw.filtfilt(&self.alpha_rad[1], fs, cutoff),
+        ];
+        let alpha0_rad = [mean(&self.alpha_rad[0][..start]), mean(&self.alpha_rad[1][..start])];
         let a = [deriv(&v[0]), deriv(&v[1])];
         Ok(Prepared {
             t_s: self.t_s.clone(),
@@ -132,6 +176,9 @@ impl Trial {
             a_m_s2: a,
             force_n: self.force_n.clone(),
             force_ref_n: self.force_ref_n.clone(),
+            alpha_smooth_rad,
+            alpha0_rad,
+            current_ma: self.current_ma.clone(),
             split: (n * 4) / 5,
         })
     }

@@ -1,0 +1,703 @@
+//! The model loop: fit the base model (plus chosen effects), score it on the held-out 20 %,
+//! test every catalog effect against the residual and by refitting, rank them by the
+//! held-out error they remove (with a penalty per added parameter), and name the residual
+//! structure no effect explains.
+
+use crate::effects::{DynCtx, Experiment, ModelEffect, Shape};
+use crate::lsq::{self, Column};
+use crate::msd::{self, MSD_POSITIVE};
+use crate::spectrum::{amplitude_spectrum, narrow_peaks};
+use crate::step::{self, StepExtra, StepParams};
+use crate::trial::{rms, std_dev, FilterSettings, Prepared, Trial};
+use pam_model::RobotModel;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Knobs of the loop, with defaults chosen for generality (see docs/model-loop.md).
+#[derive(Clone, Copy, Debug)]
+pub struct Settings {
+    pub filter: FilterSettings,
+    /// An effect must remove at least this share of the held-out error (relative MSE)...
+    pub min_improvement: f64,
+    /// ...after subtracting this much per parameter it adds.
+    pub penalty_per_param: f64,
+    /// Step detection threshold |ΔF| (§5.3).
+    pub step_threshold_n: f64,
+    /// Spectral peaks: power ≥ this × the local median...
+    pub peak_prominence: f64,
+    /// ...carrying at least this share of the residual variance.
+    pub peak_min_share: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            filter: FilterSettings::default(),
+            min_improvement: 0.03,
+            penalty_per_param: 0.002,
+            step_threshold_n: 3.0,
+            peak_prominence: 40.0,
+            peak_min_share: 0.03,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct AxisPair {
+    pub fx: f64,
+    pub fy: f64,
+}
+
+impl AxisPair {
+    fn of(v: [f64; 2]) -> Self {
+        AxisPair { fx: v[0], fy: v[1] }
+    }
+    fn get(&self, axis: usize) -> f64 {
+        if axis == 0 {
+            self.fx
+        } else {
+            self.fy
+        }
+    }
+}
+
+/// A fitted model (base + a set of effects) and its held-out scores.
+#[derive(Clone, Debug)]
+pub struct ModelFit {
+    pub experiment: Experiment,
+    pub effect_ids: Vec<String>,
+    /// Parameters by effect id ("base" for the base model).
+    pub params: BTreeMap<String, BTreeMap<String, f64>>,
+    pub added_params: usize,
+    pub nrmse: [f64; 2],
+    pub r2: [f64; 2],
+    /// Axes that carry information (a step axis whose reference never changes does not).
+    pub axes: Vec<usize>,
+    /// What the model predicts for the measured signal (−f for dynamic, f for step).
+    pub measured: [Vec<f64>; 2],
+    pub predicted: [Vec<f64>; 2],
+    /// Fraction of the training residual sum of squares of the base model this fit removes.
+    pub train_gain: f64,
+    pub warnings: Vec<String>,
+}
+
+impl ModelFit {
+    /// Mean over the informative axes of NRMSE²: the relative held-out MSE.
+    pub fn relative_mse(&self) -> f64 {
+        let v: Vec<f64> = self.axes.iter().map(|&a| self.nrmse[a].powi(2)).filter(|v| v.is_finite()).collect();
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    }
+    pub fn residual(&self, axis: usize) -> Vec<f64> {
+        self.measured[axis].iter().zip(&self.predicted[axis]).map(|(m, p)| m - p).collect()
+    }
+}
+
+/// A trial ready for the loop.
+pub struct Loop<'a> {
+    pub p: Prepared,
+    pub model: &'a RobotModel<f64>,
+    pub experiment: Experiment,
+    pub settings: Settings,
+    /// Chosen shape per effect id (cached by the single-effect fits).
+    shapes: std::cell::RefCell<BTreeMap<&'static str, Shape>>,
+    base_step: std::cell::RefCell<Option<[StepParams; 2]>>,
+}
+
+fn held_out_scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([f64; 2], [f64; 2]) {
+    let (test, _) = msd::scores(p, y, pred);
+    ([test[0].nrmse, test[1].nrmse], [test[0].r2, test[1].r2])
+}
+
+impl<'a> Loop<'a> {
+    pub fn new(trial: &Trial, model: &'a RobotModel<f64>, experiment: Experiment, settings: Settings) -> Result<Self, String> {
+        let p = trial.prepare(model, settings.filter)?;
+        if experiment == Experiment::Step && p.force_ref_n.is_none() {
+            return Err("a step experiment needs the force reference columns fx_ref_n, fy_ref_n".into());
+        }
+        Ok(Loop {
+            p,
+            model,
+            experiment,
+            settings,
+            shapes: Default::default(),
+            base_step: Default::default(),
+        })
+    }
+
+    /// Fits base + `effects`. Shapes of effects not yet chosen are chosen here (each on its
+    /// own with the base, on the training rows).
+    pub fn fit(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
+        match self.experiment {
+            Experiment::Dynamic => self.fit_dynamic(effects),
+            Experiment::Step => self.fit_step(effects),
+        }
+    }
+
+    // ---------------------------------------------------------------- dynamic trials
+
+    fn dyn_columns(&self, ctx: &DynCtx, effects: &[(&dyn ModelEffect, Shape)]) -> (Vec<Column>, Vec<(usize, usize)>) {
+        let mut delay = 0;
+        let mut extra = Vec::new();
+        let mut ranges = Vec::new();
+        for (e, s) in effects {
+            let term = e.dynamic_term(ctx, s);
+            delay = delay.max(term.base_delay_samples);
+            let start = 9 + extra.len();
+            extra.extend(term.columns);
+            ranges.push((start, 9 + extra.len()));
+        }
+        let mut cols = msd::msd_columns(&self.p);
+        if delay > 0 {
+            for c in &mut cols {
+                for v in c.axis.iter_mut().flatten() {
+                    let shifted: Vec<f64> = (0..v.len()).map(|i| v[i.saturating_sub(delay)]).collect();
+                    *v = shifted;
+                }
+            }
+        }
+        cols.extend(extra);
+        (cols, ranges)
+    }
+
+    fn choose_shape(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Shape {
+        if let Some(s) = self.shapes.borrow().get(e.id()) {
+            return s.clone();
+        }
+        let shapes = e.shapes(ctx);
+        let best = if shapes.len() <= 1 {
+            shapes.into_iter().next().unwrap_or_default()
+        } else {
+            let stride = ((0.005 / self.p.dt_s).floor() as usize).max(1);
+            let rows = 0..self.p.split;
+            let yty: f64 = (0..2)
+                .map(|a| y[a][rows.clone()].iter().step_by(stride).map(|v| v * v).sum::<f64>())
+                .sum();
+            let mut best = (f64::INFINITY, Shape::default());
+            for s in shapes {
+                let (cols, _) = self.dyn_columns(ctx, &[(e, s.clone())]);
+                let ne = lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
+                let th = lsq::solve(&ne, &MSD_POSITIVE);
+                let r = lsq::rss(&ne, yty, &th);
+                if r < best.0 {
+                    best = (r, s);
+                }
+            }
+            best.1
+        };
+        self.shapes.borrow_mut().insert(e.id(), best.clone());
+        best
+    }
+
+    fn fit_dynamic(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
+        let p = &self.p;
+        let ctx = DynCtx::new(p, self.model);
+        let y = msd::target(p);
+        let chosen: Vec<(&dyn ModelEffect, Shape)> = effects
+            .iter()
+            .filter(|e| e.applies(Experiment::Dynamic))
+            .map(|e| (*e, self.choose_shape(&ctx, *e, &y)))
+            .collect();
+        let (cols, ranges) = self.dyn_columns(&ctx, &chosen);
+        let (theta, pred) = msd::fit_columns(p, &cols, &MSD_POSITIVE, &y);
+        let (nrmse, r2) = held_out_scores(p, &y, &pred);
+        let mut params = BTreeMap::new();
+        let base: BTreeMap<String, f64> = cols[..9].iter().zip(&theta).map(|(c, t)| (c.name.clone(), *t)).collect();
+        params.insert("base".to_string(), base);
+        let mut added = 0;
+        for ((e, s), (a, b)) in chosen.iter().zip(&ranges) {
+            let fitted: Vec<(String, f64)> = cols[*a..*b].iter().zip(&theta[*a..*b]).map(|(c, t)| (c.name.clone(), *t)).collect();
+            added += (b - a) + s.0.len();
+            params.insert(e.id().to_string(), e.report_params(&ctx, &fitted, s).into_iter().collect());
+        }
+        let warnings = msd::mass_warnings(&msd::sym(&theta[0..3]), self.model.cartesian_mass(p.alpha0_rad));
+        let train_rss = |pr: &[Vec<f64>; 2]| -> f64 {
+            (0..2).map(|a| (0..p.split).map(|i| (y[a][i] - pr[a][i]).powi(2)).sum::<f64>()).sum()
+        };
+        let train_gain = if chosen.is_empty() {
+            0.0
+        } else {
+            let (_, base_pred) = msd::fit_columns(p, &cols[..9].iter().cloned().collect::<Vec<_>>(), &MSD_POSITIVE, &y);
+            1.0 - train_rss(&pred) / train_rss(&base_pred).max(1e-300)
+        };
+        ModelFit {
+            experiment: Experiment::Dynamic,
+            effect_ids: chosen.iter().map(|(e, _)| e.id().to_string()).collect(),
+            params,
+            added_params: added,
+            nrmse,
+            r2,
+            axes: vec![0, 1],
+            measured: y,
+            predicted: pred,
+            train_gain,
+            warnings,
+        }
+    }
+
+    // ---------------------------------------------------------------- step trials
+
+    fn step_axes(&self) -> Vec<usize> {
+        let r = self.p.force_ref_n.as_ref().expect("checked in new");
+        (0..2).filter(|&a| std_dev(&r[a]) > 1e-9).collect()
+    }
+
+    fn base_step_params(&self) -> [StepParams; 2] {
+        if let Some(b) = *self.base_step.borrow() {
+            return b;
+        }
+        let steps = step::analyse_steps(&self.p, self.settings.step_threshold_n);
+        let mut out = [StepParams::base(1.0, 0.7, 20.0); 2];
+        for a in self.step_axes() {
+            let init = step::initial_params(&steps, a);
+            out[a] = step::fit_axis(&self.p, a, &init, &[], self.p.split).unwrap_or(init);
+        }
+        *self.base_step.borrow_mut() = Some(out);
+        out
+    }
+
+    fn fit_step(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
+        let p = &self.p;
+        let base = self.base_step_params();
+        let chosen: Vec<&dyn ModelEffect> = effects
+            .iter()
+            .copied()
+            .filter(|e| e.applies(Experiment::Step) && !e.step_extras().is_empty())
+            .collect();
+        let mut extras: Vec<StepExtra> = Vec::new();
+        for e in &chosen {
+            for x in e.step_extras() {
+                if !extras.contains(x) {
+                    extras.push(*x);
+                }
+            }
+        }
+        let axes = self.step_axes();
+        let u = p.force_ref_n.as_ref().expect("checked in new");
+        let mut fitted = base;
+        let mut pred = [vec![0.0; p.len()], vec![0.0; p.len()]];
+        for a in 0..2 {
+            if axes.contains(&a) && !extras.is_empty() {
+                fitted[a] = step::fit_axis(p, a, &base[a], &extras, p.split).unwrap_or(base[a]);
+            }
+            step::simulate(&fitted[a], &p.t_s, &u[a], [&p.alpha_rad[0], &p.alpha_rad[1]], p.force_n[a][0], &mut pred[a]);
+        }
+        let y = p.force_n.clone();
+        let (nrmse, r2) = held_out_scores(p, &y, &pred);
+        let mut params = BTreeMap::new();
+        let axis_name = ["x", "y"];
+        let mut b = BTreeMap::new();
+        for &a in &axes {
+            b.insert(format!("gain_{}", axis_name[a]), base[a].gain);
+            b.insert(format!("zeta_{}", axis_name[a]), base[a].zeta);
+            b.insert(format!("omega_n_rad_s_{}", axis_name[a]), base[a].omega_n_rad_s);
+        }
+        params.insert("base".to_string(), b);
+        for e in &chosen {
+            let mut m = BTreeMap::new();
+            for &a in &axes {
+                let q = &fitted[a];
+                let s = axis_name[a];
+                for x in e.step_extras() {
+                    match x {
+                        StepExtra::Delay => {
+                            m.insert(format!("delay_s_{s}"), q.delay_s);
+                        }
+                        StepExtra::SlewRate => {
+                            m.insert(format!("rise_n_per_s_{s}"), q.rise_n_per_s);
+                            m.insert(format!("fall_n_per_s_{s}"), q.fall_n_per_s);
+                        }
+                        StepExtra::Saturation => {
+                            m.insert(format!("force_min_n_{s}"), q.sat_low_n);
+                            m.insert(format!("force_max_n_{s}"), q.sat_high_n);
+                        }
+                        StepExtra::PoseGain => {
+                            // relative slopes, comparable with a gain plane normalised by G
+                            m.insert(format!("gain_per_rad_1_{s}"), q.gain_slope_per_rad[0] / q.gain);
+                            m.insert(format!("gain_per_rad_2_{s}"), q.gain_slope_per_rad[1] / q.gain);
+                        }
+                        StepExtra::Hysteresis => {
+                            m.insert(format!("hysteresis_n_{s}"), q.hysteresis_n);
+                        }
+                        StepExtra::Drift => {
+                            m.insert(format!("offset_n_{s}"), q.offset_n);
+                            m.insert(format!("drift_n_per_s_{s}"), q.drift_n_per_s);
+                        }
+                    }
+                }
+            }
+            params.insert(e.id().to_string(), m);
+        }
+        let train = |pr: &[Vec<f64>; 2], a: usize| (0..p.split).map(|i| (y[a][i] - pr[a][i]).powi(2)).sum::<f64>();
+        let train_gain = if chosen.is_empty() {
+            0.0
+        } else {
+            let mut bp = [vec![0.0; p.len()], vec![0.0; p.len()]];
+            for a in 0..2 {
+                step::simulate(&base[a], &p.t_s, &u[a], [&p.alpha_rad[0], &p.alpha_rad[1]], p.force_n[a][0], &mut bp[a]);
+            }
+            let rb: f64 = axes.iter().map(|&a| train(&bp, a)).sum();
+            let re: f64 = axes.iter().map(|&a| train(&pred, a)).sum();
+            1.0 - re / rb.max(1e-300)
+        };
+        let added = step::extra_param_count(&extras) * axes.len();
+        ModelFit {
+            experiment: Experiment::Step,
+            effect_ids: chosen.iter().map(|e| e.id().to_string()).collect(),
+            params,
+            added_params: added,
+            nrmse,
+            r2,
+            axes,
+            measured: y,
+            predicted: pred,
+            train_gain,
+            warnings: Vec::new(),
+        }
+    }
+}
+
+// -------------------------------------------------------------------- diagnosis
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BaseReport {
+    pub nrmse: AxisPair,
+    pub r2: AxisPair,
+    pub params: BTreeMap<String, f64>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct EffectReport {
+    pub id: String,
+    /// Held-out NRMSE with this effect added to the base model.
+    pub nrmse: AxisPair,
+    pub params: BTreeMap<String, f64>,
+    pub evidence: String,
+    /// The residual signature that points to this effect.
+    pub signature: String,
+    /// Share of the base model's training residual the effect removes when refitted.
+    pub signature_strength: f64,
+    /// Share of the held-out relative MSE removed.
+    pub improvement: f64,
+    pub added_params: usize,
+    /// improvement − penalty × added_params.
+    pub score: f64,
+    pub accepted: bool,
+}
+
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct UnexplainedReport {
+    pub kind: String,
+    pub signal: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frequency_hz: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub amplitude_n: Option<f64>,
+    pub variance_share: f64,
+    pub detail: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct StepReport {
+    pub effects: Vec<String>,
+    pub nrmse: AxisPair,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Diagnosis {
+    pub experiment: String,
+    pub samples: usize,
+    pub sample_period_s: f64,
+    pub base: BaseReport,
+    pub verdict: String,
+    /// Every applicable effect, best first.
+    pub effects: Vec<EffectReport>,
+    pub unexplained: Vec<UnexplainedReport>,
+    /// The error falling as the accepted effects are added one by one.
+    pub steps: Vec<StepReport>,
+    pub warnings: Vec<String>,
+}
+
+/// Diagnoses a trial against the standard catalog.
+pub fn diagnose(trial: &Trial, model: &RobotModel<f64>, experiment: Experiment, settings: Settings) -> Result<(Diagnosis, Vec<ModelFit>), String> {
+    diagnose_with(trial, model, experiment, settings, &crate::effects::catalog())
+}
+
+/// Diagnoses a trial against a given catalog. Returns the diagnosis and the fits of the
+/// step-by-step sequence (base first) for reports.
+pub fn diagnose_with(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    experiment: Experiment,
+    settings: Settings,
+    catalog: &[&dyn ModelEffect],
+) -> Result<(Diagnosis, Vec<ModelFit>), String> {
+    let lp = Loop::new(trial, model, experiment, settings)?;
+    let base = lp.fit(&[]);
+    let e_base = base.relative_mse();
+    let mut reports = Vec::new();
+    for e in catalog.iter().copied().filter(|e| e.applies(experiment)) {
+        if experiment == Experiment::Step && e.step_extras().is_empty() {
+            continue;
+        }
+        let f = lp.fit(&[e]);
+        let improvement = 1.0 - f.relative_mse() / e_base.max(1e-300);
+        let score = improvement - settings.penalty_per_param * f.added_params as f64;
+        let accepted = score > settings.min_improvement && f.train_gain > 0.0;
+        let params = f.params.get(e.id()).cloned().unwrap_or_default();
+        let evidence = format!(
+            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the held-out error ({} parameter{}; score {:.3}, needed > {:.3})",
+            e.signature(),
+            100.0 * f.train_gain,
+            100.0 * improvement,
+            f.added_params,
+            if f.added_params == 1 { "" } else { "s" },
+            score,
+            settings.min_improvement
+        );
+        reports.push((
+            EffectReport {
+                id: e.id().to_string(),
+                nrmse: AxisPair::of(f.nrmse),
+                params,
+                evidence,
+                signature: e.signature().to_string(),
+                signature_strength: f.train_gain,
+                improvement,
+                added_params: f.added_params,
+                score,
+                accepted,
+            },
+            e,
+        ));
+    }
+    reports.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
+
+    // greedy: add accepted effects best first while each still pays for itself
+    let mut fits = vec![base.clone()];
+    let mut current: Vec<&dyn ModelEffect> = Vec::new();
+    let mut current_fit = base.clone();
+    for (r, e) in reports.iter().filter(|r| r.0.accepted).take(4) {
+        let mut trial_set = current.clone();
+        trial_set.push(*e);
+        let f = lp.fit(&trial_set);
+        let gain = 1.0 - f.relative_mse() / current_fit.relative_mse().max(1e-300);
+        let added = f.added_params - current_fit.added_params;
+        if current.is_empty() || gain - settings.penalty_per_param * added as f64 > settings.min_improvement {
+            current = trial_set;
+            current_fit = f.clone();
+            fits.push(f);
+        }
+        let _ = r;
+    }
+    let unexplained = unexplained_structure(&lp, &current_fit, &settings);
+    let verdict = if !current.is_empty() {
+        "effect"
+    } else if !unexplained.is_empty() {
+        "unexplained"
+    } else {
+        "none"
+    };
+    let steps = fits
+        .iter()
+        .map(|f| StepReport { effects: f.effect_ids.clone(), nrmse: AxisPair::of(f.nrmse) })
+        .collect();
+    let mut warnings = base.warnings.clone();
+    if lp.p.len() < 200 {
+        warnings.push(format!("only {} samples: the held-out 20 % is short", lp.p.len()));
+    }
+    Ok((
+        Diagnosis {
+            experiment: experiment.name().into(),
+            samples: lp.p.len(),
+            sample_period_s: lp.p.dt_s,
+            base: BaseReport {
+                nrmse: AxisPair::of(base.nrmse),
+                r2: AxisPair::of(base.r2),
+                params: base.params.get("base").cloned().unwrap_or_default(),
+            },
+            verdict: verdict.into(),
+            effects: reports.into_iter().map(|r| r.0).collect(),
+            unexplained,
+            steps,
+            warnings,
+        },
+        fits,
+    ))
+}
+
+/// Structure left in the residual of `fit` that no effect accounts for: narrow spectral
+/// lines that are not lines of the motion (or of the reference) itself.
+pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<UnexplainedReport> {
+    let p = &lp.p;
+    let mut out = Vec::new();
+    let names = ["fx", "fy"];
+    // spectra of the inputs: a line in the residual at a line of the input is a misfit of
+    // the motion, not an outside disturbance
+    let inputs: Vec<Vec<f64>> = match lp.experiment {
+        Experiment::Dynamic => vec![p.dx_m[0].clone(), p.dx_m[1].clone()],
+        Experiment::Step => p.force_ref_n.clone().map(|r| r.to_vec()).unwrap_or_default(),
+    };
+    let input_peaks: Vec<f64> = inputs
+        .iter()
+        .flat_map(|x| narrow_peaks(&amplitude_spectrum(x, p.dt_s), 10.0, 0.01))
+        .map(|pk| pk.freq_hz)
+        .collect();
+    for a in 0..2 {
+        let r = fit.residual(a);
+        if rms(&r) == 0.0 {
+            continue;
+        }
+        let spec = amplitude_spectrum(&r, p.dt_s);
+        let df = spec.freq_hz.get(1).copied().unwrap_or(1.0);
+        for pk in narrow_peaks(&spec, s.peak_prominence, s.peak_min_share).into_iter().take(3) {
+            if input_peaks.iter().any(|f| (f - pk.freq_hz).abs() <= 3.0 * df) {
+                continue;
+            }
+            out.push(UnexplainedReport {
+                kind: "spectral_peak".into(),
+                signal: names[a].into(),
+                frequency_hz: Some(pk.freq_hz),
+                amplitude_n: Some(pk.amplitude),
+                variance_share: pk.variance_share,
+                detail: format!(
+                    "a narrow line at {:.2} Hz in the {} residual ({:.0} × the local background, {:.0} % of the residual variance); no catalog effect makes a tone{}",
+                    pk.freq_hz,
+                    names[a],
+                    pk.prominence,
+                    100.0 * pk.variance_share,
+                    if (pk.freq_hz - 0.5 / p.dt_s).abs() <= 2.0 * df {
+                        " (at the Nyquist frequency: possibly a faster tone, e.g. mains at 50 Hz, aliased)"
+                    } else {
+                        ""
+                    }
+                ),
+            });
+        }
+    }
+    out
+}
+
+/// Convenience for reports: NRMSE per axis of a fit as an AxisPair.
+pub fn nrmse_pair(f: &ModelFit) -> AxisPair {
+    AxisPair::of(f.nrmse)
+}
+
+/// For `compare`: where the model fails.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    pub experiment: String,
+    pub effects: Vec<String>,
+    pub nrmse: AxisPair,
+    pub r2: AxisPair,
+    pub params: BTreeMap<String, BTreeMap<String, f64>>,
+    /// Worst 1-s windows of the held-out part by residual RMS.
+    pub worst_windows: Vec<Window>,
+    /// MSE at low and high motion frequency (Table 4.2's split), dynamic trials.
+    pub frequency_split: Option<msd::FrequencySplit>,
+    /// Largest lines of the residual spectrum.
+    pub residual_peaks: Vec<UnexplainedReport>,
+    /// Residual RMS per speed quartile (dynamic) / per |reference| quartile (step).
+    pub error_by_speed: Vec<Bin>,
+    /// Residual RMS per workspace cell (3×3 over the handle positions visited).
+    pub error_by_position: Vec<Bin>,
+    pub warnings: Vec<String>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Window {
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+    pub rms_n: AxisPair,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Bin {
+    pub label: String,
+    pub samples: usize,
+    pub rms_n: AxisPair,
+}
+
+pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
+    let p = &lp.p;
+    let n = p.len();
+    let r = [fit.residual(0), fit.residual(1)];
+    let w = ((1.0 / p.dt_s).round() as usize).max(5);
+    let mut windows = Vec::new();
+    let mut s = p.split;
+    while s + w <= n {
+        windows.push(Window {
+            t_start_s: p.t_s[s],
+            t_end_s: p.t_s[s + w - 1],
+            rms_n: AxisPair::of([rms(&r[0][s..s + w]), rms(&r[1][s..s + w])]),
+        });
+        s += w;
+    }
+    windows.sort_by(|a, b| (b.rms_n.fx.hypot(b.rms_n.fy)).total_cmp(&a.rms_n.fx.hypot(a.rms_n.fy)));
+    windows.truncate(5);
+    let speed: Vec<f64> = match lp.experiment {
+        Experiment::Dynamic => (0..n).map(|i| p.v_m_s[0][i].hypot(p.v_m_s[1][i])).collect(),
+        Experiment::Step => {
+            let u = p.force_ref_n.as_ref().expect("step");
+            (0..n).map(|i| u[0][i].hypot(u[1][i])).collect()
+        }
+    };
+    let mut sorted = speed.clone();
+    sorted.sort_by(|a, b| a.total_cmp(b));
+    let q = |f: f64| sorted[((n - 1) as f64 * f) as usize];
+    let edges = [q(0.0) - 1e-12, q(0.25), q(0.5), q(0.75), q(1.0) + 1e-12];
+    let unit = if lp.experiment == Experiment::Dynamic { "m/s" } else { "N" };
+    let mut by_speed = Vec::new();
+    for k in 0..4 {
+        let idx: Vec<usize> = (0..n).filter(|&i| speed[i] > edges[k] && speed[i] <= edges[k + 1]).collect();
+        by_speed.push(bin(&format!("{:.3}–{:.3} {unit}", edges[k].max(0.0), edges[k + 1]), &idx, &r));
+    }
+    let mut by_pos = Vec::new();
+    let ext = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |m, x| (m.0.min(*x), m.1.max(*x)));
+    let (ex, ey) = (ext(&p.x_m[0]), ext(&p.x_m[1]));
+    let cell = |v: f64, e: (f64, f64)| (((v - e.0) / (e.1 - e.0 + 1e-12)) * 3.0).floor().clamp(0.0, 2.0) as usize;
+    for cy in 0..3 {
+        for cx in 0..3 {
+            let idx: Vec<usize> = (0..n).filter(|&i| cell(p.x_m[0][i], ex) == cx && cell(p.x_m[1][i], ey) == cy).collect();
+            if !idx.is_empty() {
+                by_pos.push(bin(&format!("x cell {}, y cell {} (of 3×3)", cx + 1, cy + 1), &idx, &r));
+            }
+        }
+    }
+    let loose = Settings { peak_prominence: 20.0, peak_min_share: 0.01, ..lp.settings };
+    let peaks = unexplained_structure(lp, fit, &loose);
+    let split = (lp.experiment == Experiment::Dynamic).then(|| msd::frequency_split(p, &fit.measured, &fit.predicted));
+    let mut warnings = fit.warnings.clone();
+    for a in fit.axes.iter() {
+        if fit.r2[*a] < 0.5 {
+            warnings.push(format!("held-out R² of {} is {:.2}: the model explains little of this axis", ["fx", "fy"][*a], fit.r2[*a]));
+        }
+    }
+    Comparison {
+        experiment: lp.experiment.name().into(),
+        effects: fit.effect_ids.clone(),
+        nrmse: AxisPair::of(fit.nrmse),
+        r2: AxisPair::of(fit.r2),
+        params: fit.params.clone(),
+        worst_windows: windows,
+        frequency_split: split,
+        residual_peaks: peaks,
+        error_by_speed: by_speed,
+        error_by_position: by_pos,
+        warnings,
+    }
+}
+
+fn bin(label: &str, idx: &[usize], r: &[Vec<f64>; 2]) -> Bin {
+    let sel = |a: usize| idx.iter().map(|&i| r[a][i]).collect::<Vec<f64>>();
+    Bin { label: label.into(), samples: idx.len(), rms_n: AxisPair::of([rms(&sel(0)), rms(&sel(1))]) }
+}
+
+impl AxisPair {
+    pub fn axis(&self, a: usize) -> f64 {
+        self.get(a)
+    }
+}
