@@ -140,21 +140,29 @@ impl<'a> Loop<'a> {
     // ---------------------------------------------------------------- dynamic trials
 
     fn dyn_columns(&self, ctx: &DynCtx, effects: &[(&dyn ModelEffect, Shape)]) -> (Vec<Column>, Vec<(usize, usize)>) {
-        let mut delay = 0;
+        let mut delay = 0.0f64;
         let mut extra = Vec::new();
         let mut ranges = Vec::new();
         for (e, s) in effects {
             let term = e.dynamic_term(ctx, s);
-            delay = delay.max(term.base_delay_samples);
+            delay = delay.max(term.base_delay_s);
             let start = 9 + extra.len();
             extra.extend(term.columns);
             ranges.push((start, 9 + extra.len()));
         }
         let mut cols = msd::msd_columns(&self.p);
-        if delay > 0 {
+        if delay > 0.0 {
+            let d = delay / self.p.dt_s;
+            let (whole, frac) = (d.floor() as usize, d - d.floor());
             for c in &mut cols {
                 for v in c.axis.iter_mut().flatten() {
-                    let shifted: Vec<f64> = (0..v.len()).map(|i| v[i.saturating_sub(delay)]).collect();
+                    let shifted: Vec<f64> = (0..v.len())
+                        .map(|i| {
+                            let a = v[i.saturating_sub(whole)];
+                            let b = v[i.saturating_sub(whole + 1)];
+                            a * (1.0 - frac) + b * frac
+                        })
+                        .collect();
                     *v = shifted;
                 }
             }
@@ -311,8 +319,7 @@ impl<'a> Loop<'a> {
                             m.insert(format!("fall_n_per_s_{s}"), q.fall_n_per_s);
                         }
                         StepExtra::Saturation => {
-                            m.insert(format!("force_min_n_{s}"), q.sat_low_n);
-                            m.insert(format!("force_max_n_{s}"), q.sat_high_n);
+                            m.insert(format!("force_limit_n_{s}"), q.force_limit_n);
                         }
                         StepExtra::PoseGain => {
                             // relative slopes, comparable with a gain plane normalised by G

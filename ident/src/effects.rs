@@ -100,8 +100,8 @@ impl Shape {
 #[derive(Clone, Debug, Default)]
 pub struct DynTerm {
     pub columns: Vec<Column>,
-    /// The base regressors are taken this many samples earlier (force lagging motion).
-    pub base_delay_samples: usize,
+    /// The base regressors are taken this much earlier (force lagging motion), seconds.
+    pub base_delay_s: f64,
 }
 
 /// A model-side effect.
@@ -455,22 +455,14 @@ impl ModelEffect for TransportDelay {
         true
     }
     fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
-        let dt = ctx.p.dt_s;
-        let step = dt.max(0.005);
-        let mut v = Vec::new();
-        let mut d = step;
-        while d <= 0.15 + 1e-9 {
-            v.push(Shape(vec![("delay_s", (d / dt).round() * dt)]));
-            d += step;
-        }
-        v.dedup();
-        v
+        // 5 ms steps (or one sample when that is finer), up to 150 ms; delays that are
+        // not whole samples are interpolated
+        let step = ctx.p.dt_s.min(0.005);
+        let count = (0.15 / step).round() as usize;
+        (1..=count).map(|k| Shape(vec![("delay_s", k as f64 * step)])).collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
-        DynTerm {
-            columns: vec![],
-            base_delay_samples: (shape.get("delay_s") / ctx.p.dt_s).round() as usize,
-        }
+        DynTerm { columns: vec![], base_delay_s: shape.get("delay_s") }
     }
     fn step_extras(&self) -> &'static [StepExtra] {
         &[StepExtra::Delay]

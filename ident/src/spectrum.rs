@@ -72,7 +72,7 @@ pub fn amplitude_spectrum(x: &[f64], dt_s: f64) -> Spectrum {
     Spectrum {
         freq_hz: (0..half).map(|k| k as f64 * df).collect(),
         amplitude: (0..half)
-            .map(|k| (re[k] * re[k] + im[k] * im[k]).sqrt() * if k == 0 { 0.5 } else { 1.0 } * scale)
+            .map(|k| (re[k] * re[k] + im[k] * im[k]).sqrt() * if k == 0 || k == n / 2 { 0.5 } else { 1.0 } * scale)
             .collect(),
         re: re[..half].iter().map(|v| v * scale).collect(),
         im: im[..half].iter().map(|v| v * scale).collect(),
@@ -96,19 +96,36 @@ pub fn narrow_peaks(s: &Spectrum, min_prominence: f64, min_share: f64) -> Vec<Pe
     let p: Vec<f64> = s.amplitude.iter().map(|a| a * a).collect();
     let total: f64 = p.iter().skip(1).sum::<f64>().max(1e-300);
     let n = p.len();
+    if n < 16 {
+        return Vec::new();
+    }
+    // a cheap background first (medians of blocks of 64 bins), the exact local median only
+    // for the few bins that stand out of it
+    const BLOCK: usize = 64;
+    let block_median: Vec<f64> = p
+        .chunks(BLOCK)
+        .map(|c| {
+            let mut v = c.to_vec();
+            v.sort_by(|a, b| a.total_cmp(b));
+            v[v.len() / 2]
+        })
+        .collect();
     let mut out: Vec<Peak> = Vec::new();
     let mut k = 2;
-    while k + 2 < n {
-        let is_max = p[k] >= p[k - 1] && p[k] >= p[k + 1] && p[k] > 0.0;
-        if is_max {
-            let w = 20usize.max(k / 20);
-            let lo = k.saturating_sub(w).max(1);
+    while k < n {
+        let right = if k + 1 < n { p[k + 1] } else { 0.0 };
+        let is_max = p[k] >= p[k - 1] && p[k] >= right && p[k] > 0.0;
+        let bm = block_median[k / BLOCK].min(block_median[(k / BLOCK).saturating_sub(1)]);
+        if is_max && p[k] >= 0.5 * min_prominence * bm {
+            // the neighbourhood: ±20 bins, or 40 bins below the top of the spectrum
+            let w = 20usize;
+            let lo = k.saturating_sub(if k + w >= n { 2 * w } else { w }).max(1);
             let hi = (k + w + 1).min(n);
             let mut neigh: Vec<f64> = (lo..hi).filter(|i| i.abs_diff(k) > 3).map(|i| p[i]).collect();
             if neigh.len() >= 8 {
                 neigh.sort_by(|a, b| a.total_cmp(b));
                 let med = neigh[neigh.len() / 2].max(1e-300);
-                let line: f64 = p[k - 2..=k + 2].iter().sum();
+                let line: f64 = p[k.saturating_sub(2)..(k + 3).min(n)].iter().sum();
                 let prominence = p[k] / med;
                 let share = line / total;
                 if prominence >= min_prominence && share >= min_share {
@@ -160,5 +177,21 @@ mod tests {
             .collect();
         let s = amplitude_spectrum(&x, 0.001);
         assert!(narrow_peaks(&s, 30.0, 0.02).is_empty());
+    }
+
+    #[test]
+    fn a_tone_at_the_nyquist_frequency_is_a_peak() {
+        // 50 Hz sampled every 50 ms: ±A alternating
+        let mut state = 99u64;
+        let x: Vec<f64> = (0..2048)
+            .map(|i| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let noise = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3;
+                0.5 * if i % 2 == 0 { 1.0 } else { -1.0 } + noise
+            })
+            .collect();
+        let s = amplitude_spectrum(&x, 0.05);
+        let peaks = narrow_peaks(&s, 30.0, 0.05);
+        assert!(!peaks.is_empty() && (peaks[0].freq_hz - 10.0).abs() < 0.05, "{peaks:?}");
     }
 }

@@ -188,9 +188,8 @@ pub struct StepParams {
     /// converters), N/s.
     pub rise_n_per_s: f64,
     pub fall_n_per_s: f64,
-    /// The output force is confined to [low, high] (pressure saturation).
-    pub sat_low_n: f64,
-    pub sat_high_n: f64,
+    /// The driving force saturates softly, L·tanh(target/L) (pressure saturation).
+    pub force_limit_n: f64,
     /// dG/dα1, dG/dα2 (pose-dependent gain, eq. 5.2).
     pub gain_slope_per_rad: [f64; 2],
     /// Offset that follows the direction of the last reference change (hysteresis).
@@ -209,8 +208,7 @@ impl StepParams {
             delay_s: 0.0,
             rise_n_per_s: f64::INFINITY,
             fall_n_per_s: f64::INFINITY,
-            sat_low_n: f64::NEG_INFINITY,
-            sat_high_n: f64::INFINITY,
+            force_limit_n: f64::INFINITY,
             gain_slope_per_rad: [0.0; 2],
             hysteresis_n: 0.0,
             offset_n: 0.0,
@@ -257,7 +255,11 @@ pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], alpha: [&[f64]; 2], y_st
         }
         prev_u = ud;
         let g = p.gain + p.gain_slope_per_rad[0] * alpha[0][i] + p.gain_slope_per_rad[1] * alpha[1][i];
-        let target = (g * ud + p.hysteresis_n * last_dir).clamp(p.sat_low_n.min(p.sat_high_n), p.sat_high_n.max(p.sat_low_n));
+        let mut target = g * ud + p.hysteresis_n * last_dir;
+        if p.force_limit_n.is_finite() {
+            let l = p.force_limit_n.abs().max(1e-6);
+            target = l * (target / l).tanh();
+        }
         // the driving force follows the target no faster than the rate limits
         let d = match driven {
             None => target,
@@ -339,10 +341,7 @@ fn pack(p: &StepParams, extras: &[StepExtra]) -> Vec<f64> {
                 v.push(p.rise_n_per_s);
                 v.push(p.fall_n_per_s)
             }
-            StepExtra::Saturation => {
-                v.push(p.sat_low_n);
-                v.push(p.sat_high_n)
-            }
+            StepExtra::Saturation => v.push(p.force_limit_n),
             StepExtra::PoseGain => v.extend_from_slice(&p.gain_slope_per_rad),
             StepExtra::Hysteresis => v.push(p.hysteresis_n),
             StepExtra::Drift => {
@@ -368,11 +367,7 @@ fn unpack(v: &[f64], extras: &[StepExtra], template: &StepParams) -> StepParams 
                 p.fall_n_per_s = v[i + 1];
                 i += 1
             }
-            StepExtra::Saturation => {
-                p.sat_low_n = v[i];
-                p.sat_high_n = v[i + 1];
-                i += 1
-            }
+            StepExtra::Saturation => p.force_limit_n = v[i],
             StepExtra::PoseGain => {
                 p.gain_slope_per_rad = [v[i], v[i + 1]];
                 i += 1
@@ -411,10 +406,8 @@ pub fn fit_axis(
     let mut init = pack(&first, extras);
     // start saturation at the measured extremes so it begins inactive
     if extras.contains(&StepExtra::Saturation) {
-        let (lo, hi) = y[..n].iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| (a.0.min(*v), a.1.max(*v)));
-        let span = (hi - lo).max(1.0);
-        first.sat_low_n = lo - 0.05 * span;
-        first.sat_high_n = hi + 0.05 * span;
+        let peak = y[..n].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        first.force_limit_n = 2.0 * peak.max(0.5);
         init = pack(&first, extras);
     }
     // start the rate limits at the fastest slope seen, so they begin just active
@@ -430,7 +423,7 @@ pub fn fit_axis(
     let t = &p.t_s[..n];
     let a = [&p.alpha_rad[0][..n], &p.alpha_rad[1][..n]];
     let lower = lower_bounds(extras);
-    let (theta, _) = lm::minimize(&init, &lower, sel.len(), 60, |v, r| {
+    let (theta, _) = lm::minimize(&init, &lower, sel.len(), 30, |v, r| {
         let q = unpack(v, extras, &first);
         simulate(&q, t, &u[..n], a, y[0], &mut buf);
         for (j, &i) in sel.iter().enumerate() {
@@ -446,6 +439,7 @@ fn lower_bounds(extras: &[StepExtra]) -> Vec<(usize, f64)> {
     for e in extras {
         match e {
             StepExtra::Delay => v.push((i, 0.0)),
+            StepExtra::Saturation => v.push((i, 0.1)),
             StepExtra::SlewRate => {
                 v.push((i, 0.1));
                 v.push((i + 1, 0.1))
@@ -453,7 +447,7 @@ fn lower_bounds(extras: &[StepExtra]) -> Vec<(usize, f64)> {
             _ => {}
         }
         i += match e {
-            StepExtra::Saturation | StepExtra::PoseGain | StepExtra::Drift | StepExtra::SlewRate => 2,
+            StepExtra::PoseGain | StepExtra::Drift | StepExtra::SlewRate => 2,
             _ => 1,
         };
     }
