@@ -21,10 +21,14 @@ pub enum Command {
     /// Ask the robot model (no device needed): capability, inverse model, reference tables.
     #[command(subcommand)]
     Model(cmd::model::ModelCommand),
+    /// Identify the robot from logs as in the thesis (§4.3–4.6, §5.3).
+    #[command(subcommand)]
+    Ident(cmd::ident::IdentCommand),
 }
 
 pub fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Model(m) => cmd::model::run(m, &mut std::io::stdout()),
+        Command::Ident(c) => cmd::ident::run(c, &mut std::io::stdout()),
     }
 }

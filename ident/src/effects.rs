@@ -461,7 +461,7 @@ impl ModelEffect for TransportDelay {
         let count = (0.15 / step).round() as usize;
         (1..=count).map(|k| Shape(vec![("delay_s", k as f64 * step)])).collect()
     }
-    fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
+    fn dynamic_term(&self, _ctx: &DynCtx, shape: &Shape) -> DynTerm {
         DynTerm { columns: vec![], base_delay_s: shape.get("delay_s") }
     }
     fn step_extras(&self) -> &'static [StepExtra] {

@@ -18,3 +18,4 @@ pub mod trial;
 pub mod diagnose;
 pub mod effects;
 pub use trial::{FilterSettings, Prepared, Trial};
+pub mod report;

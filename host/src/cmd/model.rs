@@ -16,6 +16,13 @@ pub enum ModelCommand {
     Inverse(InverseArgs),
     /// Table 4.1 of the thesis recomputed from the model.
     Table41,
+    /// Fit the base model (plus `--with` effects) to a log and show where it fails.
+    Compare(crate::cmd::model_loop::LoopArgs),
+    /// Test every catalog effect against a log; name the missing one, or "none", or the
+    /// structure no effect explains.
+    Diagnose(crate::cmd::model_loop::LoopArgs),
+    /// Fit the model with `--with` effects: their parameters, the error before and after.
+    Fit(crate::cmd::model_loop::LoopArgs),
 }
 
 #[derive(Args, Debug)]
@@ -70,6 +77,9 @@ pub fn run(cmd: ModelCommand, out: &mut impl Write) -> Result<(), String> {
         ModelCommand::Capability(pose) => capability(&model, &pose, out).map_err(io),
         ModelCommand::Inverse(args) => inverse(&model, &args, out).map_err(io),
         ModelCommand::Table41 => table41(out).map_err(io),
+        ModelCommand::Compare(a) => return crate::cmd::model_loop::compare(&a, out),
+        ModelCommand::Diagnose(a) => return crate::cmd::model_loop::diagnose(&a, out),
+        ModelCommand::Fit(a) => return crate::cmd::model_loop::fit(&a, out),
     }
     .and_then(|r| r)
 }

@@ -1,0 +1,215 @@
+//! `pamctl model compare | diagnose | fit`: the model loop on one log (logic in pam-ident).
+
+use clap::Args;
+use pam_ident::diagnose::{self, Loop, Settings};
+use pam_ident::effects::{self, Experiment};
+use pam_ident::{report, FilterSettings, Trial};
+use pam_model::RobotModel;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(Args, Debug, Clone)]
+pub struct LoopArgs {
+    /// Log file (format v1).
+    pub log: PathBuf,
+    /// dynamic | step. Default: the log's `# experiment = …` metadata, else `step` when the
+    /// log has a force reference that steps, else `dynamic`.
+    #[arg(long)]
+    pub experiment: Option<String>,
+    /// Effects to add to the base model, comma-separated catalog ids.
+    #[arg(long = "with", value_delimiter = ',', value_name = "ID,...")]
+    pub with: Vec<String>,
+    /// Machine-readable output.
+    #[arg(long)]
+    pub json: bool,
+    /// Write a self-contained HTML report here.
+    #[arg(long, value_name = "FILE.html")]
+    pub report: Option<PathBuf>,
+    /// Cut-off of the zero-phase Butterworth on the derivatives, Hz.
+    #[arg(long, default_value_t = 8.0)]
+    pub cutoff_hz: f64,
+    /// Order of that filter.
+    #[arg(long, default_value_t = 10)]
+    pub order: usize,
+}
+
+/// Reads a log into a trial; errors carry file, line and column (from pam-log).
+pub fn read_trial(path: &Path) -> Result<(Trial, pam_log::Log), String> {
+    let log = pam_log::read_path(path).map_err(|e| e.to_string())?;
+    let trial = Trial::from_log(&log)?;
+    Ok((trial, log))
+}
+
+pub fn experiment_of(arg: &Option<String>, log: &pam_log::Log, trial: &Trial) -> Result<Experiment, String> {
+    if let Some(e) = arg {
+        return e.parse();
+    }
+    if let Some(e) = log.meta("experiment") {
+        if let Ok(x) = e.trim().parse() {
+            return Ok(x);
+        }
+    }
+    let steps = trial
+        .force_ref_n
+        .as_ref()
+        .is_some_and(|r| r.iter().any(|c| c.windows(2).any(|w| (w[1] - w[0]).abs() > 1e-9)));
+    Ok(if steps { Experiment::Step } else { Experiment::Dynamic })
+}
+
+fn settings(a: &LoopArgs) -> Settings {
+    Settings { filter: FilterSettings { order: a.order, cutoff_hz: a.cutoff_hz }, ..Settings::default() }
+}
+
+fn write_report(path: &Path, html: &str) -> Result<(), String> {
+    std::fs::write(path, html).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn json_out(out: &mut impl Write, v: &impl serde::Serialize) -> Result<(), String> {
+    let s = serde_json::to_string_pretty(v).map_err(|e| e.to_string())?;
+    writeln!(out, "{s}").map_err(|e| e.to_string())
+}
+
+fn io(e: std::io::Error) -> String {
+    e.to_string()
+}
+
+pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
+    let model = RobotModel::<f64>::thesis();
+    let (trial, log) = read_trial(&a.log)?;
+    let exp = experiment_of(&a.experiment, &log, &trial)?;
+    let (d, fits) = diagnose::diagnose(&trial, &model, exp, settings(a))?;
+    if let Some(path) = &a.report {
+        let p = trial.prepare(&model, settings(a).filter)?;
+        write_report(path, &report::diagnosis_page(&d, &fits, &p.t_s, p.split, p.dt_s))?;
+    }
+    if a.json {
+        return json_out(out, &d);
+    }
+    writeln!(out, "experiment: {}, {} samples every {:.4} s", d.experiment, d.samples, d.sample_period_s).map_err(io)?;
+    writeln!(out, "base model: held-out NRMSE fx {:.4}, fy {:.4} (R² {:.3}, {:.3})", d.base.nrmse.fx, d.base.nrmse.fy, d.base.r2.fx, d.base.r2.fy).map_err(io)?;
+    writeln!(out, "verdict: {}", d.verdict).map_err(io)?;
+    for e in &d.effects {
+        writeln!(
+            out,
+            "  {:<22} NRMSE fx {:.4}, fy {:.4}  removes {:>6.1} %  score {:+.3}{}",
+            e.id,
+            e.nrmse.fx,
+            e.nrmse.fy,
+            100.0 * e.improvement,
+            e.score,
+            if e.accepted { "  <- worth its parameters" } else { "" }
+        )
+        .map_err(io)?;
+        if e.accepted {
+            writeln!(out, "      {}", e.evidence).map_err(io)?;
+            let ps: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4}")).collect();
+            writeln!(out, "      fitted: {}", ps.join(", ")).map_err(io)?;
+        }
+    }
+    for u in &d.unexplained {
+        writeln!(out, "unexplained: {} in {}: {}", u.kind, u.signal, u.detail).map_err(io)?;
+    }
+    if d.steps.len() > 1 {
+        writeln!(out, "step by step:").map_err(io)?;
+        for s in &d.steps {
+            writeln!(out, "  base{:<40} NRMSE fx {:.4}, fy {:.4}", s.effects.iter().map(|e| format!(" + {e}")).collect::<String>(), s.nrmse.fx, s.nrmse.fy).map_err(io)?;
+        }
+    }
+    for w in &d.warnings {
+        writeln!(out, "warning: {w}").map_err(io)?;
+    }
+    Ok(())
+}
+
+pub fn compare(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
+    let model = RobotModel::<f64>::thesis();
+    let (trial, log) = read_trial(&a.log)?;
+    let exp = experiment_of(&a.experiment, &log, &trial)?;
+    let catalog = effects::catalog();
+    let with = effects::lookup(&catalog, &a.with)?;
+    let lp = Loop::new(&trial, &model, exp, settings(a))?;
+    let fit = lp.fit(&with);
+    let c = diagnose::compare(&lp, &fit);
+    if let Some(path) = &a.report {
+        write_report(path, &report::comparison_page(&c, &fit, &lp.p.t_s, lp.p.split, lp.p.dt_s))?;
+    }
+    if a.json {
+        return json_out(out, &c);
+    }
+    writeln!(out, "model: base{} ({} experiment)", c.effects.iter().map(|e| format!(" + {e}")).collect::<String>(), c.experiment).map_err(io)?;
+    writeln!(out, "held-out NRMSE fx {:.4}, fy {:.4}; R² fx {:.3}, fy {:.3}", c.nrmse.fx, c.nrmse.fy, c.r2.fx, c.r2.fy).map_err(io)?;
+    if let Some(s) = &c.frequency_split {
+        writeln!(out, "MSE low / high motion frequency (boundary {:.1} rad/s): X {:.3} / {:.3}, Y {:.3} / {:.3} N²", s.boundary_rad_s, s.mse_low[0], s.mse_high[0], s.mse_low[1], s.mse_high[1]).map_err(io)?;
+    }
+    writeln!(out, "worst windows:").map_err(io)?;
+    for w in &c.worst_windows {
+        writeln!(out, "  {:8.2}–{:8.2} s  RMS fx {:.3}, fy {:.3} N", w.t_start_s, w.t_end_s, w.rms_n.fx, w.rms_n.fy).map_err(io)?;
+    }
+    writeln!(out, "error by speed:").map_err(io)?;
+    for b in &c.error_by_speed {
+        writeln!(out, "  {:<24} RMS fx {:.3}, fy {:.3} N ({} samples)", b.label, b.rms_n.fx, b.rms_n.fy, b.samples).map_err(io)?;
+    }
+    writeln!(out, "error over the workspace:").map_err(io)?;
+    for b in &c.error_by_position {
+        writeln!(out, "  {:<28} RMS fx {:.3}, fy {:.3} N ({} samples)", b.label, b.rms_n.fx, b.rms_n.fy, b.samples).map_err(io)?;
+    }
+    for pk in &c.residual_peaks {
+        writeln!(out, "residual line: {}", pk.detail).map_err(io)?;
+    }
+    for (id, m) in &c.params {
+        let ps: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {v:.4}")).collect();
+        writeln!(out, "{id}: {}", ps.join(", ")).map_err(io)?;
+    }
+    for w in &c.warnings {
+        writeln!(out, "warning: {w}").map_err(io)?;
+    }
+    Ok(())
+}
+
+#[derive(serde::Serialize)]
+struct FitJson {
+    experiment: String,
+    effects: Vec<String>,
+    before: diagnose::AxisPair,
+    after: diagnose::AxisPair,
+    params: std::collections::BTreeMap<String, std::collections::BTreeMap<String, f64>>,
+}
+
+pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
+    let model = RobotModel::<f64>::thesis();
+    let (trial, log) = read_trial(&a.log)?;
+    let exp = experiment_of(&a.experiment, &log, &trial)?;
+    let catalog = effects::catalog();
+    let with = effects::lookup(&catalog, &a.with)?;
+    if with.is_empty() {
+        return Err("fit needs --with ID,... (see `pamctl model diagnose` for candidates)".into());
+    }
+    for e in &with {
+        if !e.applies(exp) {
+            return Err(format!("effect `{}` cannot be seen in a {} experiment", e.id(), exp.name()));
+        }
+    }
+    let lp = Loop::new(&trial, &model, exp, settings(a))?;
+    let before = lp.fit(&[]);
+    let after = lp.fit(&with);
+    if let Some(path) = &a.report {
+        write_report(path, &report::fit_page(&before, &after, &lp.p.t_s, lp.p.split, lp.p.dt_s))?;
+    }
+    let j = FitJson {
+        experiment: exp.name().into(),
+        effects: after.effect_ids.clone(),
+        before: diagnose::nrmse_pair(&before),
+        after: diagnose::nrmse_pair(&after),
+        params: after.params.clone(),
+    };
+    if a.json {
+        return json_out(out, &j);
+    }
+    writeln!(out, "held-out NRMSE before: fx {:.4}, fy {:.4}", before.nrmse[0], before.nrmse[1]).map_err(io)?;
+    writeln!(out, "held-out NRMSE after:  fx {:.4}, fy {:.4}  (base + {})", after.nrmse[0], after.nrmse[1], after.effect_ids.join(" + ")).map_err(io)?;
+    for (id, m) in &after.params {
+        let ps: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {v:.4}")).collect();
+        writeln!(out, "{id}: {}", ps.join(", ")).map_err(io)?;
+    }
+    Ok(())
+}
