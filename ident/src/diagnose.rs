@@ -33,8 +33,8 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             filter: FilterSettings::default(),
-            min_improvement: 0.03,
-            penalty_per_param: 0.002,
+            min_improvement: 0.01,
+            penalty_per_param: 0.001,
             step_threshold_n: 3.0,
             peak_prominence: 40.0,
             peak_min_share: 0.03,
@@ -445,6 +445,7 @@ pub fn diagnose_with(
     let lp = Loop::new(trial, model, experiment, settings)?;
     let base = lp.fit(&[]);
     let e_base = base.relative_mse();
+    let n_eff = effective_samples(&lp, &base);
     let mut reports = Vec::new();
     for e in catalog.iter().copied().filter(|e| e.applies(experiment)) {
         if experiment == Experiment::Step && e.step_extras().is_empty() {
@@ -453,17 +454,23 @@ pub fn diagnose_with(
         let f = lp.fit(&[e]);
         let improvement = 1.0 - f.relative_mse() / e_base.max(1e-300);
         let score = improvement - settings.penalty_per_param * f.added_params as f64;
-        let accepted = score > settings.min_improvement && f.train_gain > 0.0;
+        // the held-out gain must beat the threshold, and the training gain must pass the
+        // Bayesian information criterion counted on the effective number of independent
+        // residual samples (the residual is autocorrelated: n alone would flatter it)
+        let bic = n_eff * (1.0 - f.train_gain).max(1e-300).ln() + f.added_params as f64 * n_eff.ln();
+        let accepted = score > settings.min_improvement && f.train_gain > 0.0 && bic < 0.0;
         let params = f.params.get(e.id()).cloned().unwrap_or_default();
         let evidence = format!(
-            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the held-out error ({} parameter{}; score {:.3}, needed > {:.3})",
+            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the held-out error ({} parameter{}; score {:.3}, needed > {:.3}; ΔBIC {:.0} on {:.0} effective samples)",
             e.signature(),
             100.0 * f.train_gain,
             100.0 * improvement,
             f.added_params,
             if f.added_params == 1 { "" } else { "s" },
             score,
-            settings.min_improvement
+            settings.min_improvement,
+            bic,
+            n_eff
         );
         reports.push((
             EffectReport {
@@ -534,6 +541,26 @@ pub fn diagnose_with(
         },
         fits,
     ))
+}
+
+/// Number of independent samples the training residual is worth: n (1 − ρ)/(1 + ρ) with ρ
+/// the lag-one autocorrelation, averaged over the axes.
+fn effective_samples(lp: &Loop, base: &ModelFit) -> f64 {
+    let s = lp.p.split;
+    let mut rho = Vec::new();
+    for &a in &base.axes {
+        let r = base.residual(a);
+        let r = &r[..s];
+        let m = r.iter().sum::<f64>() / s.max(1) as f64;
+        let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
+        if var > 0.0 {
+            let c: f64 = r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum();
+            rho.push((c / var).clamp(-0.99, 0.999));
+        }
+    }
+    let rho = if rho.is_empty() { 0.0 } else { rho.iter().sum::<f64>() / rho.len() as f64 };
+    let n = (s * base.axes.len().max(1)) as f64;
+    (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n)
 }
 
 /// Structure left in the residual of `fit` that no effect accounts for: narrow spectral

@@ -131,8 +131,8 @@ impl Trial {
     }
 
     /// Positions by forward kinematics, velocities and accelerations by central differences
-    /// followed by zero-phase Butterworth filtering (thesis §4.2, with central instead of
-    /// forward differences so the derivative carries no half-sample delay).
+    /// followed by zero-phase Butterworth filtering (thesis §4.2, with high-order central
+    /// instead of forward differences: no half-sample delay, no attenuation at 50 ms).
     pub fn prepare(&self, model: &RobotModel<f64>, filt: FilterSettings) -> Result<Prepared, String> {
         self.validate()?;
         let n = self.len();
@@ -193,17 +193,30 @@ impl Prepared {
     }
 }
 
+/// Derivative by the 7-point central difference (the 5- and 3-point ones near the ends):
+/// its gain error is below 0.5 % up to a quarter of the Nyquist frequency, where the plain
+/// central difference is already 10 % low — it matters at the thesis's 50 ms sampling.
+/// Samples are assumed evenly spaced (the mean period of `t`).
 pub fn central_difference(s: &[f64], t: &[f64]) -> Vec<f64> {
     let n = s.len();
     let mut d = vec![0.0; n];
     if n < 2 {
         return d;
     }
-    for i in 1..n - 1 {
-        d[i] = (s[i + 1] - s[i - 1]) / (t[i + 1] - t[i - 1]);
+    let h = (t[n - 1] - t[0]) / (n - 1) as f64;
+    for i in 0..n {
+        d[i] = if i >= 3 && i + 3 < n {
+            (s[i + 3] - 9.0 * s[i + 2] + 45.0 * s[i + 1] - 45.0 * s[i - 1] + 9.0 * s[i - 2] - s[i - 3]) / (60.0 * h)
+        } else if i >= 2 && i + 2 < n {
+            (-s[i + 2] + 8.0 * s[i + 1] - 8.0 * s[i - 1] + s[i - 2]) / (12.0 * h)
+        } else if i >= 1 && i + 1 < n {
+            (s[i + 1] - s[i - 1]) / (2.0 * h)
+        } else if i == 0 {
+            (s[1] - s[0]) / h
+        } else {
+            (s[n - 1] - s[n - 2]) / h
+        };
     }
-    d[0] = (s[1] - s[0]) / (t[1] - t[0]);
-    d[n - 1] = (s[n - 1] - s[n - 2]) / (t[n - 1] - t[n - 2]);
     d
 }
 
