@@ -204,7 +204,7 @@ pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
 
 pub fn home_zeroes_the_angle_and_is_refused_while_armed() -> CheckResult {
     let mut d = device();
-    let t = steps(&mut d, 1, 0).telemetry.unwrap_or_else(|| unreachable_telemetry());
+    let t = steps(&mut d, 1, 0).telemetry.unwrap_or_else(unreachable_telemetry);
     holds("boot position is the origin", t.alpha_rad == [0.0, 0.0])?;
     // move slowly (10 counts per ms = 7.9 rad/s, below the encoder-jump speed)
     let mut t = None;

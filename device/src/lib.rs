@@ -21,6 +21,8 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Per-channel loops index several parallel arrays at once.
+#![allow(clippy::needless_range_loop)]
 
 pub mod frontend;
 mod validate;

@@ -381,7 +381,7 @@ proptest! {
         let r = Request { id, body: RequestBody::SetMode(mode) };
         let out = feed(&mut FrameDecoder::<Request>::new(), &frame_of(&r));
         prop_assert_eq!(out.len(), 1);
-        let got = out[0].clone().unwrap();
+        let got = out[0].unwrap();
         prop_assert!(same_bits(&got, &r));
     }
 
