@@ -6,7 +6,6 @@ mod support;
 use pamctl::link::{Client, DropCounter};
 use pam_protocol::{ErrorCode, ReplyData, RequestBody};
 use std::process::{Command, Output};
-use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 use support::{Options, TestDevice};
 
@@ -286,7 +285,6 @@ fn garbage_on_the_link_gets_a_malformed_reply_and_the_link_recovers() {
         .and_then(|_| client.request(RequestBody::Arm))
         .unwrap_err();
     assert!(matches!(e, pamctl::link::ClientError::Refused { code: ErrorCode::NotHomed, .. }));
-    let _ = AtomicBool::new(false);
 }
 
 #[test]

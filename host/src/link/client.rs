@@ -368,11 +368,12 @@ fn read_loop(
                 Some(Ok(DeviceMessage::Reply(rep))) => {
                     let _ = replies.send(rep);
                 }
-                Some(Ok(DeviceMessage::Telemetry(t))) => {
-                    if shared.forward_telemetry.load(Ordering::Relaxed) {
-                        let _ = telemetry.send(t);
-                    }
+                Some(Ok(DeviceMessage::Telemetry(t)))
+                    if shared.forward_telemetry.load(Ordering::Relaxed) =>
+                {
+                    let _ = telemetry.send(t);
                 }
+                Some(Ok(DeviceMessage::Telemetry(_))) => {}
                 Some(Ok(DeviceMessage::FaultEvent(e))) => {
                     let _ = faults.send(e);
                 }

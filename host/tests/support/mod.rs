@@ -161,7 +161,7 @@ fn serve(listener: TcpListener, options: Options, stop: &AtomicBool, corrupted: 
             }
         }
         k += 1;
-        let dither = if k % 2 == 0 { 0.0004 } else { -0.0004 };
+        let dither = if k.is_multiple_of(2) { 0.0004 } else { -0.0004 };
         let out = device.step(
             RawSensors {
                 encoder_counts: [0, 0],
@@ -179,7 +179,7 @@ fn serve(listener: TcpListener, options: Options, stop: &AtomicBool, corrupted: 
                 telemetry_sent += 1;
                 let corrupt = options
                     .corrupt_every
-                    .is_some_and(|n| telemetry_sent % n == 0);
+                    .is_some_and(|n| telemetry_sent.is_multiple_of(n));
                 if corrupt {
                     corrupted.fetch_add(1, Ordering::SeqCst);
                 }
