@@ -452,3 +452,4 @@ fn no_single_byte_corruption_of_any_request_is_ever_accepted() {
     }
     assert!(checked > 20_000);
 }
+
