@@ -5,7 +5,7 @@ use pam_model::cartesian::{coriolis_torques, joint_inertia};
 use pam_model::kinematics::Kinematics;
 use pam_model::{Mat2, RobotModel, RobotParams, Vec2};
 
-use crate::effects::{Ctx, EffectSet, MuscleView, RawSensors};
+use crate::effects::{Ctx, EffectSet, HandleForces, MuscleView, RawSensors};
 use crate::pneumatics::{MuscleVolume, PneumaticConfig};
 use crate::rng::Rng;
 
@@ -406,11 +406,11 @@ impl Twin {
         let kin = &self.model.kinematics;
         let trig = kin.trig(self.state.alpha_rad);
         let jac = kin.jacobian_at(&trig);
-        let mut env_force = [0.0; 2];
+        let mut env = HandleForces::default();
         if !blocked {
             let ctx = self.ctx(h, blocked);
             for e in effects.all_mut() {
-                e.handle_force(&ctx, &mut env_force);
+                e.handle_force(&ctx, &mut env);
             }
         }
         self.effects = effects;
@@ -431,10 +431,11 @@ impl Twin {
                 ],
                 _ => [0.0; 2],
             };
-            let external = [hand[0] + env_force[0], hand[1] + env_force[1]];
+            let (a, hs) = (env.arm_side_user_n, env.handle_side_user_n);
+            let external = [hand[0] + hs[0] + a[0], hand[1] + hs[1] + a[1]];
             self.integrate_arm(h, &jac, torque, external, joint1_locked);
-            // the load cell sits between the arm and the handle: it carries hand + environment
-            [-external[0], -external[1]]
+            // the load cell sits between the arm and the handle: it carries what acts beyond it
+            [-(hand[0] + hs[0]), -(hand[1] + hs[1])]
         };
 
         for c in 0..4 {

@@ -11,7 +11,10 @@
 //! 4. [`Effect::muscle_pressure`] — the pressure that acts in the force law.
 //! 5. [`Effect::muscle_force`] — each cable's force (before the cable-cannot-push clamp).
 //! 6. [`Effect::joint_torque`] — the torques on the joints.
-//! 7. [`Effect::handle_force`] — forces of the environment on the handle (user frame).
+//! 7. [`Effect::handle_force`] — forces of the environment at the handle (user frame), on the
+//!    arm side of the load cell (the load cell sees them through the hand that must overcome
+//!    them) or on the handle side (they load the hand only; the load cell cannot see them
+//!    while the hand imposes the motion).
 //! 8. [`Effect::sensor`] — the raw readings (load-cell volts, encoder counts).
 //!
 //! To add an effect: copy a file (e.g. `velocity_squared.rs`), change the id, the
@@ -77,6 +80,14 @@ pub struct MuscleView {
     pub pressure_bar: f64,
 }
 
+/// Environment forces at the handle point, user frame, split by which side of the load cell
+/// they act on.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HandleForces {
+    pub arm_side_user_n: Vec2<f64>,
+    pub handle_side_user_n: Vec2<f64>,
+}
+
 /// Raw sensor values before the ADC and the encoder counter.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RawSensors {
@@ -120,7 +131,7 @@ pub trait Effect: Send {
     fn muscle_pressure(&mut self, _ctx: &Ctx, _p_bar: &mut [f64; 4]) {}
     fn muscle_force(&mut self, _ctx: &Ctx, _muscle: &MuscleView, _force_n: &mut f64) {}
     fn joint_torque(&mut self, _ctx: &Ctx, _torque_nm: &mut Vec2<f64>) {}
-    fn handle_force(&mut self, _ctx: &Ctx, _force_on_handle_user_n: &mut Vec2<f64>) {}
+    fn handle_force(&mut self, _ctx: &Ctx, _forces: &mut HandleForces) {}
     fn sensor(&mut self, _ctx: &Ctx, _raw: &mut RawSensors) {}
 }
 

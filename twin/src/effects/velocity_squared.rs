@@ -7,8 +7,7 @@
 //! carrier ball's rolling losses growing with speed, the operator's grip), so the model
 //! tools can test a quadratic term.
 
-use super::{effect_params, Ctx, Effect};
-use pam_model::Vec2;
+use super::{effect_params, Ctx, Effect, HandleForces};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct VelocitySquared {
@@ -32,7 +31,9 @@ impl Effect for VelocitySquared {
     effect_params! {
         coeff_n_s2_per_m2, "N·s²/m²", "drag coefficient c";
     }
-    fn handle_force(&mut self, ctx: &Ctx, force: &mut Vec2<f64>) {
+    fn handle_force(&mut self, ctx: &Ctx, forces: &mut HandleForces) {
+        // acts on the arm: the hand pushes through it and the load cell sees that
+        let force = &mut forces.arm_side_user_n;
         let v = ctx.handle_velocity_user_m_s;
         let speed = (v[0] * v[0] + v[1] * v[1]).sqrt();
         for i in 0..2 {
