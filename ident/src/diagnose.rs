@@ -78,17 +78,28 @@ pub struct ModelFit {
     pub predicted: [Vec<f64>; 2],
     /// Fraction of the training residual sum of squares of the base model this fit removes.
     pub train_gain: f64,
+    /// First held-out sample.
+    pub split: usize,
     pub warnings: Vec<String>,
 }
 
 impl ModelFit {
-    /// Mean over the informative axes of NRMSE²: the relative held-out MSE.
+    /// The relative held-out MSE, pooled over the informative axes: Σ residual² / Σ
+    /// (measured − mean)². Pooled rather than averaged so that an axis that hardly moves in
+    /// the held-out part (tiny variance) neither dominates nor vanishes.
     pub fn relative_mse(&self) -> f64 {
-        let v: Vec<f64> = self.axes.iter().map(|&a| self.nrmse[a].powi(2)).filter(|v| v.is_finite()).collect();
-        if v.is_empty() {
-            f64::NAN
+        let (mut num, mut den) = (0.0, 0.0);
+        for &a in &self.axes {
+            let m = &self.measured[a][self.split..];
+            let p = &self.predicted[a][self.split..];
+            let mean = m.iter().sum::<f64>() / m.len().max(1) as f64;
+            num += m.iter().zip(p).map(|(x, y)| (x - y).powi(2)).sum::<f64>();
+            den += m.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
+        }
+        if den > 0.0 {
+            num / den
         } else {
-            v.iter().sum::<f64>() / v.len() as f64
+            f64::NAN
         }
     }
     pub fn residual(&self, axis: usize) -> Vec<f64> {
@@ -105,6 +116,17 @@ pub struct Loop<'a> {
     /// Chosen shape per effect id (cached by the single-effect fits).
     shapes: std::cell::RefCell<BTreeMap<&'static str, Shape>>,
     base_step: std::cell::RefCell<Option<[StepParams; 2]>>,
+    /// The two variants of the dynamic base model (Cartesian and joint-space stiffness, see
+    /// [`base_columns`]), each with the pneumatic regulator dynamics (ωn rad/s, ζ) that fit
+    /// it best. Every fit uses the variant that fits its training part better.
+    base_variants: Vec<BaseVariant>,
+    step_init: Option<[StepParams; 2]>,
+}
+
+struct BaseVariant {
+    cols: Vec<Column>,
+    pneumatic: (f64, f64),
+    joint_stiffness: bool,
 }
 
 fn held_out_scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([f64; 2], [f64; 2]) {
@@ -114,11 +136,43 @@ fn held_out_scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([f
 
 impl<'a> Loop<'a> {
     pub fn new(trial: &Trial, model: &'a RobotModel<f64>, experiment: Experiment, settings: Settings) -> Result<Self, String> {
-        let p = trial.prepare(model, settings.filter)?;
+        let mut p = trial.prepare(model, settings.filter)?;
         if experiment == Experiment::Step && p.force_ref_n.is_none() {
             return Err("a step experiment needs the force reference columns fx_ref_n, fy_ref_n".into());
         }
+        // step trials: graphical starting values from the reference's steps, then the
+        // commanded force as the model's input (see `commanded_force`)
+        let mut step_init = None;
+        if experiment == Experiment::Step {
+            let steps = step::analyse_steps(&p, settings.step_threshold_n);
+            step_init = Some([step::initial_params(&steps, 0), step::initial_params(&steps, 1)]);
+            if let Some(u) = commanded_force(&p, model) {
+                p.force_ref_n = Some(u);
+            }
+        }
+        // the base model is chosen once, on its own: stiffness in Cartesian or joint space,
+        // whichever fits the training part better; every effect is then tested against it
+        let base_variants = if experiment == Experiment::Dynamic {
+            let y = msd::target(&p);
+            let rss = |cols: &[Column]| {
+                let pred = msd::fit_columns(&p, cols, &MSD_POSITIVE, &y).1;
+                (0..2).map(|a| (0..p.split).map(|i| (y[a][i] - pred[a][i]).powi(2)).sum::<f64>()).sum::<f64>()
+            };
+            let best = [false, true]
+                .into_iter()
+                .map(|joint| {
+                    let (cols, pneumatic) = choose_pneumatic(&p, model, joint);
+                    (rss(&cols), BaseVariant { cols, pneumatic, joint_stiffness: joint })
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .expect("two variants");
+            vec![best.1]
+        } else {
+            Vec::new()
+        };
         Ok(Loop {
+            step_init,
+            base_variants,
             p,
             model,
             experiment,
@@ -139,18 +193,20 @@ impl<'a> Loop<'a> {
 
     // ---------------------------------------------------------------- dynamic trials
 
-    fn dyn_columns(&self, ctx: &DynCtx, effects: &[(&dyn ModelEffect, Shape)]) -> (Vec<Column>, Vec<(usize, usize)>) {
+    fn dyn_columns(&self, ctx: &DynCtx, variant: usize, effects: &[(&dyn ModelEffect, Shape)]) -> (Vec<Column>, Vec<(usize, usize)>) {
+        let base_cols = &self.base_variants[variant].cols;
         let mut delay = 0.0f64;
         let mut extra = Vec::new();
         let mut ranges = Vec::new();
         for (e, s) in effects {
             let term = e.dynamic_term(ctx, s);
             delay = delay.max(term.base_delay_s);
-            let start = 9 + extra.len();
+            let nb = base_cols.len();
+            let start = nb + extra.len();
             extra.extend(term.columns);
-            ranges.push((start, 9 + extra.len()));
+            ranges.push((start, nb + extra.len()));
         }
-        let mut cols = msd::msd_columns(&self.p);
+        let mut cols = base_cols.clone();
         if delay > 0.0 {
             let d = delay / self.p.dt_s;
             let (whole, frac) = (d.floor() as usize, d - d.floor());
@@ -186,12 +242,14 @@ impl<'a> Loop<'a> {
                 .sum();
             let mut best = (f64::INFINITY, Shape::default());
             for s in shapes {
-                let (cols, _) = self.dyn_columns(ctx, &[(e, s.clone())]);
-                let ne = lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
-                let th = lsq::solve(&ne, &MSD_POSITIVE);
-                let r = lsq::rss(&ne, yty, &th);
-                if r < best.0 {
-                    best = (r, s);
+                for v in 0..self.base_variants.len() {
+                    let (cols, _) = self.dyn_columns(ctx, v, &[(e, s.clone())]);
+                    let ne = lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
+                    let th = lsq::solve(&ne, &MSD_POSITIVE);
+                    let r = lsq::rss(&ne, yty, &th);
+                    if r < best.0 {
+                        best = (r, s.clone());
+                    }
                 }
             }
             best.1
@@ -209,11 +267,28 @@ impl<'a> Loop<'a> {
             .filter(|e| e.applies(Experiment::Dynamic))
             .map(|e| (*e, self.choose_shape(&ctx, *e, &y)))
             .collect();
-        let (cols, ranges) = self.dyn_columns(&ctx, &chosen);
-        let (theta, pred) = msd::fit_columns(p, &cols, &MSD_POSITIVE, &y);
+        let train_rss = |pr: &[Vec<f64>; 2]| -> f64 {
+            (0..2).map(|a| (0..p.split).map(|i| (y[a][i] - pr[a][i]).powi(2)).sum::<f64>()).sum()
+        };
+        // both base variants; keep the one that fits the training part better
+        let mut best: Option<(f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, [Vec<f64>; 2])> = None;
+        for v in 0..self.base_variants.len() {
+            let (cols, ranges) = self.dyn_columns(&ctx, v, &chosen);
+            let (theta, pred) = msd::fit_columns(p, &cols, &MSD_POSITIVE, &y);
+            let r = train_rss(&pred);
+            if best.as_ref().is_none_or(|b| r < b.0) {
+                best = Some((r, v, cols, ranges, theta, pred));
+            }
+        }
+        let (fit_rss, variant, cols, ranges, theta, pred) = best.expect("two variants");
+        let bv = &self.base_variants[variant];
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
         let mut params = BTreeMap::new();
-        let base: BTreeMap<String, f64> = cols[..9].iter().zip(&theta).map(|(c, t)| (c.name.clone(), *t)).collect();
+        let nb = bv.cols.len();
+        let mut base: BTreeMap<String, f64> = cols[..nb].iter().zip(&theta).map(|(c, t)| (c.name.clone(), *t)).collect();
+        base.insert("pneumatic_omega_n_rad_s".into(), bv.pneumatic.0);
+        base.insert("pneumatic_zeta".into(), bv.pneumatic.1);
+        base.insert("joint_space_stiffness".into(), if bv.joint_stiffness { 1.0 } else { 0.0 });
         params.insert("base".to_string(), base);
         let mut added = 0;
         for ((e, s), (a, b)) in chosen.iter().zip(&ranges) {
@@ -222,14 +297,15 @@ impl<'a> Loop<'a> {
             params.insert(e.id().to_string(), e.report_params(&ctx, &fitted, s).into_iter().collect());
         }
         let warnings = msd::mass_warnings(&msd::sym(&theta[0..3]), self.model.cartesian_mass(p.alpha0_rad));
-        let train_rss = |pr: &[Vec<f64>; 2]| -> f64 {
-            (0..2).map(|a| (0..p.split).map(|i| (y[a][i] - pr[a][i]).powi(2)).sum::<f64>()).sum()
-        };
         let train_gain = if chosen.is_empty() {
             0.0
         } else {
-            let (_, base_pred) = msd::fit_columns(p, &cols[..9].iter().cloned().collect::<Vec<_>>(), &MSD_POSITIVE, &y);
-            1.0 - train_rss(&pred) / train_rss(&base_pred).max(1e-300)
+            let base_rss = self
+                .base_variants
+                .iter()
+                .map(|v| train_rss(&msd::fit_columns(p, &v.cols, &MSD_POSITIVE, &y).1))
+                .fold(f64::INFINITY, f64::min);
+            1.0 - fit_rss / base_rss.max(1e-300)
         };
         ModelFit {
             experiment: Experiment::Dynamic,
@@ -242,13 +318,28 @@ impl<'a> Loop<'a> {
             measured: y,
             predicted: pred,
             train_gain,
+            split: p.split,
             warnings,
         }
     }
 
     // ---------------------------------------------------------------- step trials
 
+    /// Axes scored in a step trial: those whose reference steps in the held-out part (the
+    /// NRMSE of an axis that only holds still measures noise), else those that step at all.
+    #[allow(dead_code)]
     fn step_axes(&self) -> Vec<usize> {
+        let r = self.p.force_ref_n.as_ref().expect("checked in new");
+        let s = self.p.split;
+        let held: Vec<usize> = (0..2).filter(|&a| std_dev(&r[a][s..]) > 1e-9).collect();
+        if !held.is_empty() {
+            return held;
+        }
+        (0..2).filter(|&a| std_dev(&r[a]) > 1e-9).collect()
+    }
+
+    /// Axes with any step (fitted).
+    fn stepping_axes(&self) -> Vec<usize> {
         let r = self.p.force_ref_n.as_ref().expect("checked in new");
         (0..2).filter(|&a| std_dev(&r[a]) > 1e-9).collect()
     }
@@ -257,10 +348,9 @@ impl<'a> Loop<'a> {
         if let Some(b) = *self.base_step.borrow() {
             return b;
         }
-        let steps = step::analyse_steps(&self.p, self.settings.step_threshold_n);
         let mut out = [StepParams::base(1.0, 0.7, 20.0); 2];
-        for a in self.step_axes() {
-            let init = step::initial_params(&steps, a);
+        for a in self.stepping_axes() {
+            let init = self.step_init.map(|s| s[a]).unwrap_or(out[a]);
             out[a] = step::fit_axis(&self.p, a, &init, &[], self.p.split).unwrap_or(init);
         }
         *self.base_step.borrow_mut() = Some(out);
@@ -283,12 +373,13 @@ impl<'a> Loop<'a> {
                 }
             }
         }
-        let axes = self.step_axes();
+        let axes = self.stepping_axes();
+        let fitted_axes = axes.clone();
         let u = p.force_ref_n.as_ref().expect("checked in new");
         let mut fitted = base;
         let mut pred = [vec![0.0; p.len()], vec![0.0; p.len()]];
         for a in 0..2 {
-            if axes.contains(&a) && !extras.is_empty() {
+            if fitted_axes.contains(&a) && !extras.is_empty() {
                 fitted[a] = step::fit_axis(p, a, &base[a], &extras, p.split).unwrap_or(base[a]);
             }
             step::simulate(&fitted[a], &p.t_s, &u[a], [&p.alpha_rad[0], &p.alpha_rad[1]], p.force_n[a][0], &mut pred[a]);
@@ -298,7 +389,7 @@ impl<'a> Loop<'a> {
         let mut params = BTreeMap::new();
         let axis_name = ["x", "y"];
         let mut b = BTreeMap::new();
-        for &a in &axes {
+        for &a in &fitted_axes {
             b.insert(format!("gain_{}", axis_name[a]), base[a].gain);
             b.insert(format!("zeta_{}", axis_name[a]), base[a].zeta);
             b.insert(format!("omega_n_rad_s_{}", axis_name[a]), base[a].omega_n_rad_s);
@@ -306,7 +397,7 @@ impl<'a> Loop<'a> {
         params.insert("base".to_string(), b);
         for e in &chosen {
             let mut m = BTreeMap::new();
-            for &a in &axes {
+            for &a in &fitted_axes {
                 let q = &fitted[a];
                 let s = axis_name[a];
                 for x in e.step_extras() {
@@ -350,7 +441,7 @@ impl<'a> Loop<'a> {
             let re: f64 = axes.iter().map(|&a| train(&pred, a)).sum();
             1.0 - re / rb.max(1e-300)
         };
-        let added = step::extra_param_count(&extras) * axes.len();
+        let added = step::extra_param_count(&extras) * fitted_axes.len();
         ModelFit {
             experiment: Experiment::Step,
             effect_ids: chosen.iter().map(|e| e.id().to_string()).collect(),
@@ -362,8 +453,166 @@ impl<'a> Loop<'a> {
             measured: y,
             predicted: pred,
             train_gain,
+            split: p.split,
             warnings: Vec::new(),
         }
+    }
+}
+
+/// The force the controller commanded, from the logged I/P currents: converter law (eq.
+/// 2.2) → muscle pressures → joint torques of the model (eq. 3.2) → handle force J⁻ᵀτ.
+/// It carries what the controller did to the reference (slew limits, clamping), so the
+/// second-order model only has to describe the converters and the muscles. `None` without
+/// currents, or when the currents do not follow the reference (correlation < 0.5).
+pub fn commanded_force(p: &Prepared, model: &RobotModel<f64>) -> Option<[Vec<f64>; 2]> {
+    let pr = crate::effects::joint_pressures(p, model)?;
+    let n = p.len();
+    let mut u = [Vec::with_capacity(n), Vec::with_capacity(n)];
+    for i in 0..n {
+        let alpha = [p.alpha_rad[0][i], p.alpha_rad[1][i]];
+        let tau = [
+            model.pose(0, alpha[0]).torque_nm(pr[i][0]),
+            model.pose(1, alpha[1]).torque_nm(pr[i][1]),
+        ];
+        let jt = model.kinematics.jacobian(alpha).transpose();
+        let f = jt.inverse()?.mul_vec(tau);
+        u[0].push(f[0]);
+        u[1].push(f[1]);
+    }
+    let reference = p.force_ref_n.as_ref()?;
+    for a in 0..2 {
+        if std_dev(&reference[a]) > 1e-9 {
+            let c = correlation(&reference[a], &u[a]);
+            if !(c > 0.5) {
+                return None;
+            }
+        }
+    }
+    Some(u)
+}
+
+fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let (ma, mb) = (a.iter().sum::<f64>() / a.len() as f64, b.iter().sum::<f64>() / b.len() as f64);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma).powi(2);
+        sbb += (y - mb).powi(2);
+    }
+    sab / (saa * sbb).sqrt().max(1e-300)
+}
+
+/// The pneumatic compliance of the muscles: when the handle moves, each muscle's volume
+/// changes and its pressure with it, until the I/P converter — a second-order regulator
+/// (Table 5.2) — restores it. The pressure (so the force) deviation is the displacement
+/// through the regulator's high-pass, Δx − LP₂(Δx) with LP₂ = ωn²/(s² + 2ζωn s + ωn²),
+/// times a symmetric matrix: three more regressors of the base model. On a rig (or a
+/// simulator) without this, their coefficients simply come out near zero.
+pub fn pneumatic_columns(p: &Prepared, ctx: &DynCtx, joint_space: bool, omega_n: f64, zeta: f64) -> Vec<Column> {
+    let sp = StepParams::base(1.0, zeta, omega_n);
+    let n = p.len();
+    let mut h = [vec![0.0; n], vec![0.0; n]];
+    for j in 0..2 {
+        let d: Vec<f64> = if joint_space {
+            p.alpha_smooth_rad[j].iter().map(|a| a - p.alpha0_rad[j]).collect()
+        } else {
+            p.dx_m[j].clone()
+        };
+        let mut lp = vec![0.0; n];
+        step::simulate(&sp, &p.t_s, &d, [&p.alpha_rad[0], &p.alpha_rad[1]], d[0], &mut lp);
+        for i in 0..n {
+            h[j][i] = d[i] - lp[i];
+        }
+    }
+    if joint_space {
+        return joint_stiffness_columns(ctx, &h, "kp");
+    }
+    vec![
+        Column::on("kp_xx", 0, h[0].clone()),
+        Column::both("kp_xy", h[1].clone(), h[0].clone()),
+        Column::on("kp_yy", 1, h[1].clone()),
+    ]
+}
+
+/// A symmetric joint-space stiffness acting on joint-angle signals `d` (per joint), as
+/// handle forces: −f = J⁻ᵀ K_j d. Working in joint space keeps the curvature of the
+/// kinematics (J changes with the pose) out of the residual.
+pub fn joint_stiffness_columns(ctx: &DynCtx, d: &[Vec<f64>; 2], prefix: &str) -> Vec<Column> {
+    vec![
+        ctx.torque_column(&format!("{prefix}_11"), |i| [-d[0][i], 0.0]),
+        ctx.torque_column(&format!("{prefix}_12"), |i| [-d[1][i], -d[0][i]]),
+        ctx.torque_column(&format!("{prefix}_22"), |i| [0.0, -d[1][i]]),
+    ]
+}
+
+/// The loop's base model for dynamic trials: eq. 4.29's M and B in Cartesian coordinates,
+/// the stiffness either in Cartesian coordinates (eq. 4.29 as printed) or in joint space
+/// (the muscles act on the joints: the kinematics' curvature is then the model's, not an
+/// error) — whichever fits the training part better — and the pneumatic compliance.
+pub fn base_columns(p: &Prepared, ctx: &DynCtx, joint_stiffness: bool, omega_n: f64, zeta: f64) -> Vec<Column> {
+    let mut cols = msd::msd_columns(p);
+    if joint_stiffness {
+        let da = [
+            p.alpha_smooth_rad[0].iter().map(|a| a - p.alpha0_rad[0]).collect::<Vec<f64>>(),
+            p.alpha_smooth_rad[1].iter().map(|a| a - p.alpha0_rad[1]).collect::<Vec<f64>>(),
+        ];
+        cols.truncate(6);
+        cols.extend(joint_stiffness_columns(ctx, &da, "kj"));
+    }
+    if omega_n > 0.0 {
+        cols.extend(pneumatic_columns(p, ctx, joint_stiffness, omega_n, zeta));
+    }
+    cols
+}
+
+/// The base columns with the regulator dynamics that fit the training part best, from a
+/// small grid around the robot's I/P converter (Table 5.2).
+fn choose_pneumatic(p: &Prepared, model: &RobotModel<f64>, joint: bool) -> (Vec<Column>, (f64, f64)) {
+    let y = msd::target(p);
+    let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
+    let rows = 0..p.split;
+    let yty: f64 = (0..2).map(|a| y[a][rows.clone()].iter().step_by(stride).map(|v| v * v).sum::<f64>()).sum();
+    let wn0 = model.params.ip.natural_freq_rad_s;
+    let ctx = DynCtx::new(p, model);
+    let z0 = model.params.ip.damping_ratio;
+    let fit = |cols: &[Column]| {
+        let ne = lsq::normal_equations_strided(cols, &[&y[0], &y[1]], rows.clone(), stride);
+        let th = lsq::solve(&ne, &MSD_POSITIVE);
+        (lsq::rss(&ne, yty, &th), th)
+    };
+    // without the pneumatic term
+    let mut plain = base_columns(p, &ctx, joint, 0.0, 0.0);
+    plain.truncate(9);
+    let (rss_plain, th_plain) = fit(&plain);
+    let mut best: Option<(f64, Vec<Column>, (f64, f64))> = None;
+    for (wf, z) in [0.6, 1.0, 1.6].iter().flat_map(|&wf| [z0, 0.7, 1.0].into_iter().map(move |z| (wf, z))) {
+        let cols = base_columns(p, &ctx, joint, wn0 * wf, z);
+        let (r, _) = fit(&cols);
+        if best.as_ref().is_none_or(|b| r < b.0) {
+            best = Some((r, cols, (wn0 * wf, z)));
+        }
+    }
+    let (rss_pn, cols, wz) = best.expect("grid is not empty");
+    // the term must pay for itself like an effect: a relative gain of 1 % and the BIC on
+    // the effective number of samples of the plain residual (4 parameters with the grid)
+    let pred = lsq::predict(&plain, &th_plain, p.len());
+    let mut rho = Vec::new();
+    for a in 0..2 {
+        let r: Vec<f64> = (0..p.split).map(|i| y[a][i] - pred[a][i]).collect();
+        let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
+        let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
+        if var > 0.0 {
+            rho.push((r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var).clamp(-0.99, 0.999));
+        }
+    }
+    let rho = if rho.is_empty() { 0.0 } else { rho.iter().sum::<f64>() / rho.len() as f64 };
+    let n = 2.0 * p.split as f64;
+    let n_eff = (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n);
+    let ratio = rss_pn / rss_plain.max(1e-300);
+    if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {
+        (cols, wz)
+    } else {
+        (plain, (0.0, 0.0))
     }
 }
 
@@ -575,11 +824,17 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
         Experiment::Dynamic => vec![p.dx_m[0].clone(), p.dx_m[1].clone()],
         Experiment::Step => p.force_ref_n.clone().map(|r| r.to_vec()).unwrap_or_default(),
     };
-    let input_peaks: Vec<f64> = inputs
-        .iter()
-        .flat_map(|x| narrow_peaks(&amplitude_spectrum(x, p.dt_s), 10.0, 0.01))
-        .map(|pk| pk.freq_hz)
-        .collect();
+    let input_spectra: Vec<_> = inputs.iter().map(|x| amplitude_spectrum(x, p.dt_s)).collect();
+    // a line where an input has energy (≥ 2 % of its largest line, ±2 bins) is a misfit of
+    // the motion or of the steps, not an outside disturbance
+    let input_has_energy = |f: f64| {
+        input_spectra.iter().any(|s| {
+            let df = s.freq_hz.get(1).copied().unwrap_or(1.0);
+            let k = (f / df).round() as usize;
+            let max = s.amplitude.iter().skip(1).cloned().fold(0.0, f64::max);
+            (k.saturating_sub(2)..(k + 3).min(s.amplitude.len())).any(|i| s.amplitude[i] >= 0.02 * max)
+        })
+    };
     for a in 0..2 {
         let r = fit.residual(a);
         if rms(&r) == 0.0 {
@@ -588,7 +843,7 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
         let spec = amplitude_spectrum(&r, p.dt_s);
         let df = spec.freq_hz.get(1).copied().unwrap_or(1.0);
         for pk in narrow_peaks(&spec, s.peak_prominence, s.peak_min_share).into_iter().take(3) {
-            if input_peaks.iter().any(|f| (f - pk.freq_hz).abs() <= 3.0 * df) {
+            if input_has_energy(pk.freq_hz) {
                 continue;
             }
             out.push(UnexplainedReport {

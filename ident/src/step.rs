@@ -423,14 +423,35 @@ pub fn fit_axis(
     let t = &p.t_s[..n];
     let a = [&p.alpha_rad[0][..n], &p.alpha_rad[1][..n]];
     let lower = lower_bounds(extras);
-    let (theta, _) = lm::minimize(&init, &lower, sel.len(), 30, |v, r| {
-        let q = unpack(v, extras, &first);
-        simulate(&q, t, &u[..n], a, y[0], &mut buf);
-        for (j, &i) in sel.iter().enumerate() {
-            r[j] = buf[i] - y[i];
+    // rate limits start at the fastest slope seen and at fractions of it (the cost surface
+    // is flat where a limit is inactive, so one start can stall there)
+    let starts: Vec<Vec<f64>> = if extras.contains(&StepExtra::SlewRate) {
+        [1.0, 0.4, 0.15]
+            .iter()
+            .map(|f| {
+                let mut q = first;
+                q.rise_n_per_s *= f;
+                q.fall_n_per_s *= f;
+                pack(&q, extras)
+            })
+            .collect()
+    } else {
+        vec![init]
+    };
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    for s0 in starts {
+        let (theta, cost) = lm::minimize(&s0, &lower, sel.len(), 30, |v, r| {
+            let q = unpack(v, extras, &first);
+            simulate(&q, t, &u[..n], a, y[0], &mut buf);
+            for (j, &i) in sel.iter().enumerate() {
+                r[j] = buf[i] - y[i];
+            }
+        });
+        if best.as_ref().is_none_or(|b| cost < b.1) {
+            best = Some((theta, cost));
         }
-    });
-    Some(unpack(&theta, extras, &first))
+    }
+    Some(unpack(&best?.0, extras, &first))
 }
 
 fn lower_bounds(extras: &[StepExtra]) -> Vec<(usize, f64)> {
