@@ -121,6 +121,8 @@ pub struct Loop<'a> {
     /// it best. Every fit uses the variant that fits its training part better.
     base_variants: Vec<BaseVariant>,
     step_init: Option<[StepParams; 2]>,
+    /// Effective number of independent training residual samples of the plain base.
+    n_eff: f64,
 }
 
 struct BaseVariant {
@@ -150,28 +152,28 @@ impl<'a> Loop<'a> {
                 p.force_ref_n = Some(u);
             }
         }
-        // the base model is chosen once, on its own: stiffness in Cartesian or joint space,
-        // whichever fits the training part better; every effect is then tested against it
-        let base_variants = if experiment == Experiment::Dynamic {
+        // the base model's variants: stiffness in Cartesian or joint space, with or without
+        // the pneumatic term; every fit (base alone or with effects) uses the variant that
+        // its training part prefers by the information criterion
+        let (base_variants, n_eff) = if experiment == Experiment::Dynamic {
+            let mut v = Vec::new();
+            for joint in [false, true] {
+                let (cols, pneumatic) = choose_pneumatic(&p, model, joint);
+                let mut plain = cols.clone();
+                plain.truncate(9);
+                v.push(BaseVariant { cols: plain, pneumatic: (0.0, 0.0), joint_stiffness: joint });
+                v.push(BaseVariant { cols, pneumatic, joint_stiffness: joint });
+            }
             let y = msd::target(&p);
-            let rss = |cols: &[Column]| {
-                let pred = msd::fit_columns(&p, cols, &MSD_POSITIVE, &y).1;
-                (0..2).map(|a| (0..p.split).map(|i| (y[a][i] - pred[a][i]).powi(2)).sum::<f64>()).sum::<f64>()
-            };
-            let best = [false, true]
-                .into_iter()
-                .map(|joint| {
-                    let (cols, pneumatic) = choose_pneumatic(&p, model, joint);
-                    (rss(&cols), BaseVariant { cols, pneumatic, joint_stiffness: joint })
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .expect("two variants");
-            vec![best.1]
+            let pred = msd::fit_columns(&p, &v[0].cols, &MSD_POSITIVE, &y).1;
+            let res: Vec<Vec<f64>> = (0..2).map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect()).collect();
+            (v, effective_samples_of(&res))
         } else {
-            Vec::new()
+            (Vec::new(), 0.0)
         };
         Ok(Loop {
             step_init,
+            n_eff,
             base_variants,
             p,
             model,
@@ -193,8 +195,9 @@ impl<'a> Loop<'a> {
 
     // ---------------------------------------------------------------- dynamic trials
 
-    fn dyn_columns(&self, ctx: &DynCtx, variant: usize, effects: &[(&dyn ModelEffect, Shape)]) -> (Vec<Column>, Vec<(usize, usize)>) {
+    fn dyn_columns(&self, ctx: &DynCtx, variant: usize, effects: &[(&dyn ModelEffect, Shape)]) -> (Vec<Column>, Vec<(usize, usize)>, Vec<usize>) {
         let base_cols = &self.base_variants[variant].cols;
+        let mut positive: Vec<usize> = MSD_POSITIVE.to_vec();
         let mut delay = 0.0f64;
         let mut extra = Vec::new();
         let mut ranges = Vec::new();
@@ -203,6 +206,7 @@ impl<'a> Loop<'a> {
             delay = delay.max(term.base_delay_s);
             let nb = base_cols.len();
             let start = nb + extra.len();
+            positive.extend(term.positive.iter().map(|i| start + i));
             extra.extend(term.columns);
             ranges.push((start, nb + extra.len()));
         }
@@ -224,7 +228,15 @@ impl<'a> Loop<'a> {
             }
         }
         cols.extend(extra);
-        (cols, ranges)
+        (cols, ranges, positive)
+    }
+
+    /// Information criterion of a fit of `ncols` columns with variant `v`: the pneumatic
+    /// variants count one more parameter for their chosen dynamics.
+    fn criterion(&self, rss: f64, ncols: usize, v: usize) -> f64 {
+        let k = ncols + usize::from(self.base_variants[v].pneumatic.0 > 0.0);
+        let n = self.n_eff.max(10.0);
+        n * rss.max(1e-300).ln() + k as f64 * n.ln()
     }
 
     fn choose_shape(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Shape {
@@ -243,10 +255,10 @@ impl<'a> Loop<'a> {
             let mut best = (f64::INFINITY, Shape::default());
             for s in shapes {
                 for v in 0..self.base_variants.len() {
-                    let (cols, _) = self.dyn_columns(ctx, v, &[(e, s.clone())]);
+                    let (cols, _, positive) = self.dyn_columns(ctx, v, &[(e, s.clone())]);
                     let ne = lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
-                    let th = lsq::solve(&ne, &MSD_POSITIVE);
-                    let r = lsq::rss(&ne, yty, &th);
+                    let th = lsq::solve(&ne, &positive);
+                    let r = self.criterion(lsq::rss(&ne, yty, &th) * stride as f64, cols.len(), v);
                     if r < best.0 {
                         best = (r, s.clone());
                     }
@@ -273,14 +285,16 @@ impl<'a> Loop<'a> {
         // both base variants; keep the one that fits the training part better
         let mut best: Option<(f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, [Vec<f64>; 2])> = None;
         for v in 0..self.base_variants.len() {
-            let (cols, ranges) = self.dyn_columns(&ctx, v, &chosen);
-            let (theta, pred) = msd::fit_columns(p, &cols, &MSD_POSITIVE, &y);
+            let (cols, ranges, positive) = self.dyn_columns(&ctx, v, &chosen);
+            let (theta, pred) = msd::fit_columns(p, &cols, &positive, &y);
             let r = train_rss(&pred);
-            if best.as_ref().is_none_or(|b| r < b.0) {
-                best = Some((r, v, cols, ranges, theta, pred));
+            let c = self.criterion(r, cols.len(), v);
+            if best.as_ref().is_none_or(|b| c < b.0) {
+                best = Some((c, v, cols, ranges, theta, pred));
             }
         }
-        let (fit_rss, variant, cols, ranges, theta, pred) = best.expect("two variants");
+        let (_, variant, cols, ranges, theta, pred) = best.expect("variants");
+        let fit_rss = train_rss(&pred);
         let bv = &self.base_variants[variant];
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
         let mut params = BTreeMap::new();
@@ -300,11 +314,15 @@ impl<'a> Loop<'a> {
         let train_gain = if chosen.is_empty() {
             0.0
         } else {
-            let base_rss = self
-                .base_variants
-                .iter()
-                .map(|v| train_rss(&msd::fit_columns(p, &v.cols, &MSD_POSITIVE, &y).1))
-                .fold(f64::INFINITY, f64::min);
+            // against the base alone, with the variant the base alone prefers
+            let base_rss = (0..self.base_variants.len())
+                .map(|v| {
+                    let r = train_rss(&msd::fit_columns(p, &self.base_variants[v].cols, &MSD_POSITIVE, &y).1);
+                    (self.criterion(r, self.base_variants[v].cols.len(), v), r)
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|x| x.1)
+                .unwrap_or(f64::INFINITY);
             1.0 - fit_rss / base_rss.max(1e-300)
         };
         ModelFit {
@@ -790,6 +808,23 @@ pub fn diagnose_with(
         },
         fits,
     ))
+}
+
+/// n (1 − ρ)/(1 + ρ) over per-axis residuals.
+fn effective_samples_of(res: &[Vec<f64>]) -> f64 {
+    let mut rho = Vec::new();
+    let mut n = 0usize;
+    for r in res {
+        n += r.len();
+        let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
+        let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
+        if var > 0.0 {
+            rho.push((r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var).clamp(-0.99, 0.999));
+        }
+    }
+    let rho = if rho.is_empty() { 0.0 } else { rho.iter().sum::<f64>() / rho.len() as f64 };
+    let n = n as f64;
+    (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n.max(10.0))
 }
 
 /// Number of independent samples the training residual is worth: n (1 − ρ)/(1 + ρ) with ρ

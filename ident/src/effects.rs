@@ -102,6 +102,9 @@ pub struct DynTerm {
     pub columns: Vec<Column>,
     /// The base regressors are taken this much earlier (force lagging motion), seconds.
     pub base_delay_s: f64,
+    /// Indices (into `columns`) of parameters that are physically ≥ 0 (dissipation, a
+    /// friction force): a sign-flipped fit of one effect must not pass for another.
+    pub positive: Vec<usize>,
 }
 
 /// A model-side effect.
@@ -221,7 +224,7 @@ impl ModelEffect for CarrierBallFriction {
         e == Experiment::Dynamic
     }
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
-        [0.001, 0.003, 0.01, 0.03]
+        [0.001, 0.003, 0.01, 0.03, 0.1]
             .iter()
             .map(|&w| Shape(vec![("smoothing_m_s", w)]))
             .collect()
@@ -237,7 +240,7 @@ impl ModelEffect for CarrierBallFriction {
             x.push(v[0][i] * k);
             y.push(v[1][i] * k);
         }
-        DynTerm { columns: vec![Column::both("coulomb_n", x, y)], ..Default::default() }
+        DynTerm { columns: vec![Column::both("coulomb_n", x, y)], positive: vec![0], ..Default::default() }
     }
 }
 
@@ -264,7 +267,7 @@ impl ModelEffect for VelocitySquared {
             x.push(s * v[0][i]);
             y.push(s * v[1][i]);
         }
-        DynTerm { columns: vec![Column::both("coeff_n_s2_per_m2", x, y)], ..Default::default() }
+        DynTerm { columns: vec![Column::both("coeff_n_s2_per_m2", x, y)], positive: vec![0], ..Default::default() }
     }
 }
 
@@ -368,7 +371,7 @@ impl ModelEffect for MuscleHysteresis {
                 t
             }));
         }
-        DynTerm { columns: cols, ..Default::default() }
+        DynTerm { columns: cols, positive: vec![0, 1], ..Default::default() }
     }
     fn report_params(&self, ctx: &DynCtx, fitted: &[(String, f64)], shape: &Shape) -> Vec<(String, f64)> {
         let mut v = fitted.to_vec();
@@ -432,12 +435,8 @@ impl ModelEffect for PoseDependence {
                         t
                     })
                     .collect();
-                let mut c = ctx.torque_column(name, |i| v[i]);
-                for col in c.axis.iter_mut().flatten() {
-                    for x in col.iter_mut() {
-                        *x = -*x;
-                    }
-                }
+                // the extra muscle torque is balanced by the hand: −f gains −J⁻ᵀΔτ
+                let c = ctx.torque_column(name, |i| v[i]);
                 cols.push(c);
             }
             return DynTerm { columns: cols, ..Default::default() };
@@ -485,7 +484,7 @@ impl ModelEffect for CableSlip {
     fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
         let tmax = ctx.joint_torque_nm[0].iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let mut v = Vec::new();
-        for b in [0.0, 0.002, 0.004, 0.008] {
+        for b in [0.0, 0.002, 0.004, 0.008, 0.016] {
             for frac in [0.3, 0.5, 0.7, 0.85] {
                 v.push(Shape(vec![("backlash_rad", b), ("hold_torque_nm", frac * tmax)]));
             }
@@ -555,7 +554,7 @@ impl ModelEffect for TransportDelay {
         (1..=count).map(|k| Shape(vec![("delay_s", k as f64 * step)])).collect()
     }
     fn dynamic_term(&self, _ctx: &DynCtx, shape: &Shape) -> DynTerm {
-        DynTerm { columns: vec![], base_delay_s: shape.get("delay_s") }
+        DynTerm { columns: vec![], base_delay_s: shape.get("delay_s"), positive: vec![] }
     }
     fn step_extras(&self) -> &'static [StepExtra] {
         &[StepExtra::Delay]

@@ -426,15 +426,22 @@ pub fn fit_axis(
     // rate limits start at the fastest slope seen and at fractions of it (the cost surface
     // is flat where a limit is inactive, so one start can stall there)
     let starts: Vec<Vec<f64>> = if extras.contains(&StepExtra::SlewRate) {
-        [1.0, 0.4, 0.15]
-            .iter()
-            .map(|f| {
+        // and with the base's own dynamics as well as faster ones: a base fitted without
+        // the limit has slowed itself down to mimic it
+        let mut v = Vec::new();
+        for f in [1.0, 0.4, 0.15] {
+            for fast in [false, true] {
                 let mut q = first;
                 q.rise_n_per_s *= f;
                 q.fall_n_per_s *= f;
-                pack(&q, extras)
-            })
-            .collect()
+                if fast {
+                    q.zeta = 0.5;
+                    q.omega_n_rad_s *= 2.0;
+                }
+                v.push(pack(&q, extras));
+            }
+        }
+        v
     } else {
         vec![init]
     };
