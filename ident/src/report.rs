@@ -32,6 +32,10 @@ fn range(vals: impl Iterator<Item = f64>) -> (f64, f64) {
 }
 
 fn axes(out: &mut String, title: &str, xl: &str, yl: &str, xr: (f64, f64), yr: (f64, f64)) {
+    axes_opt(out, title, xl, yl, xr, yr, true)
+}
+
+fn axes_opt(out: &mut String, title: &str, xl: &str, yl: &str, xr: (f64, f64), yr: (f64, f64), x_ticks: bool) {
     let _ = write!(
         out,
         r##"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" viewBox="0 0 {W} {H}" style="background:#fff;border:1px solid #ccc;margin:4px">"##
@@ -45,7 +49,9 @@ fn axes(out: &mut String, title: &str, xl: &str, yl: &str, xr: (f64, f64), yr: (
         let yv = yr.0 + fx * (yr.1 - yr.0);
         let px = x0 + fx * (x1 - x0);
         let py = y0 - fx * (y0 - y1);
-        let _ = write!(out, r##"<text x="{px}" y="{}" font-size="10" text-anchor="middle" font-family="sans-serif">{}</text>"##, y0 + 12.0, num(xv));
+        if x_ticks {
+            let _ = write!(out, r##"<text x="{px}" y="{}" font-size="10" text-anchor="middle" font-family="sans-serif">{}</text>"##, y0 + 12.0, num(xv));
+        }
         let _ = write!(out, r##"<text x="{}" y="{}" font-size="10" text-anchor="end" font-family="sans-serif">{}</text>"##, x0 - 3.0, py + 3.0, num(yv));
         let _ = write!(out, r##"<line x1="{x0}" y1="{py}" x2="{x1}" y2="{py}" stroke="#eee"/>"##);
     }
@@ -110,7 +116,7 @@ pub fn scatter(title: &str, xl: &str, yl: &str, x: &[f64], y: &[f64]) -> String 
 pub fn bars(title: &str, yl: &str, labels: &[String], series: &[(&str, Vec<f64>)]) -> String {
     let mut out = String::new();
     let yr = (0.0, range(series.iter().flat_map(|s| s.1.iter().copied()).chain([0.0])).1);
-    axes(&mut out, title, "", yl, (0.0, labels.len() as f64), yr);
+    axes_opt(&mut out, title, "", yl, (0.0, labels.len() as f64), yr, false);
     let slot = (W - 10.0 - PAD) / labels.len().max(1) as f64;
     let bw = slot * 0.8 / series.len().max(1) as f64;
     for (i, l) in labels.iter().enumerate() {

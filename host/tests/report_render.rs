@@ -1,0 +1,99 @@
+//! The HTML report renders in headless Chromium: a screenshot that is not blank and shows
+//! the plots' colours. The test finds /usr/bin/chromium (or `chromium` on the PATH) and, as
+//! root on Debian, installs it when missing.
+#[path = "../../ident/tests/common/mod.rs"]
+mod common;
+
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn chromium() -> PathBuf {
+    let found = |p: &Path| Command::new(p).arg("--version").output().is_ok_and(|o| o.status.success());
+    for c in ["/usr/bin/chromium", "chromium", "/usr/bin/chromium-browser"] {
+        if found(Path::new(c)) {
+            return PathBuf::from(c);
+        }
+    }
+    let root = Command::new("id").arg("-u").output().is_ok_and(|o| o.stdout.starts_with(b"0"));
+    if root && Path::new("/usr/bin/apt-get").exists() {
+        let _ = Command::new("apt-get").args(["install", "-y", "-qq", "chromium"]).env("DEBIAN_FRONTEND", "noninteractive").status();
+        if found(Path::new("/usr/bin/chromium")) {
+            return PathBuf::from("/usr/bin/chromium");
+        }
+    }
+    panic!("headless Chromium is needed for this test: apt-get install -y chromium");
+}
+
+fn write_log(path: &Path, t: &pam_ident::Trial) {
+    let cols = ["t_s", "alpha1_rad", "alpha2_rad", "fx_n", "fy_n", "i1_ma", "i2_ma", "i3_ma", "i4_ma"];
+    let mut w = pam_log::LogWriter::create(path, &cols, &[("experiment", "dynamic")]).unwrap();
+    for i in 0..t.len() {
+        w.write_row(&[t.t_s[i], t.alpha_rad[0][i], t.alpha_rad[1][i], t.force_n[0][i], t.force_n[1][i], 12.0, 12.0, 12.0, 12.0]).unwrap();
+    }
+    w.flush().unwrap();
+}
+
+#[test]
+fn diagnose_report_renders_in_headless_chromium() {
+    let dir = std::env::temp_dir().join(format!("pamctl-report-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("friction.csv");
+    write_log(&log, &dynamic(&DynConfig { dt_s: 0.01, duration_s: 40.0, hidden: Hidden::Friction { coulomb_n: 2.0 }, seed: 4, ..Default::default() }));
+    let html = dir.join("report.html");
+    let out = Command::new(env!("CARGO_BIN_EXE_pamctl"))
+        .args(["model", "diagnose", log.to_str().unwrap(), "--report", html.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let page = std::fs::read_to_string(&html).unwrap();
+    assert!(page.contains("<svg") && !page.contains("http://") || page.contains("xmlns=\"http://www.w3.org/2000/svg\""));
+    assert!(!page.contains("<script"), "the report must not need scripts");
+    assert!(!page.contains("src=\"http"), "the report must not load anything");
+
+    let png_path = dir.join("shot.png");
+    let profile = dir.join("profile");
+    let status = Command::new(chromium())
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            "--hide-scrollbars",
+            "--window-size=1000,2400",
+            &format!("--user-data-dir={}", profile.display()),
+            &format!("--screenshot={}", png_path.display()),
+            &format!("file://{}", html.display()),
+        ])
+        .output()
+        .unwrap();
+    assert!(png_path.exists(), "no screenshot: {}", String::from_utf8_lossy(&status.stderr));
+
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png_path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let bytes = &buf[..info.buffer_size()];
+    let ch = info.color_type.samples();
+    let (mut non_bg, mut blue, mut red, mut n) = (0usize, 0usize, 0usize, 0usize);
+    for px in bytes.chunks(ch) {
+        let (r, g, b) = (px[0] as i32, px[1] as i32, px[2] as i32);
+        n += 1;
+        if (r - 250).abs() > 12 || (g - 250).abs() > 12 || (b - 250).abs() > 12 {
+            non_bg += 1;
+        }
+        // the plots' series colours #1f77b4 and #d62728
+        if (r - 0x1f).abs() < 40 && (g - 0x77).abs() < 40 && (b - 0xb4).abs() < 40 {
+            blue += 1;
+        }
+        if (r - 0xd6).abs() < 40 && (g - 0x27).abs() < 40 && (b - 0x28).abs() < 40 {
+            red += 1;
+        }
+    }
+    assert!(n > 100_000, "screenshot too small: {}×{}", info.width, info.height);
+    assert!(non_bg as f64 > 0.03 * n as f64, "screenshot is blank: {non_bg} of {n} pixels differ from the background");
+    assert!(blue > 200 && red > 200, "plot colours missing: blue {blue}, red {red}");
+}
