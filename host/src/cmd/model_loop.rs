@@ -45,8 +45,10 @@ pub fn experiment_of(arg: &Option<String>, log: &pam_log::Log, trial: &Trial) ->
         return e.parse();
     }
     if let Some(e) = log.meta("experiment") {
-        if let Ok(x) = e.trim().parse() {
-            return Ok(x);
+        match e.trim() {
+            "force_step" | "step" => return Ok(Experiment::Step),
+            "dynamic" | "static" => return Ok(Experiment::Dynamic),
+            _ => {}
         }
     }
     let steps = trial
