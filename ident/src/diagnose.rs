@@ -125,6 +125,9 @@ pub struct Loop<'a> {
     n_eff: f64,
 }
 
+/// (criterion, variant, columns, effect ranges, θ, prediction) of one base variant's fit.
+type VariantFit = (f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, [Vec<f64>; 2]);
+
 struct BaseVariant {
     cols: Vec<Column>,
     pneumatic: (f64, f64),
@@ -283,7 +286,7 @@ impl<'a> Loop<'a> {
             (0..2).map(|a| (0..p.split).map(|i| (y[a][i] - pr[a][i]).powi(2)).sum::<f64>()).sum()
         };
         // both base variants; keep the one that fits the training part better
-        let mut best: Option<(f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, [Vec<f64>; 2])> = None;
+        let mut best: Option<VariantFit> = None;
         for v in 0..self.base_variants.len() {
             let (cols, ranges, positive) = self.dyn_columns(&ctx, v, &chosen);
             let (theta, pred) = msd::fit_columns(p, &cols, &positive, &y);

@@ -164,10 +164,10 @@ fn twin_loadcell_drift() {
     for (k, r) in REGIMES.iter().enumerate() {
         for s in [1.0, 2.0] {
             let label = format!("{} s, ×{s}", r.period_s);
-            let spec = format!("loadcell_drift:offset_x_n={},offset_z_n={},drift_x_n_per_s={},drift_z_n_per_s={}", 1.5 * s, -1.0 * s, 0.01 * s, -0.005 * s);
+            let spec = format!("loadcell_drift:offset_x_n={},offset_z_n={},drift_x_n_per_s={},drift_z_n_per_s={}", 1.5 * s, -s, 0.01 * s, -0.005 * s);
             let p = found(&run(Experiment::Dynamic, &spec, *r, 70 + k as u64), "loadcell_drift", &label);
             near(&p, "offset_x_n", 1.5 * s, 0.1, &label);
-            near(&p, "offset_z_n", -1.0 * s, 0.15, &label);
+            near(&p, "offset_z_n", -s, 0.15, &label);
             near(&p, "drift_x_n_per_s", 0.01 * s, 0.2, &label);
         }
     }
