@@ -9,7 +9,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn pamctl(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_pamctl")).args(args).output().expect("pamctl runs");
+    let out = Command::new(env!("CARGO_BIN_EXE_pamctl"))
+        .args(args)
+        .output()
+        .expect("pamctl runs");
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stdout).into(),
@@ -25,13 +28,33 @@ fn tmpdir(name: &str) -> PathBuf {
 
 /// Writes a trial as a format-v1 log (currents at a constant pretension).
 fn write_log(path: &Path, t: &Trial, experiment: &str) {
-    let mut cols = vec!["t_s", "alpha1_rad", "alpha2_rad", "fx_n", "fy_n", "i1_ma", "i2_ma", "i3_ma", "i4_ma"];
+    let mut cols = vec![
+        "t_s",
+        "alpha1_rad",
+        "alpha2_rad",
+        "fx_n",
+        "fy_n",
+        "i1_ma",
+        "i2_ma",
+        "i3_ma",
+        "i4_ma",
+    ];
     if t.force_ref_n.is_some() {
         cols.extend(["fx_ref_n", "fy_ref_n"]);
     }
     let mut w = pam_log::LogWriter::create(path, &cols, &[("experiment", experiment)]).unwrap();
     for i in 0..t.len() {
-        let mut row = vec![t.t_s[i], t.alpha_rad[0][i], t.alpha_rad[1][i], t.force_n[0][i], t.force_n[1][i], 12.0, 12.0, 12.0, 12.0];
+        let mut row = vec![
+            t.t_s[i],
+            t.alpha_rad[0][i],
+            t.alpha_rad[1][i],
+            t.force_n[0][i],
+            t.force_n[1][i],
+            12.0,
+            12.0,
+            12.0,
+            12.0,
+        ];
         if let Some(r) = &t.force_ref_n {
             row.extend([r[0][i], r[1][i]]);
         }
@@ -48,8 +71,25 @@ fn json(s: &str) -> serde_json::Value {
 fn diagnose_json_follows_the_schema_and_names_the_hidden_effect() {
     let d = tmpdir("diag");
     let log = d.join("friction.csv");
-    write_log(&log, &dynamic(&DynConfig { dt_s: 0.02, duration_s: 60.0, hidden: Hidden::Friction { coulomb_n: 2.5 }, seed: 11, ..Default::default() }), "dynamic");
-    let (code, out, err) = pamctl(&["model", "diagnose", log.to_str().unwrap(), "--experiment", "dynamic", "--json"]);
+    write_log(
+        &log,
+        &dynamic(&DynConfig {
+            dt_s: 0.02,
+            duration_s: 60.0,
+            hidden: Hidden::Friction { coulomb_n: 2.5 },
+            seed: 11,
+            ..Default::default()
+        }),
+        "dynamic",
+    );
+    let (code, out, err) = pamctl(&[
+        "model",
+        "diagnose",
+        log.to_str().unwrap(),
+        "--experiment",
+        "dynamic",
+        "--json",
+    ]);
     assert_eq!(code, 0, "{err}");
     let v = json(&out);
     assert_eq!(v["experiment"], "dynamic");
@@ -63,7 +103,10 @@ fn diagnose_json_follows_the_schema_and_names_the_hidden_effect() {
         assert!(e["params"].is_object() && e["evidence"].is_string());
     }
     // best first
-    let scores: Vec<f64> = effects.iter().map(|e| e["score"].as_f64().unwrap()).collect();
+    let scores: Vec<f64> = effects
+        .iter()
+        .map(|e| e["score"].as_f64().unwrap())
+        .collect();
     assert!(scores.windows(2).all(|w| w[0] >= w[1]));
     let c = effects[0]["params"]["coulomb_n"].as_f64().unwrap();
     assert!((c - 2.5).abs() < 0.3, "coulomb {c}");
@@ -74,14 +117,33 @@ fn diagnose_json_follows_the_schema_and_names_the_hidden_effect() {
 fn fit_and_compare_report_errors_before_and_after() {
     let d = tmpdir("fit");
     let log = d.join("v2.csv");
-    write_log(&log, &dynamic(&DynConfig { dt_s: 0.01, duration_s: 60.0, hidden: Hidden::VelocitySquared { c: 60.0 }, seed: 5, ..Default::default() }), "dynamic");
-    let (code, out, err) = pamctl(&["model", "fit", log.to_str().unwrap(), "--with", "velocity_squared", "--json"]);
+    write_log(
+        &log,
+        &dynamic(&DynConfig {
+            dt_s: 0.01,
+            duration_s: 60.0,
+            hidden: Hidden::VelocitySquared { c: 60.0 },
+            seed: 5,
+            ..Default::default()
+        }),
+        "dynamic",
+    );
+    let (code, out, err) = pamctl(&[
+        "model",
+        "fit",
+        log.to_str().unwrap(),
+        "--with",
+        "velocity_squared",
+        "--json",
+    ]);
     assert_eq!(code, 0, "{err}");
     let v = json(&out);
     for ax in ["fx", "fy"] {
         assert!(v["after"][ax].as_f64().unwrap() < v["before"][ax].as_f64().unwrap());
     }
-    let c = v["params"]["velocity_squared"]["coeff_n_s2_per_m2"].as_f64().unwrap();
+    let c = v["params"]["velocity_squared"]["coeff_n_s2_per_m2"]
+        .as_f64()
+        .unwrap();
     assert!((c - 60.0).abs() < 10.0, "{c}");
     let (code, out, err) = pamctl(&["model", "compare", log.to_str().unwrap(), "--json"]);
     assert_eq!(code, 0, "{err}");
@@ -90,10 +152,22 @@ fn fit_and_compare_report_errors_before_and_after() {
     assert!(v["worst_windows"].as_array().unwrap().len() >= 3);
     assert_eq!(v["error_by_speed"].as_array().unwrap().len(), 4);
     // plain text works too
-    let (code, out, _) = pamctl(&["model", "compare", log.to_str().unwrap(), "--with", "velocity_squared"]);
+    let (code, out, _) = pamctl(&[
+        "model",
+        "compare",
+        log.to_str().unwrap(),
+        "--with",
+        "velocity_squared",
+    ]);
     assert_eq!(code, 0);
     assert!(out.contains("held-out NRMSE"), "{out}");
-    let (code, _, err) = pamctl(&["model", "fit", log.to_str().unwrap(), "--with", "no_such_effect"]);
+    let (code, _, err) = pamctl(&[
+        "model",
+        "fit",
+        log.to_str().unwrap(),
+        "--with",
+        "no_such_effect",
+    ]);
     assert_eq!(code, 1);
     assert!(err.contains("unknown effect `no_such_effect`"), "{err}");
 }
@@ -102,13 +176,29 @@ fn fit_and_compare_report_errors_before_and_after() {
 fn ident_commands_reproduce_the_simulated_matrices() {
     let d = tmpdir("ident");
     let log = d.join("dyn.csv");
-    write_log(&log, &dynamic(&DynConfig { dt_s: 0.01, duration_s: 90.0, noise_n: 0.3, seed: 2, ..Default::default() }), "dynamic");
+    write_log(
+        &log,
+        &dynamic(&DynConfig {
+            dt_s: 0.01,
+            duration_s: 90.0,
+            noise_n: 0.3,
+            seed: 2,
+            ..Default::default()
+        }),
+        "dynamic",
+    );
     let (code, out, err) = pamctl(&["ident", "dynamic", log.to_str().unwrap(), "--json"]);
     assert_eq!(code, 0, "{err}");
     let v = json(&out);
     let k = &v["matrices"][2]["matrix"];
-    assert!((k[0][0].as_f64().unwrap() - K[0][0]).abs() < 0.05 * K[0][0], "{k}");
-    assert!((k[1][1].as_f64().unwrap() - K[1][1]).abs() < 0.05 * K[1][1], "{k}");
+    assert!(
+        (k[0][0].as_f64().unwrap() - K[0][0]).abs() < 0.05 * K[0][0],
+        "{k}"
+    );
+    assert!(
+        (k[1][1].as_f64().unwrap() - K[1][1]).abs() < 0.05 * K[1][1],
+        "{k}"
+    );
     let (code, out, err) = pamctl(&["ident", "freq", log.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("R² of the force spectra"), "{out}");
@@ -116,15 +206,29 @@ fn ident_commands_reproduce_the_simulated_matrices() {
     assert_eq!(code, 0);
     assert!(out.contains("K = "), "{out}");
     let steplog = d.join("step.csv");
-    write_log(&steplog, &step(&StepConfig { dt_s: 0.01, duration_s: 40.0, ..Default::default() }), "step");
+    write_log(
+        &steplog,
+        &step(&StepConfig {
+            dt_s: 0.01,
+            duration_s: 40.0,
+            ..Default::default()
+        }),
+        "step",
+    );
     let (code, out, err) = pamctl(&["ident", "step", steplog.to_str().unwrap(), "--json"]);
     assert_eq!(code, 0, "{err}");
     let v = json(&out);
     let f = &v["logs"][0]["fitted"][0];
     assert!((f["gain"].as_f64().unwrap() - 0.57).abs() < 0.02, "{f}");
     assert!((f["zeta"].as_f64().unwrap() - 0.42).abs() < 0.05, "{f}");
-    assert!((f["omega_n_rad_s"].as_f64().unwrap() - 23.04).abs() < 1.5, "{f}");
-    assert!(v["gain_plane_error"].as_str().unwrap().contains("at least 3 poses"));
+    assert!(
+        (f["omega_n_rad_s"].as_f64().unwrap() - 23.04).abs() < 1.5,
+        "{f}"
+    );
+    assert!(v["gain_plane_error"]
+        .as_str()
+        .unwrap()
+        .contains("at least 3 poses"));
 }
 
 #[test]
@@ -133,20 +237,48 @@ fn malformed_logs_give_file_line_column_errors_not_panics() {
     let head = "t_s,alpha1_rad,alpha2_rad,fx_n,fy_n,i1_ma,i2_ma,i3_ma,i4_ma\n";
     let good_row = |t: f64| format!("{t},0,0,0.1,0.2,12,12,12,12\n");
     let cases: Vec<(&str, String, &str)> = vec![
-        ("missing_column.csv", "t_s,alpha1_rad,alpha2_rad,fx_n,i1_ma,i2_ma,i3_ma,i4_ma\n0,0,0,0,12,12,12,12\n".into(), "fy_n"),
-        ("text.csv", format!("{head}{}0.01,0,0,abc,0.2,12,12,12,12\n", good_row(0.0)), ":3:"),
-        ("time.csv", format!("{head}{}{}{}", good_row(0.0), good_row(0.02), good_row(0.01)), ":4:"),
-        ("nan.csv", format!("{head}{}0.01,0,NaN,0.1,0.2,12,12,12,12\n", good_row(0.0)), ":3:"),
+        (
+            "missing_column.csv",
+            "t_s,alpha1_rad,alpha2_rad,fx_n,i1_ma,i2_ma,i3_ma,i4_ma\n0,0,0,0,12,12,12,12\n".into(),
+            "fy_n",
+        ),
+        (
+            "text.csv",
+            format!("{head}{}0.01,0,0,abc,0.2,12,12,12,12\n", good_row(0.0)),
+            ":3:",
+        ),
+        (
+            "time.csv",
+            format!(
+                "{head}{}{}{}",
+                good_row(0.0),
+                good_row(0.02),
+                good_row(0.01)
+            ),
+            ":4:",
+        ),
+        (
+            "nan.csv",
+            format!("{head}{}0.01,0,NaN,0.1,0.2,12,12,12,12\n", good_row(0.0)),
+            ":3:",
+        ),
     ];
     for (name, text, expect) in cases {
         let p = d.join(name);
         std::fs::write(&p, text).unwrap();
-        for sub in [vec!["model", "diagnose"], vec!["model", "compare"], vec!["ident", "dynamic"]] {
+        for sub in [
+            vec!["model", "diagnose"],
+            vec!["model", "compare"],
+            vec!["ident", "dynamic"],
+        ] {
             let mut args = sub.clone();
             args.push(p.to_str().unwrap());
             let (code, _, err) = pamctl(&args);
             assert_eq!(code, 1, "{name} {sub:?}: {err}");
-            assert!(err.contains(name) && err.contains(expect), "{name} {sub:?}: {err}");
+            assert!(
+                err.contains(name) && err.contains(expect),
+                "{name} {sub:?}: {err}"
+            );
             assert!(!err.contains("panicked"), "{err}");
         }
     }

@@ -9,15 +9,26 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn chromium() -> PathBuf {
-    let found = |p: &Path| Command::new(p).arg("--version").output().is_ok_and(|o| o.status.success());
+    let found = |p: &Path| {
+        Command::new(p)
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
     for c in ["/usr/bin/chromium", "chromium", "/usr/bin/chromium-browser"] {
         if found(Path::new(c)) {
             return PathBuf::from(c);
         }
     }
-    let root = Command::new("id").arg("-u").output().is_ok_and(|o| o.stdout.starts_with(b"0"));
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| o.stdout.starts_with(b"0"));
     if root && Path::new("/usr/bin/apt-get").exists() {
-        let _ = Command::new("apt-get").args(["install", "-y", "-qq", "chromium"]).env("DEBIAN_FRONTEND", "noninteractive").status();
+        let _ = Command::new("apt-get")
+            .args(["install", "-y", "-qq", "chromium"])
+            .env("DEBIAN_FRONTEND", "noninteractive")
+            .status();
         if found(Path::new("/usr/bin/chromium")) {
             return PathBuf::from("/usr/bin/chromium");
         }
@@ -26,10 +37,31 @@ fn chromium() -> PathBuf {
 }
 
 fn write_log(path: &Path, t: &pam_ident::Trial) {
-    let cols = ["t_s", "alpha1_rad", "alpha2_rad", "fx_n", "fy_n", "i1_ma", "i2_ma", "i3_ma", "i4_ma"];
+    let cols = [
+        "t_s",
+        "alpha1_rad",
+        "alpha2_rad",
+        "fx_n",
+        "fy_n",
+        "i1_ma",
+        "i2_ma",
+        "i3_ma",
+        "i4_ma",
+    ];
     let mut w = pam_log::LogWriter::create(path, &cols, &[("experiment", "dynamic")]).unwrap();
     for i in 0..t.len() {
-        w.write_row(&[t.t_s[i], t.alpha_rad[0][i], t.alpha_rad[1][i], t.force_n[0][i], t.force_n[1][i], 12.0, 12.0, 12.0, 12.0]).unwrap();
+        w.write_row(&[
+            t.t_s[i],
+            t.alpha_rad[0][i],
+            t.alpha_rad[1][i],
+            t.force_n[0][i],
+            t.force_n[1][i],
+            12.0,
+            12.0,
+            12.0,
+            12.0,
+        ])
+        .unwrap();
     }
     w.flush().unwrap();
 }
@@ -39,17 +71,45 @@ fn diagnose_report_renders_in_headless_chromium() {
     let dir = std::env::temp_dir().join(format!("pamctl-report-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let log = dir.join("friction.csv");
-    write_log(&log, &dynamic(&DynConfig { dt_s: 0.01, duration_s: 40.0, hidden: Hidden::Friction { coulomb_n: 2.0 }, seed: 4, ..Default::default() }));
+    write_log(
+        &log,
+        &dynamic(&DynConfig {
+            dt_s: 0.01,
+            duration_s: 40.0,
+            hidden: Hidden::Friction { coulomb_n: 2.0 },
+            seed: 4,
+            ..Default::default()
+        }),
+    );
     let html = dir.join("report.html");
     let out = Command::new(env!("CARGO_BIN_EXE_pamctl"))
-        .args(["model", "diagnose", log.to_str().unwrap(), "--report", html.to_str().unwrap()])
+        .args([
+            "model",
+            "diagnose",
+            log.to_str().unwrap(),
+            "--report",
+            html.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let page = std::fs::read_to_string(&html).unwrap();
-    assert!(page.contains("<svg") && !page.contains("http://") || page.contains("xmlns=\"http://www.w3.org/2000/svg\""));
-    assert!(!page.contains("<script"), "the report must not need scripts");
-    assert!(!page.contains("src=\"http"), "the report must not load anything");
+    assert!(
+        page.contains("<svg") && !page.contains("http://")
+            || page.contains("xmlns=\"http://www.w3.org/2000/svg\"")
+    );
+    assert!(
+        !page.contains("<script"),
+        "the report must not need scripts"
+    );
+    assert!(
+        !page.contains("src=\"http"),
+        "the report must not load anything"
+    );
 
     let png_path = dir.join("shot.png");
     let profile = dir.join("profile");
@@ -70,9 +130,15 @@ fn diagnose_report_renders_in_headless_chromium() {
         ])
         .output()
         .unwrap();
-    assert!(png_path.exists(), "no screenshot: {}", String::from_utf8_lossy(&status.stderr));
+    assert!(
+        png_path.exists(),
+        "no screenshot: {}",
+        String::from_utf8_lossy(&status.stderr)
+    );
 
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png_path).unwrap()));
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&png_path).unwrap(),
+    ));
     let mut reader = decoder.read_info().unwrap();
     let mut buf = vec![0; reader.output_buffer_size().unwrap()];
     let info = reader.next_frame(&mut buf).unwrap();
@@ -93,7 +159,18 @@ fn diagnose_report_renders_in_headless_chromium() {
             red += 1;
         }
     }
-    assert!(n > 100_000, "screenshot too small: {}×{}", info.width, info.height);
-    assert!(non_bg as f64 > 0.03 * n as f64, "screenshot is blank: {non_bg} of {n} pixels differ from the background");
-    assert!(blue > 200 && red > 200, "plot colours missing: blue {blue}, red {red}");
+    assert!(
+        n > 100_000,
+        "screenshot too small: {}×{}",
+        info.width,
+        info.height
+    );
+    assert!(
+        non_bg as f64 > 0.03 * n as f64,
+        "screenshot is blank: {non_bg} of {n} pixels differ from the background"
+    );
+    assert!(
+        blue > 200 && red > 200,
+        "plot colours missing: blue {blue}, red {red}"
+    );
 }

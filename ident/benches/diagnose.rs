@@ -20,7 +20,13 @@ fn config(spec: &str) -> ExperimentConfig {
 
 fn bench(c: &mut Criterion) {
     let model = RobotModel::<f64>::thesis();
-    let log = dynamic_trial(&config("carrier_ball_friction"), 1, StiffnessLevel::Low, 90.0).unwrap();
+    let log = dynamic_trial(
+        &config("carrier_ball_friction"),
+        1,
+        StiffnessLevel::Low,
+        90.0,
+    )
+    .unwrap();
     let trial = Trial::from_log(&log).unwrap();
     assert_eq!(trial.len(), 90_000);
     let mut g = c.benchmark_group("diagnose");

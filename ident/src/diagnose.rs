@@ -103,7 +103,11 @@ impl ModelFit {
         }
     }
     pub fn residual(&self, axis: usize) -> Vec<f64> {
-        self.measured[axis].iter().zip(&self.predicted[axis]).map(|(m, p)| m - p).collect()
+        self.measured[axis]
+            .iter()
+            .zip(&self.predicted[axis])
+            .map(|(m, p)| m - p)
+            .collect()
     }
 }
 
@@ -126,7 +130,14 @@ pub struct Loop<'a> {
 }
 
 /// (criterion, variant, columns, effect ranges, θ, prediction) of one base variant's fit.
-type VariantFit = (f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, [Vec<f64>; 2]);
+type VariantFit = (
+    f64,
+    usize,
+    Vec<Column>,
+    Vec<(usize, usize)>,
+    Vec<f64>,
+    [Vec<f64>; 2],
+);
 
 struct BaseVariant {
     cols: Vec<Column>,
@@ -140,17 +151,27 @@ fn held_out_scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([f
 }
 
 impl<'a> Loop<'a> {
-    pub fn new(trial: &Trial, model: &'a RobotModel<f64>, experiment: Experiment, settings: Settings) -> Result<Self, String> {
+    pub fn new(
+        trial: &Trial,
+        model: &'a RobotModel<f64>,
+        experiment: Experiment,
+        settings: Settings,
+    ) -> Result<Self, String> {
         let mut p = trial.prepare(model, settings.filter)?;
         if experiment == Experiment::Step && p.force_ref_n.is_none() {
-            return Err("a step experiment needs the force reference columns fx_ref_n, fy_ref_n".into());
+            return Err(
+                "a step experiment needs the force reference columns fx_ref_n, fy_ref_n".into(),
+            );
         }
         // step trials: graphical starting values from the reference's steps, then the
         // commanded force as the model's input (see `commanded_force`)
         let mut step_init = None;
         if experiment == Experiment::Step {
             let steps = step::analyse_steps(&p, settings.step_threshold_n);
-            step_init = Some([step::initial_params(&steps, 0), step::initial_params(&steps, 1)]);
+            step_init = Some([
+                step::initial_params(&steps, 0),
+                step::initial_params(&steps, 1),
+            ]);
             if let Some(u) = commanded_force(&p, model) {
                 p.force_ref_n = Some(u);
             }
@@ -164,12 +185,22 @@ impl<'a> Loop<'a> {
                 let (cols, pneumatic) = choose_pneumatic(&p, model, joint);
                 let mut plain = cols.clone();
                 plain.truncate(9);
-                v.push(BaseVariant { cols: plain, pneumatic: (0.0, 0.0), joint_stiffness: joint });
-                v.push(BaseVariant { cols, pneumatic, joint_stiffness: joint });
+                v.push(BaseVariant {
+                    cols: plain,
+                    pneumatic: (0.0, 0.0),
+                    joint_stiffness: joint,
+                });
+                v.push(BaseVariant {
+                    cols,
+                    pneumatic,
+                    joint_stiffness: joint,
+                });
             }
             let y = msd::target(&p);
             let pred = msd::fit_columns(&p, &v[0].cols, &MSD_POSITIVE, &y).1;
-            let res: Vec<Vec<f64>> = (0..2).map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect()).collect();
+            let res: Vec<Vec<f64>> = (0..2)
+                .map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect())
+                .collect();
             (v, effective_samples_of(&res))
         } else {
             (Vec::new(), 0.0)
@@ -198,7 +229,12 @@ impl<'a> Loop<'a> {
 
     // ---------------------------------------------------------------- dynamic trials
 
-    fn dyn_columns(&self, ctx: &DynCtx, variant: usize, effects: &[(&dyn ModelEffect, Shape)]) -> (Vec<Column>, Vec<(usize, usize)>, Vec<usize>) {
+    fn dyn_columns(
+        &self,
+        ctx: &DynCtx,
+        variant: usize,
+        effects: &[(&dyn ModelEffect, Shape)],
+    ) -> (Vec<Column>, Vec<(usize, usize)>, Vec<usize>) {
         let base_cols = &self.base_variants[variant].cols;
         let mut positive: Vec<usize> = MSD_POSITIVE.to_vec();
         let mut delay = 0.0f64;
@@ -253,13 +289,20 @@ impl<'a> Loop<'a> {
             let stride = ((0.005 / self.p.dt_s).floor() as usize).max(1);
             let rows = 0..self.p.split;
             let yty: f64 = (0..2)
-                .map(|a| y[a][rows.clone()].iter().step_by(stride).map(|v| v * v).sum::<f64>())
+                .map(|a| {
+                    y[a][rows.clone()]
+                        .iter()
+                        .step_by(stride)
+                        .map(|v| v * v)
+                        .sum::<f64>()
+                })
                 .sum();
             let mut best = (f64::INFINITY, Shape::default());
             for s in shapes {
                 for v in 0..self.base_variants.len() {
                     let (cols, _, positive) = self.dyn_columns(ctx, v, &[(e, s.clone())]);
-                    let ne = lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
+                    let ne =
+                        lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
                     let th = lsq::solve(&ne, &positive);
                     let r = self.criterion(lsq::rss(&ne, yty, &th) * stride as f64, cols.len(), v);
                     if r < best.0 {
@@ -283,7 +326,13 @@ impl<'a> Loop<'a> {
             .map(|e| (*e, self.choose_shape(&ctx, *e, &y)))
             .collect();
         let train_rss = |pr: &[Vec<f64>; 2]| -> f64 {
-            (0..2).map(|a| (0..p.split).map(|i| (y[a][i] - pr[a][i]).powi(2)).sum::<f64>()).sum()
+            (0..2)
+                .map(|a| {
+                    (0..p.split)
+                        .map(|i| (y[a][i] - pr[a][i]).powi(2))
+                        .sum::<f64>()
+                })
+                .sum()
         };
         // both base variants; keep the one that fits the training part better
         let mut best: Option<VariantFit> = None;
@@ -302,25 +351,44 @@ impl<'a> Loop<'a> {
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
         let mut params = BTreeMap::new();
         let nb = bv.cols.len();
-        let mut base: BTreeMap<String, f64> = cols[..nb].iter().zip(&theta).map(|(c, t)| (c.name.clone(), *t)).collect();
+        let mut base: BTreeMap<String, f64> = cols[..nb]
+            .iter()
+            .zip(&theta)
+            .map(|(c, t)| (c.name.clone(), *t))
+            .collect();
         base.insert("pneumatic_omega_n_rad_s".into(), bv.pneumatic.0);
         base.insert("pneumatic_zeta".into(), bv.pneumatic.1);
-        base.insert("joint_space_stiffness".into(), if bv.joint_stiffness { 1.0 } else { 0.0 });
+        base.insert(
+            "joint_space_stiffness".into(),
+            if bv.joint_stiffness { 1.0 } else { 0.0 },
+        );
         params.insert("base".to_string(), base);
         let mut added = 0;
         for ((e, s), (a, b)) in chosen.iter().zip(&ranges) {
-            let fitted: Vec<(String, f64)> = cols[*a..*b].iter().zip(&theta[*a..*b]).map(|(c, t)| (c.name.clone(), *t)).collect();
+            let fitted: Vec<(String, f64)> = cols[*a..*b]
+                .iter()
+                .zip(&theta[*a..*b])
+                .map(|(c, t)| (c.name.clone(), *t))
+                .collect();
             added += (b - a) + s.0.len();
-            params.insert(e.id().to_string(), e.report_params(&ctx, &fitted, s).into_iter().collect());
+            params.insert(
+                e.id().to_string(),
+                e.report_params(&ctx, &fitted, s).into_iter().collect(),
+            );
         }
-        let warnings = msd::mass_warnings(&msd::sym(&theta[0..3]), self.model.cartesian_mass(p.alpha0_rad));
+        let warnings = msd::mass_warnings(
+            &msd::sym(&theta[0..3]),
+            self.model.cartesian_mass(p.alpha0_rad),
+        );
         let train_gain = if chosen.is_empty() {
             0.0
         } else {
             // against the base alone, with the variant the base alone prefers
             let base_rss = (0..self.base_variants.len())
                 .map(|v| {
-                    let r = train_rss(&msd::fit_columns(p, &self.base_variants[v].cols, &MSD_POSITIVE, &y).1);
+                    let r = train_rss(
+                        &msd::fit_columns(p, &self.base_variants[v].cols, &MSD_POSITIVE, &y).1,
+                    );
                     (self.criterion(r, self.base_variants[v].cols.len(), v), r)
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -403,7 +471,14 @@ impl<'a> Loop<'a> {
             if fitted_axes.contains(&a) && !extras.is_empty() {
                 fitted[a] = step::fit_axis(p, a, &base[a], &extras, p.split).unwrap_or(base[a]);
             }
-            step::simulate(&fitted[a], &p.t_s, &u[a], [&p.alpha_rad[0], &p.alpha_rad[1]], p.force_n[a][0], &mut pred[a]);
+            step::simulate(
+                &fitted[a],
+                &p.t_s,
+                &u[a],
+                [&p.alpha_rad[0], &p.alpha_rad[1]],
+                p.force_n[a][0],
+                &mut pred[a],
+            );
         }
         let y = p.force_n.clone();
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
@@ -413,7 +488,10 @@ impl<'a> Loop<'a> {
         for &a in &fitted_axes {
             b.insert(format!("gain_{}", axis_name[a]), base[a].gain);
             b.insert(format!("zeta_{}", axis_name[a]), base[a].zeta);
-            b.insert(format!("omega_n_rad_s_{}", axis_name[a]), base[a].omega_n_rad_s);
+            b.insert(
+                format!("omega_n_rad_s_{}", axis_name[a]),
+                base[a].omega_n_rad_s,
+            );
         }
         params.insert("base".to_string(), b);
         for e in &chosen {
@@ -435,8 +513,14 @@ impl<'a> Loop<'a> {
                         }
                         StepExtra::PoseGain => {
                             // relative slopes, comparable with a gain plane normalised by G
-                            m.insert(format!("gain_per_rad_1_{s}"), q.gain_slope_per_rad[0] / q.gain);
-                            m.insert(format!("gain_per_rad_2_{s}"), q.gain_slope_per_rad[1] / q.gain);
+                            m.insert(
+                                format!("gain_per_rad_1_{s}"),
+                                q.gain_slope_per_rad[0] / q.gain,
+                            );
+                            m.insert(
+                                format!("gain_per_rad_2_{s}"),
+                                q.gain_slope_per_rad[1] / q.gain,
+                            );
                         }
                         StepExtra::Hysteresis => {
                             m.insert(format!("hysteresis_n_{s}"), q.hysteresis_n);
@@ -450,13 +534,24 @@ impl<'a> Loop<'a> {
             }
             params.insert(e.id().to_string(), m);
         }
-        let train = |pr: &[Vec<f64>; 2], a: usize| (0..p.split).map(|i| (y[a][i] - pr[a][i]).powi(2)).sum::<f64>();
+        let train = |pr: &[Vec<f64>; 2], a: usize| {
+            (0..p.split)
+                .map(|i| (y[a][i] - pr[a][i]).powi(2))
+                .sum::<f64>()
+        };
         let train_gain = if chosen.is_empty() {
             0.0
         } else {
             let mut bp = [vec![0.0; p.len()], vec![0.0; p.len()]];
             for a in 0..2 {
-                step::simulate(&base[a], &p.t_s, &u[a], [&p.alpha_rad[0], &p.alpha_rad[1]], p.force_n[a][0], &mut bp[a]);
+                step::simulate(
+                    &base[a],
+                    &p.t_s,
+                    &u[a],
+                    [&p.alpha_rad[0], &p.alpha_rad[1]],
+                    p.force_n[a][0],
+                    &mut bp[a],
+                );
             }
             let rb: f64 = axes.iter().map(|&a| train(&bp, a)).sum();
             let re: f64 = axes.iter().map(|&a| train(&pred, a)).sum();
@@ -513,7 +608,10 @@ pub fn commanded_force(p: &Prepared, model: &RobotModel<f64>) -> Option<[Vec<f64
 }
 
 fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let (ma, mb) = (a.iter().sum::<f64>() / a.len() as f64, b.iter().sum::<f64>() / b.len() as f64);
+    let (ma, mb) = (
+        a.iter().sum::<f64>() / a.len() as f64,
+        b.iter().sum::<f64>() / b.len() as f64,
+    );
     let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
     for (x, y) in a.iter().zip(b) {
         sab += (x - ma) * (y - mb);
@@ -529,18 +627,34 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
 /// through the regulator's high-pass, Δx − LP₂(Δx) with LP₂ = ωn²/(s² + 2ζωn s + ωn²),
 /// times a symmetric matrix: three more regressors of the base model. On a rig (or a
 /// simulator) without this, their coefficients simply come out near zero.
-pub fn pneumatic_columns(p: &Prepared, ctx: &DynCtx, joint_space: bool, omega_n: f64, zeta: f64) -> Vec<Column> {
+pub fn pneumatic_columns(
+    p: &Prepared,
+    ctx: &DynCtx,
+    joint_space: bool,
+    omega_n: f64,
+    zeta: f64,
+) -> Vec<Column> {
     let sp = StepParams::base(1.0, zeta, omega_n);
     let n = p.len();
     let mut h = [vec![0.0; n], vec![0.0; n]];
     for j in 0..2 {
         let d: Vec<f64> = if joint_space {
-            p.alpha_smooth_rad[j].iter().map(|a| a - p.alpha0_rad[j]).collect()
+            p.alpha_smooth_rad[j]
+                .iter()
+                .map(|a| a - p.alpha0_rad[j])
+                .collect()
         } else {
             p.dx_m[j].clone()
         };
         let mut lp = vec![0.0; n];
-        step::simulate(&sp, &p.t_s, &d, [&p.alpha_rad[0], &p.alpha_rad[1]], d[0], &mut lp);
+        step::simulate(
+            &sp,
+            &p.t_s,
+            &d,
+            [&p.alpha_rad[0], &p.alpha_rad[1]],
+            d[0],
+            &mut lp,
+        );
         for i in 0..n {
             h[j][i] = d[i] - lp[i];
         }
@@ -570,12 +684,24 @@ pub fn joint_stiffness_columns(ctx: &DynCtx, d: &[Vec<f64>; 2], prefix: &str) ->
 /// the stiffness either in Cartesian coordinates (eq. 4.29 as printed) or in joint space
 /// (the muscles act on the joints: the kinematics' curvature is then the model's, not an
 /// error) — whichever fits the training part better — and the pneumatic compliance.
-pub fn base_columns(p: &Prepared, ctx: &DynCtx, joint_stiffness: bool, omega_n: f64, zeta: f64) -> Vec<Column> {
+pub fn base_columns(
+    p: &Prepared,
+    ctx: &DynCtx,
+    joint_stiffness: bool,
+    omega_n: f64,
+    zeta: f64,
+) -> Vec<Column> {
     let mut cols = msd::msd_columns(p);
     if joint_stiffness {
         let da = [
-            p.alpha_smooth_rad[0].iter().map(|a| a - p.alpha0_rad[0]).collect::<Vec<f64>>(),
-            p.alpha_smooth_rad[1].iter().map(|a| a - p.alpha0_rad[1]).collect::<Vec<f64>>(),
+            p.alpha_smooth_rad[0]
+                .iter()
+                .map(|a| a - p.alpha0_rad[0])
+                .collect::<Vec<f64>>(),
+            p.alpha_smooth_rad[1]
+                .iter()
+                .map(|a| a - p.alpha0_rad[1])
+                .collect::<Vec<f64>>(),
         ];
         cols.truncate(6);
         cols.extend(joint_stiffness_columns(ctx, &da, "kj"));
@@ -588,11 +714,23 @@ pub fn base_columns(p: &Prepared, ctx: &DynCtx, joint_stiffness: bool, omega_n: 
 
 /// The base columns with the regulator dynamics that fit the training part best, from a
 /// small grid around the robot's I/P converter (Table 5.2).
-fn choose_pneumatic(p: &Prepared, model: &RobotModel<f64>, joint: bool) -> (Vec<Column>, (f64, f64)) {
+fn choose_pneumatic(
+    p: &Prepared,
+    model: &RobotModel<f64>,
+    joint: bool,
+) -> (Vec<Column>, (f64, f64)) {
     let y = msd::target(p);
     let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
     let rows = 0..p.split;
-    let yty: f64 = (0..2).map(|a| y[a][rows.clone()].iter().step_by(stride).map(|v| v * v).sum::<f64>()).sum();
+    let yty: f64 = (0..2)
+        .map(|a| {
+            y[a][rows.clone()]
+                .iter()
+                .step_by(stride)
+                .map(|v| v * v)
+                .sum::<f64>()
+        })
+        .sum();
     let wn0 = model.params.ip.natural_freq_rad_s;
     let ctx = DynCtx::new(p, model);
     let z0 = model.params.ip.damping_ratio;
@@ -606,7 +744,10 @@ fn choose_pneumatic(p: &Prepared, model: &RobotModel<f64>, joint: bool) -> (Vec<
     plain.truncate(9);
     let (rss_plain, th_plain) = fit(&plain);
     let mut best: Option<(f64, Vec<Column>, (f64, f64))> = None;
-    for (wf, z) in [0.6, 1.0, 1.6].iter().flat_map(|&wf| [z0, 0.7, 1.0].into_iter().map(move |z| (wf, z))) {
+    for (wf, z) in [0.6, 1.0, 1.6]
+        .iter()
+        .flat_map(|&wf| [z0, 0.7, 1.0].into_iter().map(move |z| (wf, z)))
+    {
         let cols = base_columns(p, &ctx, joint, wn0 * wf, z);
         let (r, _) = fit(&cols);
         if best.as_ref().is_none_or(|b| r < b.0) {
@@ -623,10 +764,17 @@ fn choose_pneumatic(p: &Prepared, model: &RobotModel<f64>, joint: bool) -> (Vec<
         let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
         let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
         if var > 0.0 {
-            rho.push((r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var).clamp(-0.99, 0.999));
+            rho.push(
+                (r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var)
+                    .clamp(-0.99, 0.999),
+            );
         }
     }
-    let rho = if rho.is_empty() { 0.0 } else { rho.iter().sum::<f64>() / rho.len() as f64 };
+    let rho = if rho.is_empty() {
+        0.0
+    } else {
+        rho.iter().sum::<f64>() / rho.len() as f64
+    };
     let n = 2.0 * p.split as f64;
     let n_eff = (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n);
     let ratio = rss_pn / rss_plain.max(1e-300);
@@ -699,8 +847,19 @@ pub struct Diagnosis {
 }
 
 /// Diagnoses a trial against the standard catalog.
-pub fn diagnose(trial: &Trial, model: &RobotModel<f64>, experiment: Experiment, settings: Settings) -> Result<(Diagnosis, Vec<ModelFit>), String> {
-    diagnose_with(trial, model, experiment, settings, &crate::effects::catalog())
+pub fn diagnose(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    experiment: Experiment,
+    settings: Settings,
+) -> Result<(Diagnosis, Vec<ModelFit>), String> {
+    diagnose_with(
+        trial,
+        model,
+        experiment,
+        settings,
+        &crate::effects::catalog(),
+    )
 }
 
 /// Diagnoses a trial against a given catalog. Returns the diagnosis and the fits of the
@@ -727,7 +886,8 @@ pub fn diagnose_with(
         // the held-out gain must beat the threshold, and the training gain must pass the
         // Bayesian information criterion counted on the effective number of independent
         // residual samples (the residual is autocorrelated: n alone would flatter it)
-        let bic = n_eff * (1.0 - f.train_gain).max(1e-300).ln() + f.added_params as f64 * n_eff.ln();
+        let bic =
+            n_eff * (1.0 - f.train_gain).max(1e-300).ln() + f.added_params as f64 * n_eff.ln();
         let accepted = score > settings.min_improvement && f.train_gain > 0.0 && bic < 0.0;
         let params = f.params.get(e.id()).cloned().unwrap_or_default();
         let evidence = format!(
@@ -770,7 +930,9 @@ pub fn diagnose_with(
         let f = lp.fit(&trial_set);
         let gain = 1.0 - f.relative_mse() / current_fit.relative_mse().max(1e-300);
         let added = f.added_params - current_fit.added_params;
-        if current.is_empty() || gain - settings.penalty_per_param * added as f64 > settings.min_improvement {
+        if current.is_empty()
+            || gain - settings.penalty_per_param * added as f64 > settings.min_improvement
+        {
             current = trial_set;
             current_fit = f.clone();
             fits.push(f);
@@ -787,11 +949,17 @@ pub fn diagnose_with(
     };
     let steps = fits
         .iter()
-        .map(|f| StepReport { effects: f.effect_ids.clone(), nrmse: AxisPair::of(f.nrmse) })
+        .map(|f| StepReport {
+            effects: f.effect_ids.clone(),
+            nrmse: AxisPair::of(f.nrmse),
+        })
         .collect();
     let mut warnings = base.warnings.clone();
     if lp.p.len() < 200 {
-        warnings.push(format!("only {} samples: the held-out 20 % is short", lp.p.len()));
+        warnings.push(format!(
+            "only {} samples: the held-out 20 % is short",
+            lp.p.len()
+        ));
     }
     Ok((
         Diagnosis {
@@ -822,10 +990,17 @@ fn effective_samples_of(res: &[Vec<f64>]) -> f64 {
         let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
         let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
         if var > 0.0 {
-            rho.push((r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var).clamp(-0.99, 0.999));
+            rho.push(
+                (r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var)
+                    .clamp(-0.99, 0.999),
+            );
         }
     }
-    let rho = if rho.is_empty() { 0.0 } else { rho.iter().sum::<f64>() / rho.len() as f64 };
+    let rho = if rho.is_empty() {
+        0.0
+    } else {
+        rho.iter().sum::<f64>() / rho.len() as f64
+    };
     let n = n as f64;
     (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n.max(10.0))
 }
@@ -845,7 +1020,11 @@ fn effective_samples(lp: &Loop, base: &ModelFit) -> f64 {
             rho.push((c / var).clamp(-0.99, 0.999));
         }
     }
-    let rho = if rho.is_empty() { 0.0 } else { rho.iter().sum::<f64>() / rho.len() as f64 };
+    let rho = if rho.is_empty() {
+        0.0
+    } else {
+        rho.iter().sum::<f64>() / rho.len() as f64
+    };
     let n = (s * base.axes.len().max(1)) as f64;
     (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n)
 }
@@ -860,9 +1039,16 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
     // the motion, not an outside disturbance
     let inputs: Vec<Vec<f64>> = match lp.experiment {
         Experiment::Dynamic => vec![p.dx_m[0].clone(), p.dx_m[1].clone()],
-        Experiment::Step => p.force_ref_n.clone().map(|r| r.to_vec()).unwrap_or_default(),
+        Experiment::Step => p
+            .force_ref_n
+            .clone()
+            .map(|r| r.to_vec())
+            .unwrap_or_default(),
     };
-    let input_spectra: Vec<_> = inputs.iter().map(|x| amplitude_spectrum(x, p.dt_s)).collect();
+    let input_spectra: Vec<_> = inputs
+        .iter()
+        .map(|x| amplitude_spectrum(x, p.dt_s))
+        .collect();
     // a line where an input has energy (≥ 2 % of its largest line, ±2 bins) is a misfit of
     // the motion or of the steps, not an outside disturbance
     let input_has_energy = |f: f64| {
@@ -870,7 +1056,8 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
             let df = s.freq_hz.get(1).copied().unwrap_or(1.0);
             let k = (f / df).round() as usize;
             let max = s.amplitude.iter().skip(1).cloned().fold(0.0, f64::max);
-            (k.saturating_sub(2)..(k + 3).min(s.amplitude.len())).any(|i| s.amplitude[i] >= 0.02 * max)
+            (k.saturating_sub(2)..(k + 3).min(s.amplitude.len()))
+                .any(|i| s.amplitude[i] >= 0.02 * max)
         })
     };
     for a in 0..2 {
@@ -880,7 +1067,10 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
         }
         let spec = amplitude_spectrum(&r, p.dt_s);
         let df = spec.freq_hz.get(1).copied().unwrap_or(1.0);
-        for pk in narrow_peaks(&spec, s.peak_prominence, s.peak_min_share).into_iter().take(3) {
+        for pk in narrow_peaks(&spec, s.peak_prominence, s.peak_min_share)
+            .into_iter()
+            .take(3)
+        {
             if input_has_energy(pk.freq_hz) {
                 continue;
             }
@@ -976,31 +1166,64 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
     sorted.sort_by(|a, b| a.total_cmp(b));
     let q = |f: f64| sorted[((n - 1) as f64 * f) as usize];
     let edges = [q(0.0) - 1e-12, q(0.25), q(0.5), q(0.75), q(1.0) + 1e-12];
-    let unit = if lp.experiment == Experiment::Dynamic { "m/s" } else { "N" };
+    let unit = if lp.experiment == Experiment::Dynamic {
+        "m/s"
+    } else {
+        "N"
+    };
     let mut by_speed = Vec::new();
     for k in 0..4 {
-        let idx: Vec<usize> = (0..n).filter(|&i| speed[i] > edges[k] && speed[i] <= edges[k + 1]).collect();
-        by_speed.push(bin(&format!("{:.3}–{:.3} {unit}", edges[k].max(0.0), edges[k + 1]), &idx, &r));
+        let idx: Vec<usize> = (0..n)
+            .filter(|&i| speed[i] > edges[k] && speed[i] <= edges[k + 1])
+            .collect();
+        by_speed.push(bin(
+            &format!("{:.3}–{:.3} {unit}", edges[k].max(0.0), edges[k + 1]),
+            &idx,
+            &r,
+        ));
     }
     let mut by_pos = Vec::new();
-    let ext = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |m, x| (m.0.min(*x), m.1.max(*x)));
+    let ext = |v: &[f64]| {
+        v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |m, x| {
+            (m.0.min(*x), m.1.max(*x))
+        })
+    };
     let (ex, ey) = (ext(&p.x_m[0]), ext(&p.x_m[1]));
-    let cell = |v: f64, e: (f64, f64)| (((v - e.0) / (e.1 - e.0 + 1e-12)) * 3.0).floor().clamp(0.0, 2.0) as usize;
+    let cell = |v: f64, e: (f64, f64)| {
+        (((v - e.0) / (e.1 - e.0 + 1e-12)) * 3.0)
+            .floor()
+            .clamp(0.0, 2.0) as usize
+    };
     for cy in 0..3 {
         for cx in 0..3 {
-            let idx: Vec<usize> = (0..n).filter(|&i| cell(p.x_m[0][i], ex) == cx && cell(p.x_m[1][i], ey) == cy).collect();
+            let idx: Vec<usize> = (0..n)
+                .filter(|&i| cell(p.x_m[0][i], ex) == cx && cell(p.x_m[1][i], ey) == cy)
+                .collect();
             if !idx.is_empty() {
-                by_pos.push(bin(&format!("x cell {}, y cell {} (of 3×3)", cx + 1, cy + 1), &idx, &r));
+                by_pos.push(bin(
+                    &format!("x cell {}, y cell {} (of 3×3)", cx + 1, cy + 1),
+                    &idx,
+                    &r,
+                ));
             }
         }
     }
-    let loose = Settings { peak_prominence: 20.0, peak_min_share: 0.01, ..lp.settings };
+    let loose = Settings {
+        peak_prominence: 20.0,
+        peak_min_share: 0.01,
+        ..lp.settings
+    };
     let peaks = unexplained_structure(lp, fit, &loose);
-    let split = (lp.experiment == Experiment::Dynamic).then(|| msd::frequency_split(p, &fit.measured, &fit.predicted));
+    let split = (lp.experiment == Experiment::Dynamic)
+        .then(|| msd::frequency_split(p, &fit.measured, &fit.predicted));
     let mut warnings = fit.warnings.clone();
     for a in fit.axes.iter() {
         if fit.r2[*a] < 0.5 {
-            warnings.push(format!("held-out R² of {} is {:.2}: the model explains little of this axis", ["fx", "fy"][*a], fit.r2[*a]));
+            warnings.push(format!(
+                "held-out R² of {} is {:.2}: the model explains little of this axis",
+                ["fx", "fy"][*a],
+                fit.r2[*a]
+            ));
         }
     }
     Comparison {
@@ -1020,7 +1243,11 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
 
 fn bin(label: &str, idx: &[usize], r: &[Vec<f64>; 2]) -> Bin {
     let sel = |a: usize| idx.iter().map(|&i| r[a][i]).collect::<Vec<f64>>();
-    Bin { label: label.into(), samples: idx.len(), rms_n: AxisPair::of([rms(&sel(0)), rms(&sel(1))]) }
+    Bin {
+        label: label.into(),
+        samples: idx.len(),
+        rms_n: AxisPair::of([rms(&sel(0)), rms(&sel(1))]),
+    }
 }
 
 impl AxisPair {

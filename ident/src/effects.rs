@@ -60,7 +60,9 @@ impl<'a> DynCtx<'a> {
         let mut jinv_t = Vec::with_capacity(n);
         let mut tq = [Vec::with_capacity(n), Vec::with_capacity(n)];
         for i in 0..n {
-            let j = model.kinematics.jacobian([p.alpha_rad[0][i], p.alpha_rad[1][i]]);
+            let j = model
+                .kinematics
+                .jacobian([p.alpha_rad[0][i], p.alpha_rad[1][i]]);
             let jt = j.transpose();
             let inv = jt.inverse().map(|m| m.0).unwrap_or([[0.0; 2]; 2]);
             jinv_t.push(inv);
@@ -68,7 +70,12 @@ impl<'a> DynCtx<'a> {
             tq[0].push(t[0]);
             tq[1].push(t[1]);
         }
-        DynCtx { p, model, jinv_t, joint_torque_nm: tq }
+        DynCtx {
+            p,
+            model,
+            jinv_t,
+            joint_torque_nm: tq,
+        }
     }
 
     /// The column in −f of a joint-torque disturbance Δτ(t) (per unit parameter): a torque
@@ -92,7 +99,11 @@ pub struct Shape(pub Vec<(&'static str, f64)>);
 
 impl Shape {
     pub fn get(&self, name: &str) -> f64 {
-        self.0.iter().find(|(n, _)| *n == name).map(|p| p.1).unwrap_or(0.0)
+        self.0
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|p| p.1)
+            .unwrap_or(0.0)
     }
 }
 
@@ -128,7 +139,12 @@ pub trait ModelEffect: Sync {
     }
     /// Parameters to report, from the fitted linear coefficients (named as the columns) and
     /// the shape. Default: both, as they are.
-    fn report_params(&self, _ctx: &DynCtx, fitted: &[(String, f64)], shape: &Shape) -> Vec<(String, f64)> {
+    fn report_params(
+        &self,
+        _ctx: &DynCtx,
+        fitted: &[(String, f64)],
+        shape: &Shape,
+    ) -> Vec<(String, f64)> {
         let mut v: Vec<(String, f64)> = fitted.to_vec();
         v.extend(shape.0.iter().map(|(n, x)| (n.to_string(), *x)));
         v
@@ -146,7 +162,8 @@ pub fn joint_pressures(p: &Prepared, model: &RobotModel<f64>) -> Option<Vec<[[f6
     Some(
         (0..p.len())
             .map(|i| {
-                let ch = [cur[0][i], cur[1][i], cur[2][i], cur[3][i]].map(|c| model.params.ip.pressure_bar(c));
+                let ch = [cur[0][i], cur[1][i], cur[2][i], cur[3][i]]
+                    .map(|c| model.params.ip.pressure_bar(c));
                 model.joint_pressures_bar(ch)
             })
             .collect(),
@@ -155,7 +172,12 @@ pub fn joint_pressures(p: &Prepared, model: &RobotModel<f64>) -> Option<Vec<[[f6
 
 /// Joint torque of the model's muscles (eq. 3.2) at angle α and pressures, split into the
 /// pressure part R(A2 P2 − A1 P1) and the total.
-pub fn model_torque(model: &RobotModel<f64>, j: usize, alpha: f64, pressure_bar: [f64; 2]) -> (f64, f64) {
+pub fn model_torque(
+    model: &RobotModel<f64>,
+    j: usize,
+    alpha: f64,
+    pressure_bar: [f64; 2],
+) -> (f64, f64) {
     let pose = model.pose(j, alpha);
     let r = model.params.joints[j].pulley_radius_m;
     let total = pose.torque_nm(pressure_bar);
@@ -170,14 +192,18 @@ pub fn model_torque(model: &RobotModel<f64>, j: usize, alpha: f64, pressure_bar:
 /// factor per joint (≈ 1 when the model's force law is right).
 pub fn force_law_columns(ctx: &DynCtx) -> Vec<Column> {
     let p = ctx.p;
-    let Some(pr) = joint_pressures(p, ctx.model) else { return Vec::new() };
+    let Some(pr) = joint_pressures(p, ctx.model) else {
+        return Vec::new();
+    };
     let mut cols = Vec::new();
     for j in 0..2 {
         let a0 = p.alpha0_rad[j];
         let p0 = pr[0][j];
         let h = 1e-4;
         let tau0 = model_torque(ctx.model, j, a0, p0).1;
-        let slope = (model_torque(ctx.model, j, a0 + h, p0).1 - model_torque(ctx.model, j, a0 - h, p0).1) / (2.0 * h);
+        let slope = (model_torque(ctx.model, j, a0 + h, p0).1
+            - model_torque(ctx.model, j, a0 - h, p0).1)
+            / (2.0 * h);
         let a = &p.alpha_smooth_rad[j];
         let nl: Vec<f64> = (0..p.len())
             .map(|i| model_torque(ctx.model, j, a[i], pr[i][j]).1 - tau0 - slope * (a[i] - a0))
@@ -240,7 +266,11 @@ impl ModelEffect for CarrierBallFriction {
             x.push(v[0][i] * k);
             y.push(v[1][i] * k);
         }
-        DynTerm { columns: vec![Column::both("coulomb_n", x, y)], positive: vec![0], ..Default::default() }
+        DynTerm {
+            columns: vec![Column::both("coulomb_n", x, y)],
+            positive: vec![0],
+            ..Default::default()
+        }
     }
 }
 
@@ -267,7 +297,11 @@ impl ModelEffect for VelocitySquared {
             x.push(s * v[0][i]);
             y.push(s * v[1][i]);
         }
-        DynTerm { columns: vec![Column::both("coeff_n_s2_per_m2", x, y)], positive: vec![0], ..Default::default() }
+        DynTerm {
+            columns: vec![Column::both("coeff_n_s2_per_m2", x, y)],
+            positive: vec![0],
+            ..Default::default()
+        }
     }
 }
 
@@ -309,9 +343,17 @@ impl ModelEffect for NonlinearStiffness {
                 t
             }));
         }
-        DynTerm { columns: cols, ..Default::default() }
+        DynTerm {
+            columns: cols,
+            ..Default::default()
+        }
     }
-    fn report_params(&self, _ctx: &DynCtx, fitted: &[(String, f64)], _s: &Shape) -> Vec<(String, f64)> {
+    fn report_params(
+        &self,
+        _ctx: &DynCtx,
+        fitted: &[(String, f64)],
+        _s: &Shape,
+    ) -> Vec<(String, f64)> {
         let mut v = fitted.to_vec();
         // one cubic coefficient for both joints (the twin's parameter), from the two fits
         // weighted towards the joint that moved most is approximated by their mean
@@ -371,9 +413,18 @@ impl ModelEffect for MuscleHysteresis {
                 t
             }));
         }
-        DynTerm { columns: cols, positive: vec![0, 1], ..Default::default() }
+        DynTerm {
+            columns: cols,
+            positive: vec![0, 1],
+            ..Default::default()
+        }
     }
-    fn report_params(&self, ctx: &DynCtx, fitted: &[(String, f64)], shape: &Shape) -> Vec<(String, f64)> {
+    fn report_params(
+        &self,
+        ctx: &DynCtx,
+        fitted: &[(String, f64)],
+        shape: &Shape,
+    ) -> Vec<(String, f64)> {
         let mut v = fitted.to_vec();
         v.push(("width".into(), shape.get("width")));
         // fraction = amplitude / (R (F1 + F2)) with the muscle forces of the model at the
@@ -383,7 +434,8 @@ impl ModelEffect for MuscleHysteresis {
             let mut fr = Vec::new();
             for j in 0..2 {
                 let i0 = 0;
-                let ch: [f64; 4] = [cur[0][i0], cur[1][i0], cur[2][i0], cur[3][i0]].map(|c| model.params.ip.pressure_bar(c));
+                let ch: [f64; 4] = [cur[0][i0], cur[1][i0], cur[2][i0], cur[3][i0]]
+                    .map(|c| model.params.ip.pressure_bar(c));
                 let jp = model.joint_pressures_bar(ch);
                 let pose = model.pose(j, ctx.p.alpha0_rad[j]);
                 let f = pose.forces_n(jp[j]);
@@ -430,7 +482,8 @@ impl ModelEffect for PoseDependence {
                     .map(|i| {
                         let mut t = [0.0; 2];
                         for j in 0..2 {
-                            t[j] = model_torque(ctx.model, j, a[j][i], pr[i][j]).0 * (a[k][i] - p.alpha0_rad[k]);
+                            t[j] = model_torque(ctx.model, j, a[j][i], pr[i][j]).0
+                                * (a[k][i] - p.alpha0_rad[k]);
                         }
                         t
                     })
@@ -439,7 +492,10 @@ impl ModelEffect for PoseDependence {
                 let c = ctx.torque_column(name, |i| v[i]);
                 cols.push(c);
             }
-            return DynTerm { columns: cols, ..Default::default() };
+            return DynTerm {
+                columns: cols,
+                ..Default::default()
+            };
         }
         // without: a stiffness that changes linearly across the workspace, i.e. restoring
         // forces quadratic in the displacement
@@ -482,11 +538,16 @@ impl ModelEffect for CableSlip {
         e == Experiment::Dynamic
     }
     fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
-        let tmax = ctx.joint_torque_nm[0].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let tmax = ctx.joint_torque_nm[0]
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         let mut v = Vec::new();
         for b in [0.0, 0.002, 0.004, 0.008, 0.016] {
             for frac in [0.3, 0.5, 0.7, 0.85] {
-                v.push(Shape(vec![("backlash_rad", b), ("hold_torque_nm", frac * tmax)]));
+                v.push(Shape(vec![
+                    ("backlash_rad", b),
+                    ("hold_torque_nm", frac * tmax),
+                ]));
             }
         }
         v
@@ -523,7 +584,10 @@ impl ModelEffect for CableSlip {
         if half > 0.0 {
             cols.push(ctx.torque_column("backlash_torque_nm_per_rad", |i| [play[i], 0.0]));
         }
-        DynTerm { columns: cols, ..Default::default() }
+        DynTerm {
+            columns: cols,
+            ..Default::default()
+        }
     }
 }
 
@@ -551,10 +615,16 @@ impl ModelEffect for TransportDelay {
         // not whole samples are interpolated
         let step = ctx.p.dt_s.min(0.005);
         let count = (0.15 / step).round() as usize;
-        (1..=count).map(|k| Shape(vec![("delay_s", k as f64 * step)])).collect()
+        (1..=count)
+            .map(|k| Shape(vec![("delay_s", k as f64 * step)]))
+            .collect()
     }
     fn dynamic_term(&self, _ctx: &DynCtx, shape: &Shape) -> DynTerm {
-        DynTerm { columns: vec![], base_delay_s: shape.get("delay_s"), positive: vec![] }
+        DynTerm {
+            columns: vec![],
+            base_delay_s: shape.get("delay_s"),
+            positive: vec![],
+        }
     }
     fn step_extras(&self) -> &'static [StepExtra] {
         &[StepExtra::Delay]
@@ -580,7 +650,10 @@ impl ModelEffect for LoadcellDrift {
         let p = ctx.p;
         let k = &ctx.model.kinematics;
         let mut cols = Vec::new();
-        for (axis, name_o, name_d) in [(0, "offset_x_n", "drift_x_n_per_s"), (1, "offset_z_n", "drift_z_n_per_s")] {
+        for (axis, name_o, name_d) in [
+            (0, "offset_x_n", "drift_x_n_per_s"),
+            (1, "offset_z_n", "drift_z_n_per_s"),
+        ] {
             let mut e = [0.0; 2];
             e[axis] = 1.0;
             let (mut ox, mut oy, mut dx, mut dy) = (vec![], vec![], vec![], vec![]);
@@ -596,7 +669,10 @@ impl ModelEffect for LoadcellDrift {
             cols.push(Column::both(name_o, ox, oy));
             cols.push(Column::both(name_d, dx, dy));
         }
-        DynTerm { columns: cols, ..Default::default() }
+        DynTerm {
+            columns: cols,
+            ..Default::default()
+        }
     }
     fn step_extras(&self) -> &'static [StepExtra] {
         &[StepExtra::Drift]
@@ -664,13 +740,27 @@ pub fn ids() -> Vec<&'static str> {
 }
 
 /// Looks up ids (comma-separated lists allowed) in a catalog.
-pub fn lookup<'a>(catalog: &[&'a dyn ModelEffect], ids: &[String]) -> Result<Vec<&'a dyn ModelEffect>, String> {
+pub fn lookup<'a>(
+    catalog: &[&'a dyn ModelEffect],
+    ids: &[String],
+) -> Result<Vec<&'a dyn ModelEffect>, String> {
     let mut out: Vec<&dyn ModelEffect> = Vec::new();
-    for id in ids.iter().flat_map(|s| s.split(',')).map(str::trim).filter(|s| !s.is_empty()) {
-        let e = catalog
-            .iter()
-            .find(|e| e.id() == id)
-            .ok_or_else(|| format!("unknown effect `{id}` (known: {})", catalog.iter().map(|e| e.id()).collect::<Vec<_>>().join(", ")))?;
+    for id in ids
+        .iter()
+        .flat_map(|s| s.split(','))
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+    {
+        let e = catalog.iter().find(|e| e.id() == id).ok_or_else(|| {
+            format!(
+                "unknown effect `{id}` (known: {})",
+                catalog
+                    .iter()
+                    .map(|e| e.id())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
         if !out.iter().any(|o| o.id() == id) {
             out.push(*e);
         }

@@ -134,7 +134,10 @@ mod tests {
             for fs in [20.0, 1000.0] {
                 let f = Butterworth::lowpass(order, 8.0, fs).unwrap();
                 assert!((f.magnitude(0.0, fs) - 1.0).abs() < 1e-9);
-                assert!((f.magnitude(8.0, fs) - 0.5f64.sqrt()).abs() < 1e-6, "order {order} fs {fs}");
+                assert!(
+                    (f.magnitude(8.0, fs) - 0.5f64.sqrt()).abs() < 1e-6,
+                    "order {order} fs {fs}"
+                );
                 // monotone roll-off beyond the cutoff
                 assert!(f.magnitude(9.0, fs) < f.magnitude(8.5, fs));
             }
@@ -151,10 +154,16 @@ mod tests {
             .collect();
         let y = f.filtfilt(&x, fs, 8.0);
         // 1 Hz is far in the pass band: output = input, no delay, also at the edges
-        let worst = x.iter().zip(&y).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let worst = x
+            .iter()
+            .zip(&y)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(worst < 2e-3, "worst {worst}");
         // 50 Hz is removed
-        let z: Vec<f64> = (0..n).map(|i| (2.0 * PI * 50.0 * i as f64 / fs).sin()).collect();
+        let z: Vec<f64> = (0..n)
+            .map(|i| (2.0 * PI * 50.0 * i as f64 / fs).sin())
+            .collect();
         let yz = f.filtfilt(&z, fs, 8.0);
         let worst_mid = yz[1000..3000].iter().fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(worst_mid < 1e-4, "50 Hz left: {worst_mid}");

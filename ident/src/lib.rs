@@ -19,7 +19,6 @@ pub mod spectrum;
 pub mod step;
 pub mod trial;
 
-
 pub mod diagnose;
 pub mod effects;
 pub use trial::{FilterSettings, Prepared, Trial};

@@ -62,11 +62,20 @@ fn dot_strided(a: &[f64], b: &[f64], stride: usize) -> f64 {
     if stride <= 1 {
         return dot(a, b);
     }
-    a.iter().step_by(stride).zip(b.iter().step_by(stride)).map(|(x, y)| x * y).sum()
+    a.iter()
+        .step_by(stride)
+        .zip(b.iter().step_by(stride))
+        .map(|(x, y)| x * y)
+        .sum()
 }
 
 /// Normal equations on every `stride`-th row (a cheap fit for choosing shape parameters).
-pub fn normal_equations_strided(cols: &[Column], target: &[&[f64]; 2], rows: Range<usize>, stride: usize) -> Normal {
+pub fn normal_equations_strided(
+    cols: &[Column],
+    target: &[&[f64]; 2],
+    rows: Range<usize>,
+    stride: usize,
+) -> Normal {
     let p = cols.len();
     let mut gram = vec![vec![0.0; p]; p];
     let mut rhs = vec![0.0; p];

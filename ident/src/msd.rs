@@ -22,7 +22,11 @@ pub fn msd_columns(p: &Prepared) -> Vec<Column> {
     let mut cols = Vec::with_capacity(9);
     for (sym, s) in [("m", &p.a_m_s2), ("b", &p.v_m_s), ("k", &p.dx_m)] {
         cols.push(Column::on(format!("{sym}_xx"), 0, s[0].clone()));
-        cols.push(Column::both(format!("{sym}_xy"), s[1].clone(), s[0].clone()));
+        cols.push(Column::both(
+            format!("{sym}_xy"),
+            s[1].clone(),
+            s[0].clone(),
+        ));
         cols.push(Column::on(format!("{sym}_yy"), 1, s[1].clone()));
     }
     cols
@@ -74,7 +78,11 @@ pub struct FrequencySplit {
     pub mse_all: [f64; 2],
 }
 
-pub fn frequency_split(p: &Prepared, measured: &[Vec<f64>; 2], predicted: &[Vec<f64>; 2]) -> FrequencySplit {
+pub fn frequency_split(
+    p: &Prepared,
+    measured: &[Vec<f64>; 2],
+    predicted: &[Vec<f64>; 2],
+) -> FrequencySplit {
     let n = p.len();
     let w = ((2.0 / p.dt_s).round() as usize).max(10);
     let mut windows = Vec::new();
@@ -102,7 +110,9 @@ pub fn frequency_split(p: &Prepared, measured: &[Vec<f64>; 2], predicted: &[Vec<
         cnt[class] += e - s;
     }
     let all = |ax: usize| {
-        let r: Vec<f64> = (p.split..n).map(|i| measured[ax][i] - predicted[ax][i]).collect();
+        let r: Vec<f64> = (p.split..n)
+            .map(|i| measured[ax][i] - predicted[ax][i])
+            .collect();
         rms(&r).powi(2)
     };
     let div = |a: f64, c: usize| if c > 0 { a / c as f64 } else { f64::NAN };
@@ -161,19 +171,34 @@ pub fn sym(theta: &[f64]) -> Mat2<f64> {
 }
 
 /// Fits columns on the first 80 %, predicts everywhere.
-pub fn fit_columns(p: &Prepared, cols: &[Column], positive: &[usize], y: &[Vec<f64>; 2]) -> (Vec<f64>, [Vec<f64>; 2]) {
+pub fn fit_columns(
+    p: &Prepared,
+    cols: &[Column],
+    positive: &[usize],
+    y: &[Vec<f64>; 2],
+) -> (Vec<f64>, [Vec<f64>; 2]) {
     let ne = lsq::normal_equations(cols, &[&y[0], &y[1]], 0..p.split);
     let theta = lsq::solve(&ne, positive);
     let pred = lsq::predict(cols, &theta, p.len());
     (theta, pred)
 }
 
-pub fn scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([AxisScore; 2], [AxisScore; 2]) {
+pub fn scores(
+    p: &Prepared,
+    y: &[Vec<f64>; 2],
+    pred: &[Vec<f64>; 2],
+) -> ([AxisScore; 2], [AxisScore; 2]) {
     let n = p.len();
     let s = p.split;
     (
-        [score(&y[0][s..n], &pred[0][s..n]), score(&y[1][s..n], &pred[1][s..n])],
-        [score(&y[0][..s], &pred[0][..s]), score(&y[1][..s], &pred[1][..s])],
+        [
+            score(&y[0][s..n], &pred[0][s..n]),
+            score(&y[1][s..n], &pred[1][s..n]),
+        ],
+        [
+            score(&y[0][..s], &pred[0][..s]),
+            score(&y[1][..s], &pred[1][..s]),
+        ],
     )
 }
 
@@ -240,7 +265,10 @@ pub fn fit_static(p: &Prepared) -> TimeFit {
     let spread = std_dev(&p.dx_m[0]).hypot(std_dev(&p.dx_m[1]));
     let mut warnings = Vec::new();
     if spread < 1e-4 {
-        warnings.push(format!("the handle hardly moved ({:.2e} m): the stiffness is not identifiable", spread));
+        warnings.push(format!(
+            "the handle hardly moved ({:.2e} m): the stiffness is not identifiable",
+            spread
+        ));
     }
     TimeFit {
         experiment: "static".into(),

@@ -72,7 +72,11 @@ pub fn amplitude_spectrum(x: &[f64], dt_s: f64) -> Spectrum {
     Spectrum {
         freq_hz: (0..half).map(|k| k as f64 * df).collect(),
         amplitude: (0..half)
-            .map(|k| (re[k] * re[k] + im[k] * im[k]).sqrt() * if k == 0 || k == n / 2 { 0.5 } else { 1.0 } * scale)
+            .map(|k| {
+                (re[k] * re[k] + im[k] * im[k]).sqrt()
+                    * if k == 0 || k == n / 2 { 0.5 } else { 1.0 }
+                    * scale
+            })
             .collect(),
         re: re[..half].iter().map(|v| v * scale).collect(),
         im: im[..half].iter().map(|v| v * scale).collect(),
@@ -121,7 +125,10 @@ pub fn narrow_peaks(s: &Spectrum, min_prominence: f64, min_share: f64) -> Vec<Pe
             let w = 20usize;
             let lo = k.saturating_sub(if k + w >= n { 2 * w } else { w }).max(1);
             let hi = (k + w + 1).min(n);
-            let mut neigh: Vec<f64> = (lo..hi).filter(|i| i.abs_diff(k) > 3).map(|i| p[i]).collect();
+            let mut neigh: Vec<f64> = (lo..hi)
+                .filter(|i| i.abs_diff(k) > 3)
+                .map(|i| p[i])
+                .collect();
             if neigh.len() >= 8 {
                 neigh.sort_by(|a, b| a.total_cmp(b));
                 let med = neigh[neigh.len() / 2].max(1e-300);
@@ -160,7 +167,13 @@ mod tests {
             })
             .collect();
         let s = amplitude_spectrum(&x, dt);
-        let k = s.amplitude.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
+        let k = s
+            .amplitude
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap()
+            .0;
         assert!((s.freq_hz[k] - 50.0).abs() < 0.2);
         let peaks = narrow_peaks(&s, 30.0, 0.05);
         assert!(!peaks.is_empty() && (peaks[0].freq_hz - 50.0).abs() < 0.2);
@@ -171,7 +184,9 @@ mod tests {
         let mut state = 12345u64;
         let x: Vec<f64> = (0..16384)
             .map(|_| {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
             })
             .collect();
@@ -185,13 +200,18 @@ mod tests {
         let mut state = 99u64;
         let x: Vec<f64> = (0..2048)
             .map(|i| {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 let noise = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3;
                 0.5 * if i % 2 == 0 { 1.0 } else { -1.0 } + noise
             })
             .collect();
         let s = amplitude_spectrum(&x, 0.05);
         let peaks = narrow_peaks(&s, 30.0, 0.05);
-        assert!(!peaks.is_empty() && (peaks[0].freq_hz - 10.0).abs() < 0.05, "{peaks:?}");
+        assert!(
+            !peaks.is_empty() && (peaks[0].freq_hz - 10.0).abs() < 0.05,
+            "{peaks:?}"
+        );
     }
 }

@@ -70,7 +70,11 @@ pub fn analyse_steps(p: &Prepared, threshold_n: f64) -> Vec<StepResult> {
                 continue;
             }
             let y = &p.force_n[axis];
-            let before = &y[s.saturating_sub(((e - s) / 10).max(2)).max(if w > 0 { starts[w - 1] } else { 0 })..s];
+            let before = &y[s.saturating_sub(((e - s) / 10).max(2)).max(if w > 0 {
+                starts[w - 1]
+            } else {
+                0
+            })..s];
             let y0 = mean(before);
             let tail = &y[e - ((e - s) / 5).max(1)..e];
             let yss = mean(tail);
@@ -89,7 +93,11 @@ pub fn analyse_steps(p: &Prepared, threshold_n: f64) -> Vec<StepResult> {
                 .max_by(|a, b| (dir * a.1).total_cmp(&(dir * b.1)))
                 .unwrap();
             let amp = yss - y0;
-            let overshoot = if amp.abs() > 0.0 { (peak - yss) / amp } else { 0.0 };
+            let overshoot = if amp.abs() > 0.0 {
+                (peak - yss) / amp
+            } else {
+                0.0
+            };
             let zeta = zeta_from_overshoot(overshoot);
             let tp = p.t_s[ip] - p.t_s[s - 1];
             let wn = zeta.map(|z| PI / (tp * (1.0 - z * z).sqrt()));
@@ -220,12 +228,23 @@ impl StepParams {
 /// Simulates one axis: y'' + 2ζωn y' + ωn² y = ωn² target(t), target = G(α)·u(t − d) (+
 /// hysteresis offset) clipped to the saturation band, integrated with the exact
 /// zero-order-hold solution per sample. Starts at the first measured value, at rest.
-pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], alpha: [&[f64]; 2], y_start: f64, out: &mut [f64]) {
+pub fn simulate(
+    p: &StepParams,
+    t_s: &[f64],
+    u: &[f64],
+    alpha: [&[f64]; 2],
+    y_start: f64,
+    out: &mut [f64],
+) {
     let n = t_s.len();
     if n == 0 {
         return;
     }
-    let dt = if n > 1 { (t_s[n - 1] - t_s[0]) / (n - 1) as f64 } else { 1.0 };
+    let dt = if n > 1 {
+        (t_s[n - 1] - t_s[0]) / (n - 1) as f64
+    } else {
+        1.0
+    };
     let t0 = t_s[0];
     let delay_samples = p.delay_s.max(0.0) / dt;
     let mut y = y_start;
@@ -254,7 +273,8 @@ pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], alpha: [&[f64]; 2], y_st
             last_dir = (ud - prev_u).signum();
         }
         prev_u = ud;
-        let g = p.gain + p.gain_slope_per_rad[0] * alpha[0][i] + p.gain_slope_per_rad[1] * alpha[1][i];
+        let g =
+            p.gain + p.gain_slope_per_rad[0] * alpha[0][i] + p.gain_slope_per_rad[1] * alpha[1][i];
         let mut target = g * ud + p.hysteresis_n * last_dir;
         if p.force_limit_n.is_finite() {
             let l = p.force_limit_n.abs().max(1e-6);
@@ -263,7 +283,10 @@ pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], alpha: [&[f64]; 2], y_st
         // the driving force follows the target no faster than the rate limits
         let d = match driven {
             None => target,
-            Some(prev) => target.clamp(prev - p.fall_n_per_s.max(1e-9) * dt, prev + p.rise_n_per_s.max(1e-9) * dt),
+            Some(prev) => target.clamp(
+                prev - p.fall_n_per_s.max(1e-9) * dt,
+                prev + p.rise_n_per_s.max(1e-9) * dt,
+            ),
         };
         driven = Some(d);
         let target = d;
@@ -316,8 +339,14 @@ impl Zoh {
 
 fn mat_mul(a: &[[f64; 2]; 2], b: &[[f64; 2]; 2]) -> [[f64; 2]; 2] {
     [
-        [a[0][0] * b[0][0] + a[0][1] * b[1][0], a[0][0] * b[0][1] + a[0][1] * b[1][1]],
-        [a[1][0] * b[0][0] + a[1][1] * b[1][0], a[1][0] * b[0][1] + a[1][1] * b[1][1]],
+        [
+            a[0][0] * b[0][0] + a[0][1] * b[1][0],
+            a[0][0] * b[0][1] + a[0][1] * b[1][1],
+        ],
+        [
+            a[1][0] * b[0][0] + a[1][1] * b[1][0],
+            a[1][0] * b[0][1] + a[1][1] * b[1][1],
+        ],
     ]
 }
 
@@ -413,7 +442,9 @@ pub fn fit_axis(
     // start the rate limits at the fastest slope seen, so they begin just active
     if extras.contains(&StepExtra::SlewRate) {
         let w = ((0.01 / p.dt_s).round() as usize).max(1);
-        let max_slope = (w..n).map(|i| (y[i] - y[i - w]).abs() / (w as f64 * p.dt_s)).fold(1.0, f64::max);
+        let max_slope = (w..n)
+            .map(|i| (y[i] - y[i - w]).abs() / (w as f64 * p.dt_s))
+            .fold(1.0, f64::max);
         first.rise_n_per_s = max_slope;
         first.fall_n_per_s = max_slope;
         init = pack(&first, extras);
@@ -485,12 +516,28 @@ fn lower_bounds(extras: &[StepExtra]) -> Vec<(usize, f64)> {
 /// A starting point for the whole-response fit from the graphical estimates.
 pub fn initial_params(steps: &[StepResult], axis: usize) -> StepParams {
     let s: Vec<&StepResult> = steps.iter().filter(|s| s.axis == axis).collect();
-    let g = if s.is_empty() { 1.0 } else { mean(&s.iter().map(|r| r.gain).collect::<Vec<_>>()) };
+    let g = if s.is_empty() {
+        1.0
+    } else {
+        mean(&s.iter().map(|r| r.gain).collect::<Vec<_>>())
+    };
     let z: Vec<f64> = s.iter().filter_map(|r| r.zeta).collect();
     let w: Vec<f64> = s.iter().filter_map(|r| r.omega_n_rad_s).collect();
     StepParams::base(
-        if g.is_finite() && g.abs() > 1e-3 { g } else { 1.0 },
-        if z.is_empty() { 0.7 } else { mean(&z).clamp(0.05, 1.5) },
-        if w.is_empty() { 20.0 } else { mean(&w).clamp(0.5, 500.0) },
+        if g.is_finite() && g.abs() > 1e-3 {
+            g
+        } else {
+            1.0
+        },
+        if z.is_empty() {
+            0.7
+        } else {
+            mean(&z).clamp(0.05, 1.5)
+        },
+        if w.is_empty() {
+            20.0
+        } else {
+            mean(&w).clamp(0.5, 500.0)
+        },
     )
 }

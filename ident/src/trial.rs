@@ -64,7 +64,11 @@ impl Trial {
     /// for malformed values by pam-log).
     pub fn from_log(log: &pam_log::Log) -> Result<Self, String> {
         use pam_log::col;
-        let need = |name: &str| log.require(name).map(|c| c.to_vec()).map_err(|e| e.to_string());
+        let need = |name: &str| {
+            log.require(name)
+                .map(|c| c.to_vec())
+                .map_err(|e| e.to_string())
+        };
         let force_ref_n = match (log.column(col::FX_REF_N), log.column(col::FY_REF_N)) {
             (Some(x), Some(y)) => Some([x.to_vec(), y.to_vec()]),
             (None, None) => None,
@@ -72,7 +76,9 @@ impl Trial {
             (None, Some(y)) => Some([vec![0.0; y.len()], y.to_vec()]),
         };
         let current_ma = match col::CURRENTS_MA.map(|c| log.column(c)) {
-            [Some(a), Some(b), Some(c), Some(d)] => Some([a.to_vec(), b.to_vec(), c.to_vec(), d.to_vec()]),
+            [Some(a), Some(b), Some(c), Some(d)] => {
+                Some([a.to_vec(), b.to_vec(), c.to_vec(), d.to_vec()])
+            }
             _ => None,
         };
         let trial = Trial {
@@ -133,7 +139,11 @@ impl Trial {
     /// Positions by forward kinematics, velocities and accelerations by central differences
     /// followed by zero-phase Butterworth filtering (thesis §4.2, with high-order central
     /// instead of forward differences: no half-sample delay, no attenuation at 50 ms).
-    pub fn prepare(&self, model: &RobotModel<f64>, filt: FilterSettings) -> Result<Prepared, String> {
+    pub fn prepare(
+        &self,
+        model: &RobotModel<f64>,
+        filt: FilterSettings,
+    ) -> Result<Prepared, String> {
         self.validate()?;
         let n = self.len();
         let dt = (self.t_s[n - 1] - self.t_s[0]) / (n - 1) as f64;
@@ -163,7 +173,10 @@ impl Trial {
             bw.filtfilt(&self.alpha_rad[0], fs, cutoff),
             bw.filtfilt(&self.alpha_rad[1], fs, cutoff),
         ];
-        let alpha0_rad = [mean(&self.alpha_rad[0][..start]), mean(&self.alpha_rad[1][..start])];
+        let alpha0_rad = [
+            mean(&self.alpha_rad[0][..start]),
+            mean(&self.alpha_rad[1][..start]),
+        ];
         let a = [deriv(&v[0]), deriv(&v[1])];
         Ok(Prepared {
             t_s: self.t_s.clone(),
@@ -206,7 +219,9 @@ pub fn central_difference(s: &[f64], t: &[f64]) -> Vec<f64> {
     let h = (t[n - 1] - t[0]) / (n - 1) as f64;
     for i in 0..n {
         d[i] = if i >= 3 && i + 3 < n {
-            (s[i + 3] - 9.0 * s[i + 2] + 45.0 * s[i + 1] - 45.0 * s[i - 1] + 9.0 * s[i - 2] - s[i - 3]) / (60.0 * h)
+            (s[i + 3] - 9.0 * s[i + 2] + 45.0 * s[i + 1] - 45.0 * s[i - 1] + 9.0 * s[i - 2]
+                - s[i - 3])
+                / (60.0 * h)
         } else if i >= 2 && i + 2 < n {
             (-s[i + 2] + 8.0 * s[i + 1] - 8.0 * s[i - 1] + s[i - 2]) / (12.0 * h)
         } else if i >= 1 && i + 1 < n {

@@ -26,7 +26,10 @@ impl ModelEffect for MainsTone {
         true
     }
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
-        [50.0, 60.0].iter().map(|&f| Shape(vec![("frequency_hz", f)])).collect()
+        [50.0, 60.0]
+            .iter()
+            .map(|&f| Shape(vec![("frequency_hz", f)]))
+            .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         let w = 2.0 * std::f64::consts::PI * shape.get("frequency_hz");
@@ -43,7 +46,12 @@ impl ModelEffect for MainsTone {
             ..Default::default()
         }
     }
-    fn report_params(&self, _ctx: &DynCtx, fitted: &[(String, f64)], shape: &Shape) -> Vec<(String, f64)> {
+    fn report_params(
+        &self,
+        _ctx: &DynCtx,
+        fitted: &[(String, f64)],
+        shape: &Shape,
+    ) -> Vec<(String, f64)> {
         let mut v = fitted.to_vec();
         v.push(("amplitude_x_n".into(), fitted[0].1.hypot(fitted[1].1)));
         v.push(("amplitude_y_n".into(), fitted[2].1.hypot(fitted[3].1)));
@@ -55,15 +63,42 @@ impl ModelEffect for MainsTone {
 #[test]
 fn a_custom_effect_turns_unexplained_into_explained() {
     let model = RobotModel::<f64>::thesis();
-    let trial = dynamic(&DynConfig { dt_s: 0.001, duration_s: 30.0, noise_n: 0.5, hidden: Hidden::Hum { amplitude_n: 1.0, freq_hz: 50.0 }, seed: 9, ..Default::default() });
+    let trial = dynamic(&DynConfig {
+        dt_s: 0.001,
+        duration_s: 30.0,
+        noise_n: 0.5,
+        hidden: Hidden::Hum {
+            amplitude_n: 1.0,
+            freq_hz: 50.0,
+        },
+        seed: 9,
+        ..Default::default()
+    });
     let standard = effects::catalog();
-    let (d, _) = diagnose_with(&trial, &model, Experiment::Dynamic, Settings::default(), &standard).unwrap();
+    let (d, _) = diagnose_with(
+        &trial,
+        &model,
+        Experiment::Dynamic,
+        Settings::default(),
+        &standard,
+    )
+    .unwrap();
     assert_eq!(d.verdict, "unexplained");
-    assert!(d.unexplained.iter().any(|u| (u.frequency_hz.unwrap() - 50.0).abs() < 0.2));
+    assert!(d
+        .unexplained
+        .iter()
+        .any(|u| (u.frequency_hz.unwrap() - 50.0).abs() < 0.2));
 
     let mut extended = effects::catalog();
     extended.push(&MainsTone);
-    let (d, _) = diagnose_with(&trial, &model, Experiment::Dynamic, Settings::default(), &extended).unwrap();
+    let (d, _) = diagnose_with(
+        &trial,
+        &model,
+        Experiment::Dynamic,
+        Settings::default(),
+        &extended,
+    )
+    .unwrap();
     assert_eq!(d.verdict, "effect");
     let top = &d.effects[0];
     assert_eq!(top.id, "mains_tone");
@@ -71,8 +106,16 @@ fn a_custom_effect_turns_unexplained_into_explained() {
     // that is R(θ1 + θ2)·[1, 1], θ1 + θ2 = atan(L2/L1) at the neutral pose
     let th = (0.45f64).atan2(0.7);
     let truth = [(th.cos() - th.sin()).abs(), th.sin() + th.cos()];
-    assert!((top.params["amplitude_x_n"] - truth[0]).abs() < 0.1, "{:?} vs {truth:?}", top.params);
-    assert!((top.params["amplitude_y_n"] - truth[1]).abs() < 0.1, "{:?} vs {truth:?}", top.params);
+    assert!(
+        (top.params["amplitude_x_n"] - truth[0]).abs() < 0.1,
+        "{:?} vs {truth:?}",
+        top.params
+    );
+    assert!(
+        (top.params["amplitude_y_n"] - truth[1]).abs() < 0.1,
+        "{:?} vs {truth:?}",
+        top.params
+    );
     assert_eq!(top.params["frequency_hz"], 50.0);
     assert!(d.unexplained.is_empty(), "{:?}", d.unexplained);
 }

@@ -16,36 +16,78 @@ const REGIMES: [(f64, f64, f64); 2] = [(0.05, 0.2, 90.0), (0.001, 0.8, 40.0)];
 
 fn run_dynamic(hidden: Hidden, dt: f64, noise: f64, duration: f64, seed: u64) -> Diagnosis {
     let model = RobotModel::<f64>::thesis();
-    let tr = dynamic(&DynConfig { dt_s: dt, noise_n: noise, duration_s: duration, hidden, seed, ..Default::default() });
-    diagnose(&tr, &model, Experiment::Dynamic, Settings::default()).unwrap().0
+    let tr = dynamic(&DynConfig {
+        dt_s: dt,
+        noise_n: noise,
+        duration_s: duration,
+        hidden,
+        seed,
+        ..Default::default()
+    });
+    diagnose(&tr, &model, Experiment::Dynamic, Settings::default())
+        .unwrap()
+        .0
 }
 
 fn run_step(hidden: Hidden, dt: f64, noise: f64, duration: f64, seed: u64) -> Diagnosis {
     let model = RobotModel::<f64>::thesis();
-    let tr = step(&StepConfig { dt_s: dt, noise_n: noise, duration_s: duration, hidden, seed, ..Default::default() });
-    diagnose(&tr, &model, Experiment::Step, Settings::default()).unwrap().0
+    let tr = step(&StepConfig {
+        dt_s: dt,
+        noise_n: noise,
+        duration_s: duration,
+        hidden,
+        seed,
+        ..Default::default()
+    });
+    diagnose(&tr, &model, Experiment::Step, Settings::default())
+        .unwrap()
+        .0
 }
 
 /// The hidden effect is named first, lowers the held-out error on average over the axes,
 /// and `check` accepts its fitted parameters.
-fn assert_found(d: &Diagnosis, id: &str, label: &str, check: impl Fn(&std::collections::BTreeMap<String, f64>) -> Result<(), String>) {
+fn assert_found(
+    d: &Diagnosis,
+    id: &str,
+    label: &str,
+    check: impl Fn(&std::collections::BTreeMap<String, f64>) -> Result<(), String>,
+) {
     let top = &d.effects[0];
     assert_eq!(d.verdict, "effect", "{label}: {d:#?}");
-    assert_eq!(top.id, id, "{label}: ranking {:?}", d.effects.iter().map(|e| (&e.id, e.score)).collect::<Vec<_>>());
+    assert_eq!(
+        top.id,
+        id,
+        "{label}: ranking {:?}",
+        d.effects
+            .iter()
+            .map(|e| (&e.id, e.score))
+            .collect::<Vec<_>>()
+    );
     let before = d.base.nrmse.fx.powi(2) + d.base.nrmse.fy.powi(2);
     let after = top.nrmse.fx.powi(2) + top.nrmse.fy.powi(2);
-    assert!(after < before, "{label}: held-out error {after} not below {before}");
+    assert!(
+        after < before,
+        "{label}: held-out error {after} not below {before}"
+    );
     if let Err(e) = check(&top.params) {
         panic!("{label}: {e}; params {:?}", top.params);
     }
 }
 
-fn near(params: &std::collections::BTreeMap<String, f64>, name: &str, truth: f64, rel: f64) -> Result<(), String> {
+fn near(
+    params: &std::collections::BTreeMap<String, f64>,
+    name: &str,
+    truth: f64,
+    rel: f64,
+) -> Result<(), String> {
     let v = *params.get(name).ok_or(format!("no parameter {name}"))?;
     if (v - truth).abs() <= rel * truth.abs() {
         Ok(())
     } else {
-        Err(format!("{name} = {v}, truth {truth} (±{:.0} %)", rel * 100.0))
+        Err(format!(
+            "{name} = {v}, truth {truth} (±{:.0} %)",
+            rel * 100.0
+        ))
     }
 }
 
@@ -53,8 +95,19 @@ fn near(params: &std::collections::BTreeMap<String, f64>, name: &str, truth: f64
 fn carrier_ball_friction_is_found_with_its_coulomb_force() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
         for c in [1.0, 3.0] {
-            let d = run_dynamic(Hidden::Friction { coulomb_n: c }, dt, noise, dur, 10 + k as u64);
-            assert_found(&d, "carrier_ball_friction", &format!("dt {dt} c {c}"), |p| near(p, "coulomb_n", c, 0.15));
+            let d = run_dynamic(
+                Hidden::Friction { coulomb_n: c },
+                dt,
+                noise,
+                dur,
+                10 + k as u64,
+            );
+            assert_found(
+                &d,
+                "carrier_ball_friction",
+                &format!("dt {dt} c {c}"),
+                |p| near(p, "coulomb_n", c, 0.15),
+            );
         }
     }
 }
@@ -64,7 +117,9 @@ fn velocity_squared_is_found_with_its_coefficient() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
         for c in [40.0, 120.0] {
             let d = run_dynamic(Hidden::VelocitySquared { c }, dt, noise, dur, 20 + k as u64);
-            assert_found(&d, "velocity_squared", &format!("dt {dt} c {c}"), |p| near(p, "coeff_n_s2_per_m2", c, 0.2));
+            assert_found(&d, "velocity_squared", &format!("dt {dt} c {c}"), |p| {
+                near(p, "coeff_n_s2_per_m2", c, 0.2)
+            });
         }
     }
 }
@@ -78,7 +133,9 @@ fn nonlinear_stiffness_is_found_with_its_cubic_coefficient() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate().skip(1) {
         for c in [15.0, 40.0] {
             let d = run_dynamic(Hidden::Cubic { cubic_n: c }, dt, noise, dur, 30 + k as u64);
-            assert_found(&d, "nonlinear_stiffness", &format!("dt {dt} c {c}"), |p| near(p, "cubic_n", c, 0.2));
+            assert_found(&d, "nonlinear_stiffness", &format!("dt {dt} c {c}"), |p| {
+                near(p, "cubic_n", c, 0.2)
+            });
         }
     }
 }
@@ -87,13 +144,27 @@ fn nonlinear_stiffness_is_found_with_its_cubic_coefficient() {
 fn muscle_hysteresis_is_found_with_its_torque_and_width() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
         for fraction in [0.03, 0.08] {
-            let d = run_dynamic(Hidden::Hysteresis { fraction, width: 0.002 }, dt, noise, dur, 40 + k as u64);
+            let d = run_dynamic(
+                Hidden::Hysteresis {
+                    fraction,
+                    width: 0.002,
+                },
+                dt,
+                noise,
+                dur,
+                40 + k as u64,
+            );
             // amplitude = R · fraction · (F1 + F2), 150 N per cable in the simulator
             let t1 = 0.07 * fraction * 300.0;
-            assert_found(&d, "muscle_hysteresis", &format!("dt {dt} fraction {fraction}"), |p| {
-                near(p, "torque_nm_joint1", t1, 0.25)?;
-                near(p, "width", 0.002, 0.6)
-            });
+            assert_found(
+                &d,
+                "muscle_hysteresis",
+                &format!("dt {dt} fraction {fraction}"),
+                |p| {
+                    near(p, "torque_nm_joint1", t1, 0.25)?;
+                    near(p, "width", 0.002, 0.6)
+                },
+            );
         }
     }
 }
@@ -103,7 +174,13 @@ fn muscle_hysteresis_is_found_with_its_torque_and_width() {
 fn pose_dependent_stiffness_is_found() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate().skip(1) {
         for g in [4.0, 10.0] {
-            let d = run_dynamic(Hidden::PoseQuadratic { k_per_m: g }, dt, noise, dur, 50 + k as u64);
+            let d = run_dynamic(
+                Hidden::PoseQuadratic { k_per_m: g },
+                dt,
+                noise,
+                dur,
+                50 + k as u64,
+            );
             // K(x) = K (1 + g·dx): the X force gains g·K_xx·dx², the Y force g·K_xy·dx²
             assert_found(&d, "pose_dependence", &format!("dt {dt} g {g}"), |p| {
                 near(p, "qx_xx_n_per_m2", g * K[0][0], 0.25)?;
@@ -117,7 +194,16 @@ fn pose_dependent_stiffness_is_found() {
 fn loadcell_drift_is_found_with_offset_and_drift() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
         for (o, r) in [(1.0, 0.01), (3.0, 0.03)] {
-            let d = run_dynamic(Hidden::Drift { offset_n: o, drift_n_per_s: r }, dt, noise, dur, 60 + k as u64);
+            let d = run_dynamic(
+                Hidden::Drift {
+                    offset_n: o,
+                    drift_n_per_s: r,
+                },
+                dt,
+                noise,
+                dur,
+                60 + k as u64,
+            );
             assert_found(&d, "loadcell_drift", &format!("dt {dt} offset {o}"), |p| {
                 near(p, "offset_x_n", o, 0.1)?;
                 near(p, "drift_x_n_per_s", r, 0.2)
@@ -132,7 +218,11 @@ fn loadcell_drift_is_found_with_offset_and_drift() {
 #[test]
 fn a_lagging_force_in_a_dynamic_trial_is_not_called_a_delay() {
     let d = run_dynamic(Hidden::Delay { delay_s: 0.03 }, 0.001, 0.8, 40.0, 70);
-    assert!(d.effects.iter().all(|e| e.id != "transport_delay"), "{:?}", d.effects.iter().map(|e| &e.id).collect::<Vec<_>>());
+    assert!(
+        d.effects.iter().all(|e| e.id != "transport_delay"),
+        "{:?}",
+        d.effects.iter().map(|e| &e.id).collect::<Vec<_>>()
+    );
 }
 
 #[test]
@@ -140,9 +230,25 @@ fn nothing_hidden_gives_none() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
         for seed in [1, 2] {
             let d = run_dynamic(Hidden::None, dt, noise, dur, 100 * seed + k as u64);
-            assert_eq!(d.verdict, "none", "dt {dt} seed {seed}: {:?}", d.effects.iter().map(|e| (&e.id, e.score)).collect::<Vec<_>>());
+            assert_eq!(
+                d.verdict,
+                "none",
+                "dt {dt} seed {seed}: {:?}",
+                d.effects
+                    .iter()
+                    .map(|e| (&e.id, e.score))
+                    .collect::<Vec<_>>()
+            );
             let d = run_step(Hidden::None, dt, noise, dur, 100 * seed + k as u64);
-            assert_eq!(d.verdict, "none", "step dt {dt} seed {seed}: {:?}", d.effects.iter().map(|e| (&e.id, e.score)).collect::<Vec<_>>());
+            assert_eq!(
+                d.verdict,
+                "none",
+                "step dt {dt} seed {seed}: {:?}",
+                d.effects
+                    .iter()
+                    .map(|e| (&e.id, e.score))
+                    .collect::<Vec<_>>()
+            );
         }
     }
 }
@@ -150,7 +256,16 @@ fn nothing_hidden_gives_none() {
 #[test]
 fn a_mains_tone_is_unexplained_and_named() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
-        let d = run_dynamic(Hidden::Hum { amplitude_n: 1.0, freq_hz: 50.0 }, dt, noise, dur, 80 + k as u64);
+        let d = run_dynamic(
+            Hidden::Hum {
+                amplitude_n: 1.0,
+                freq_hz: 50.0,
+            },
+            dt,
+            noise,
+            dur,
+            80 + k as u64,
+        );
         assert_eq!(d.verdict, "unexplained", "dt {dt}: {d:#?}");
         let u = &d.unexplained[0];
         assert_eq!(u.kind, "spectral_peak");
@@ -165,26 +280,82 @@ fn step_effects_are_found_with_their_parameters() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
         let dur = dur.max(60.0);
         for delay in [0.03, 0.07] {
-            let d = run_step(Hidden::Delay { delay_s: delay }, dt, noise, dur, 200 + k as u64);
+            let d = run_step(
+                Hidden::Delay { delay_s: delay },
+                dt,
+                noise,
+                dur,
+                200 + k as u64,
+            );
             let truth = (delay / dt).round() * dt;
-            assert_found(&d, "transport_delay", &format!("step dt {dt} delay {delay}"), |p| near(p, "delay_s_x", truth, 0.2));
+            assert_found(
+                &d,
+                "transport_delay",
+                &format!("step dt {dt} delay {delay}"),
+                |p| near(p, "delay_s_x", truth, 0.2),
+            );
         }
         for rate in [30.0, 60.0] {
-            let d = run_step(Hidden::SlewLimit { rate_n_per_s: rate }, dt, noise, dur, 210 + k as u64);
-            assert_found(&d, "asymmetric_ip_rates", &format!("step dt {dt} rate {rate}"), |p| {
-                near(p, "rise_n_per_s_x", rate, 0.2)?;
-                near(p, "fall_n_per_s_x", 1.3 * rate, 0.2)
-            });
+            let d = run_step(
+                Hidden::SlewLimit { rate_n_per_s: rate },
+                dt,
+                noise,
+                dur,
+                210 + k as u64,
+            );
+            assert_found(
+                &d,
+                "asymmetric_ip_rates",
+                &format!("step dt {dt} rate {rate}"),
+                |p| {
+                    near(p, "rise_n_per_s_x", rate, 0.2)?;
+                    near(p, "fall_n_per_s_x", 1.3 * rate, 0.2)
+                },
+            );
         }
         for max in [6.0, 9.0] {
-            let d = run_step(Hidden::Saturation { max_n: max }, dt, noise, dur, 220 + k as u64);
-            assert_found(&d, "pressure_saturation", &format!("step dt {dt} max {max}"), |p| near(p, "force_limit_n_x", max, 0.15));
+            let d = run_step(
+                Hidden::Saturation { max_n: max },
+                dt,
+                noise,
+                dur,
+                220 + k as u64,
+            );
+            assert_found(
+                &d,
+                "pressure_saturation",
+                &format!("step dt {dt} max {max}"),
+                |p| near(p, "force_limit_n_x", max, 0.15),
+            );
         }
         for (o, r) in [(1.0, 0.01), (2.0, 0.03)] {
-            let d = run_step(Hidden::Drift { offset_n: o, drift_n_per_s: r }, dt, noise, dur, 230 + k as u64);
-            assert_found(&d, "loadcell_drift", &format!("step dt {dt} offset {o}"), |p| near(p, "offset_n_x", o, 0.15));
+            let d = run_step(
+                Hidden::Drift {
+                    offset_n: o,
+                    drift_n_per_s: r,
+                },
+                dt,
+                noise,
+                dur,
+                230 + k as u64,
+            );
+            assert_found(
+                &d,
+                "loadcell_drift",
+                &format!("step dt {dt} offset {o}"),
+                |p| near(p, "offset_n_x", o, 0.15),
+            );
         }
-        let d = run_step(Hidden::Hum { amplitude_n: 1.0, freq_hz: 50.0 }, dt, noise, dur, 240 + k as u64);
+        let d = run_step(
+            Hidden::Hum {
+                amplitude_n: 1.0,
+                freq_hz: 50.0,
+            },
+            dt,
+            noise,
+            dur,
+            240 + k as u64,
+        );
         assert_eq!(d.verdict, "unexplained", "step dt {dt}: {d:#?}");
     }
 }

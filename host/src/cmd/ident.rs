@@ -77,16 +77,39 @@ fn print_matrix(out: &mut impl Write, m: &MatrixReport) -> Result<(), String> {
 }
 
 fn print_time_fit(out: &mut impl Write, f: &TimeFit) -> Result<(), String> {
-    writeln!(out, "{} trial: {} samples every {:.4} s, equilibrium ({:+.4}, {:+.4}) m", f.experiment, f.samples, f.dt_s, f.equilibrium_m[0], f.equilibrium_m[1]).map_err(io)?;
+    writeln!(
+        out,
+        "{} trial: {} samples every {:.4} s, equilibrium ({:+.4}, {:+.4}) m",
+        f.experiment, f.samples, f.dt_s, f.equilibrium_m[0], f.equilibrium_m[1]
+    )
+    .map_err(io)?;
     for m in &f.matrices {
         print_matrix(out, m)?;
     }
-    writeln!(out, "held-out 20 %: MSE X {:.3}, Y {:.3} N²; R² X {:.4}, Y {:.4}; NRMSE X {:.4}, Y {:.4}", f.test[0].mse, f.test[1].mse, f.test[0].r2, f.test[1].r2, f.test[0].nrmse, f.test[1].nrmse).map_err(io)?;
+    writeln!(
+        out,
+        "held-out 20 %: MSE X {:.3}, Y {:.3} N²; R² X {:.4}, Y {:.4}; NRMSE X {:.4}, Y {:.4}",
+        f.test[0].mse, f.test[1].mse, f.test[0].r2, f.test[1].r2, f.test[0].nrmse, f.test[1].nrmse
+    )
+    .map_err(io)?;
     if let Some(s) = &f.split {
-        writeln!(out, "MSE by motion frequency (Table 4.2; windows of {:.1} s, boundary {:.1} rad/s):", s.window_s, s.boundary_rad_s).map_err(io)?;
+        writeln!(
+            out,
+            "MSE by motion frequency (Table 4.2; windows of {:.1} s, boundary {:.1} rad/s):",
+            s.window_s, s.boundary_rad_s
+        )
+        .map_err(io)?;
         writeln!(out, "          low freq.  high freq.  full test set").map_err(io)?;
         for a in 0..2 {
-            writeln!(out, "  {}-axis  {:9.3}  {:10.3}  {:13.3}", ["X", "Y"][a], s.mse_low[a], s.mse_high[a], s.mse_all[a]).map_err(io)?;
+            writeln!(
+                out,
+                "  {}-axis  {:9.3}  {:10.3}  {:13.3}",
+                ["X", "Y"][a],
+                s.mse_low[a],
+                s.mse_high[a],
+                s.mse_all[a]
+            )
+            .map_err(io)?;
         }
     }
     for w in &f.warnings {
@@ -96,14 +119,29 @@ fn print_time_fit(out: &mut impl Write, f: &TimeFit) -> Result<(), String> {
 }
 
 fn json(out: &mut impl Write, v: &impl serde::Serialize) -> Result<(), String> {
-    writeln!(out, "{}", serde_json::to_string_pretty(v).map_err(|e| e.to_string())?).map_err(io)
+    writeln!(
+        out,
+        "{}",
+        serde_json::to_string_pretty(v).map_err(|e| e.to_string())?
+    )
+    .map_err(io)
 }
 
 fn time(a: &TimeArgs, dynamic: bool, out: &mut impl Write) -> Result<(), String> {
     let model = RobotModel::<f64>::thesis();
     let (trial, _) = read_trial(&a.log)?;
-    let p = trial.prepare(&model, FilterSettings { order: a.order, cutoff_hz: a.cutoff_hz })?;
-    let f = if dynamic { msd::fit_dynamic(&p, model.cartesian_mass(p.alpha0_rad)) } else { msd::fit_static(&p) };
+    let p = trial.prepare(
+        &model,
+        FilterSettings {
+            order: a.order,
+            cutoff_hz: a.cutoff_hz,
+        },
+    )?;
+    let f = if dynamic {
+        msd::fit_dynamic(&p, model.cartesian_mass(p.alpha0_rad))
+    } else {
+        msd::fit_static(&p)
+    };
     if a.json {
         return json(out, &f);
     }
@@ -113,17 +151,33 @@ fn time(a: &TimeArgs, dynamic: bool, out: &mut impl Write) -> Result<(), String>
 fn frequency(a: &FreqArgs, out: &mut impl Write) -> Result<(), String> {
     let model = RobotModel::<f64>::thesis();
     let (trial, _) = read_trial(&a.time.log)?;
-    let p = trial.prepare(&model, FilterSettings { order: a.time.order, cutoff_hz: a.time.cutoff_hz })?;
+    let p = trial.prepare(
+        &model,
+        FilterSettings {
+            order: a.time.order,
+            cutoff_hz: a.time.cutoff_hz,
+        },
+    )?;
     let t = msd::fit_dynamic(&p, model.cartesian_mass(p.alpha0_rad));
     let f = freq::fit(&p, &t.theta, a.band_rad_s)?;
     if a.time.json {
         return json(out, &f);
     }
-    writeln!(out, "frequency fit up to {} rad/s ({} bins), started from the time-domain fit:", f.band_rad_s, f.bins).map_err(io)?;
+    writeln!(
+        out,
+        "frequency fit up to {} rad/s ({} bins), started from the time-domain fit:",
+        f.band_rad_s, f.bins
+    )
+    .map_err(io)?;
     for m in &f.matrices {
         print_matrix(out, m)?;
     }
-    writeln!(out, "R² of the force spectra (Table 4.4): X {:.4}, Y {:.4}", f.r2_spectrum[0], f.r2_spectrum[1]).map_err(io)?;
+    writeln!(
+        out,
+        "R² of the force spectra (Table 4.4): X {:.4}, Y {:.4}",
+        f.r2_spectrum[0], f.r2_spectrum[1]
+    )
+    .map_err(io)?;
     writeln!(out, "these parameters in the time domain, held-out 20 %: R² X {:.4}, Y {:.4} (time fit: {:.4}, {:.4})", f.test[0].r2, f.test[1].r2, t.test[0].r2, t.test[1].r2).map_err(io)?;
     Ok(())
 }
@@ -151,7 +205,10 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
     for path in &a.logs {
         let (trial, _) = read_trial(path)?;
         if trial.force_ref_n.is_none() {
-            return Err(format!("{}: a step log needs the force reference columns fx_ref_n, fy_ref_n", path.display()));
+            return Err(format!(
+                "{}: a step log needs the force reference columns fx_ref_n, fy_ref_n",
+                path.display()
+            ));
         }
         let p = trial.prepare(&model, FilterSettings::default())?;
         let steps = step::analyse_steps(&p, a.threshold_n);
@@ -178,7 +235,13 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
             fitted.push(f);
         }
         poses.extend(avg.iter().cloned());
-        logs.push(StepLogJson { log: path.display().to_string(), steps, pose_averages: avg, fitted, transfer_functions: tfs });
+        logs.push(StepLogJson {
+            log: path.display().to_string(),
+            steps,
+            pose_averages: avg,
+            fitted,
+            transfer_functions: tfs,
+        });
     }
     let plane = step::fit_gain_plane(&poses);
     let j = StepJson {
@@ -217,7 +280,8 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
                 p.alpha_rad[1].to_degrees(),
                 p.gain,
                 p.zeta.map_or("-".into(), |v| format!("{v:.3}")),
-                p.omega_n_rad_s.map_or("-".into(), |v| format!("{v:.2} rad/s")),
+                p.omega_n_rad_s
+                    .map_or("-".into(), |v| format!("{v:.2} rad/s")),
                 p.steps
             )
             .map_err(io)?;
@@ -229,7 +293,15 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
     match (&j.gain_plane, &j.gain_plane_error) {
         (Some(g), _) => {
             for a in 0..2 {
-                writeln!(out, "gain plane {}: G = {:.4}·α1 + {:.4}·α2 + {:.4} (α in rad)", ["X", "Y"][a], g[a][0], g[a][1], g[a][2]).map_err(io)?;
+                writeln!(
+                    out,
+                    "gain plane {}: G = {:.4}·α1 + {:.4}·α2 + {:.4} (α in rad)",
+                    ["X", "Y"][a],
+                    g[a][0],
+                    g[a][1],
+                    g[a][2]
+                )
+                .map_err(io)?;
             }
         }
         (None, Some(e)) => writeln!(out, "gain plane: not fitted ({e})").map_err(io)?,

@@ -40,7 +40,11 @@ pub fn read_trial(path: &Path) -> Result<(Trial, pam_log::Log), String> {
     Ok((trial, log))
 }
 
-pub fn experiment_of(arg: &Option<String>, log: &pam_log::Log, trial: &Trial) -> Result<Experiment, String> {
+pub fn experiment_of(
+    arg: &Option<String>,
+    log: &pam_log::Log,
+    trial: &Trial,
+) -> Result<Experiment, String> {
     if let Some(e) = arg {
         return e.parse();
     }
@@ -51,15 +55,25 @@ pub fn experiment_of(arg: &Option<String>, log: &pam_log::Log, trial: &Trial) ->
             _ => {}
         }
     }
-    let steps = trial
-        .force_ref_n
-        .as_ref()
-        .is_some_and(|r| r.iter().any(|c| c.windows(2).any(|w| (w[1] - w[0]).abs() > 1e-9)));
-    Ok(if steps { Experiment::Step } else { Experiment::Dynamic })
+    let steps = trial.force_ref_n.as_ref().is_some_and(|r| {
+        r.iter()
+            .any(|c| c.windows(2).any(|w| (w[1] - w[0]).abs() > 1e-9))
+    });
+    Ok(if steps {
+        Experiment::Step
+    } else {
+        Experiment::Dynamic
+    })
 }
 
 fn settings(a: &LoopArgs) -> Settings {
-    Settings { filter: FilterSettings { order: a.order, cutoff_hz: a.cutoff_hz }, ..Settings::default() }
+    Settings {
+        filter: FilterSettings {
+            order: a.order,
+            cutoff_hz: a.cutoff_hz,
+        },
+        ..Settings::default()
+    }
 }
 
 fn write_report(path: &Path, html: &str) -> Result<(), String> {
@@ -82,13 +96,26 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     let (d, fits) = diagnose::diagnose(&trial, &model, exp, settings(a))?;
     if let Some(path) = &a.report {
         let p = trial.prepare(&model, settings(a).filter)?;
-        write_report(path, &report::diagnosis_page(&d, &fits, &p.t_s, p.split, p.dt_s))?;
+        write_report(
+            path,
+            &report::diagnosis_page(&d, &fits, &p.t_s, p.split, p.dt_s),
+        )?;
     }
     if a.json {
         return json_out(out, &d);
     }
-    writeln!(out, "experiment: {}, {} samples every {:.4} s", d.experiment, d.samples, d.sample_period_s).map_err(io)?;
-    writeln!(out, "base model: held-out NRMSE fx {:.4}, fy {:.4} (R² {:.3}, {:.3})", d.base.nrmse.fx, d.base.nrmse.fy, d.base.r2.fx, d.base.r2.fy).map_err(io)?;
+    writeln!(
+        out,
+        "experiment: {}, {} samples every {:.4} s",
+        d.experiment, d.samples, d.sample_period_s
+    )
+    .map_err(io)?;
+    writeln!(
+        out,
+        "base model: held-out NRMSE fx {:.4}, fy {:.4} (R² {:.3}, {:.3})",
+        d.base.nrmse.fx, d.base.nrmse.fy, d.base.r2.fx, d.base.r2.fy
+    )
+    .map_err(io)?;
     writeln!(out, "verdict: {}", d.verdict).map_err(io)?;
     for e in &d.effects {
         writeln!(
@@ -99,12 +126,20 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
             e.nrmse.fy,
             100.0 * e.improvement,
             e.score,
-            if e.accepted { "  <- worth its parameters" } else { "" }
+            if e.accepted {
+                "  <- worth its parameters"
+            } else {
+                ""
+            }
         )
         .map_err(io)?;
         if e.accepted {
             writeln!(out, "      {}", e.evidence).map_err(io)?;
-            let ps: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v:.4}")).collect();
+            let ps: Vec<String> = e
+                .params
+                .iter()
+                .map(|(k, v)| format!("{k} = {v:.4}"))
+                .collect();
             writeln!(out, "      fitted: {}", ps.join(", ")).map_err(io)?;
         }
     }
@@ -114,7 +149,17 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     if d.steps.len() > 1 {
         writeln!(out, "step by step:").map_err(io)?;
         for s in &d.steps {
-            writeln!(out, "  base{:<40} NRMSE fx {:.4}, fy {:.4}", s.effects.iter().map(|e| format!(" + {e}")).collect::<String>(), s.nrmse.fx, s.nrmse.fy).map_err(io)?;
+            writeln!(
+                out,
+                "  base{:<40} NRMSE fx {:.4}, fy {:.4}",
+                s.effects
+                    .iter()
+                    .map(|e| format!(" + {e}"))
+                    .collect::<String>(),
+                s.nrmse.fx,
+                s.nrmse.fy
+            )
+            .map_err(io)?;
         }
     }
     for w in &d.warnings {
@@ -133,27 +178,59 @@ pub fn compare(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     let fit = lp.fit(&with);
     let c = diagnose::compare(&lp, &fit);
     if let Some(path) = &a.report {
-        write_report(path, &report::comparison_page(&c, &fit, &lp.p.t_s, lp.p.split, lp.p.dt_s))?;
+        write_report(
+            path,
+            &report::comparison_page(&c, &fit, &lp.p.t_s, lp.p.split, lp.p.dt_s),
+        )?;
     }
     if a.json {
         return json_out(out, &c);
     }
-    writeln!(out, "model: base{} ({} experiment)", c.effects.iter().map(|e| format!(" + {e}")).collect::<String>(), c.experiment).map_err(io)?;
-    writeln!(out, "held-out NRMSE fx {:.4}, fy {:.4}; R² fx {:.3}, fy {:.3}", c.nrmse.fx, c.nrmse.fy, c.r2.fx, c.r2.fy).map_err(io)?;
+    writeln!(
+        out,
+        "model: base{} ({} experiment)",
+        c.effects
+            .iter()
+            .map(|e| format!(" + {e}"))
+            .collect::<String>(),
+        c.experiment
+    )
+    .map_err(io)?;
+    writeln!(
+        out,
+        "held-out NRMSE fx {:.4}, fy {:.4}; R² fx {:.3}, fy {:.3}",
+        c.nrmse.fx, c.nrmse.fy, c.r2.fx, c.r2.fy
+    )
+    .map_err(io)?;
     if let Some(s) = &c.frequency_split {
         writeln!(out, "MSE low / high motion frequency (boundary {:.1} rad/s): X {:.3} / {:.3}, Y {:.3} / {:.3} N²", s.boundary_rad_s, s.mse_low[0], s.mse_high[0], s.mse_low[1], s.mse_high[1]).map_err(io)?;
     }
     writeln!(out, "worst windows:").map_err(io)?;
     for w in &c.worst_windows {
-        writeln!(out, "  {:8.2}–{:8.2} s  RMS fx {:.3}, fy {:.3} N", w.t_start_s, w.t_end_s, w.rms_n.fx, w.rms_n.fy).map_err(io)?;
+        writeln!(
+            out,
+            "  {:8.2}–{:8.2} s  RMS fx {:.3}, fy {:.3} N",
+            w.t_start_s, w.t_end_s, w.rms_n.fx, w.rms_n.fy
+        )
+        .map_err(io)?;
     }
     writeln!(out, "error by speed:").map_err(io)?;
     for b in &c.error_by_speed {
-        writeln!(out, "  {:<24} RMS fx {:.3}, fy {:.3} N ({} samples)", b.label, b.rms_n.fx, b.rms_n.fy, b.samples).map_err(io)?;
+        writeln!(
+            out,
+            "  {:<24} RMS fx {:.3}, fy {:.3} N ({} samples)",
+            b.label, b.rms_n.fx, b.rms_n.fy, b.samples
+        )
+        .map_err(io)?;
     }
     writeln!(out, "error over the workspace:").map_err(io)?;
     for b in &c.error_by_position {
-        writeln!(out, "  {:<28} RMS fx {:.3}, fy {:.3} N ({} samples)", b.label, b.rms_n.fx, b.rms_n.fy, b.samples).map_err(io)?;
+        writeln!(
+            out,
+            "  {:<28} RMS fx {:.3}, fy {:.3} N ({} samples)",
+            b.label, b.rms_n.fx, b.rms_n.fy, b.samples
+        )
+        .map_err(io)?;
     }
     for pk in &c.residual_peaks {
         writeln!(out, "residual line: {}", pk.detail).map_err(io)?;
@@ -188,14 +265,21 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     }
     for e in &with {
         if !e.applies(exp) {
-            return Err(format!("effect `{}` cannot be seen in a {} experiment", e.id(), exp.name()));
+            return Err(format!(
+                "effect `{}` cannot be seen in a {} experiment",
+                e.id(),
+                exp.name()
+            ));
         }
     }
     let lp = Loop::new(&trial, &model, exp, settings(a))?;
     let before = lp.fit(&[]);
     let after = lp.fit(&with);
     if let Some(path) = &a.report {
-        write_report(path, &report::fit_page(&before, &after, &lp.p.t_s, lp.p.split, lp.p.dt_s))?;
+        write_report(
+            path,
+            &report::fit_page(&before, &after, &lp.p.t_s, lp.p.split, lp.p.dt_s),
+        )?;
     }
     let j = FitJson {
         experiment: exp.name().into(),
@@ -207,8 +291,20 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     if a.json {
         return json_out(out, &j);
     }
-    writeln!(out, "held-out NRMSE before: fx {:.4}, fy {:.4}", before.nrmse[0], before.nrmse[1]).map_err(io)?;
-    writeln!(out, "held-out NRMSE after:  fx {:.4}, fy {:.4}  (base + {})", after.nrmse[0], after.nrmse[1], after.effect_ids.join(" + ")).map_err(io)?;
+    writeln!(
+        out,
+        "held-out NRMSE before: fx {:.4}, fy {:.4}",
+        before.nrmse[0], before.nrmse[1]
+    )
+    .map_err(io)?;
+    writeln!(
+        out,
+        "held-out NRMSE after:  fx {:.4}, fy {:.4}  (base + {})",
+        after.nrmse[0],
+        after.nrmse[1],
+        after.effect_ids.join(" + ")
+    )
+    .map_err(io)?;
     for (id, m) in &after.params {
         let ps: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {v:.4}")).collect();
         writeln!(out, "{id}: {}", ps.join(", ")).map_err(io)?;

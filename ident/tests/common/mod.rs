@@ -73,7 +73,10 @@ pub const B: [[f64; 2]; 2] = [[20.0, 4.0], [4.0, 15.0]];
 pub const M: [[f64; 2]; 2] = [[1.5, 0.2], [0.2, 1.2]];
 
 fn mv(m: &[[f64; 2]; 2], v: [f64; 2]) -> [f64; 2] {
-    [m[0][0] * v[0] + m[0][1] * v[1], m[1][0] * v[0] + m[1][1] * v[1]]
+    [
+        m[0][0] * v[0] + m[0][1] * v[1],
+        m[1][0] * v[0] + m[1][1] * v[1],
+    ]
 }
 
 /// Dynamic trial. The operator's motion is a sum of sines whose frequencies and phases
@@ -87,10 +90,18 @@ pub fn dynamic(c: &DynConfig) -> Trial {
         .map(|k| {
             let f = 0.15 + 2.2 * rng.uniform() * (1.0 + k as f64) / 3.0;
             let amp = [rng.uniform() - 0.3, rng.uniform() - 0.3];
-            (amp, 2.0 * PI * f, [2.0 * PI * rng.uniform(), 2.0 * PI * rng.uniform()])
+            (
+                amp,
+                2.0 * PI * f,
+                [2.0 * PI * rng.uniform(), 2.0 * PI * rng.uniform()],
+            )
         })
         .collect();
-    let norm: f64 = comps.iter().map(|c| c.0[0].abs() + c.0[1].abs()).sum::<f64>() / 2.0;
+    let norm: f64 = comps
+        .iter()
+        .map(|c| c.0[0].abs() + c.0[1].abs())
+        .sum::<f64>()
+        / 2.0;
     let scale = c.motion_m / norm.max(1e-9);
     let a0 = [c.alpha0_deg[0].to_radians(), c.alpha0_deg[1].to_radians()];
     let x0 = kin.forward_user(a0);
@@ -107,7 +118,11 @@ pub fn dynamic(c: &DynConfig) -> Trial {
         let ramp_t = 3.0;
         let (r, rd, rdd) = if t < ramp_t {
             let s = t / ramp_t;
-            (s * s * (3.0 - 2.0 * s), 6.0 * s * (1.0 - s) / ramp_t, (6.0 - 12.0 * s) / (ramp_t * ramp_t))
+            (
+                s * s * (3.0 - 2.0 * s),
+                6.0 * s * (1.0 - s) / ramp_t,
+                (6.0 - 12.0 * s) / (ramp_t * ramp_t),
+            )
         } else {
             (1.0, 0.0, 0.0)
         };
@@ -137,7 +152,10 @@ pub fn dynamic(c: &DynConfig) -> Trial {
         let jit = jt.inverse().expect("regular").0;
         let torque_to_hand = |tau: [f64; 2]| -> [f64; 2] {
             // a disturbance torque on the joints is balanced by the hand: −J⁻ᵀ Δτ
-            [-(jit[0][0] * tau[0] + jit[0][1] * tau[1]), -(jit[1][0] * tau[0] + jit[1][1] * tau[1])]
+            [
+                -(jit[0][0] * tau[0] + jit[0][1] * tau[1]),
+                -(jit[1][0] * tau[0] + jit[1][1] * tau[1]),
+            ]
         };
         let mut sensor_offset = [0.0; 2];
         match c.hidden {
@@ -173,7 +191,8 @@ pub fn dynamic(c: &DynConfig) -> Trial {
                 let mut tau = [0.0; 2];
                 for j in 0..2 {
                     let jp = &model.params.joints[j];
-                    let de = jp.pulley_radius_m / jp.muscle_rest_length_m * (alpha[j] - prev_alpha[j]);
+                    let de =
+                        jp.pulley_radius_m / jp.muscle_rest_length_m * (alpha[j] - prev_alpha[j]);
                     let s = if de > 0.0 { 1.0 } else { -1.0 };
                     z[j] = (z[j] + de / width * (1.0 - z[j] * s)).clamp(-1.0, 1.0);
                     // 150 N in each cable at the pretension
@@ -192,14 +211,23 @@ pub fn dynamic(c: &DynConfig) -> Trial {
                 h[0] += s * km[0];
                 h[1] += s * km[1];
             }
-            Hidden::Drift { offset_n, drift_n_per_s } => {
-                sensor_offset = [offset_n + drift_n_per_s * t, -0.5 * offset_n + 0.7 * drift_n_per_s * t];
+            Hidden::Drift {
+                offset_n,
+                drift_n_per_s,
+            } => {
+                sensor_offset = [
+                    offset_n + drift_n_per_s * t,
+                    -0.5 * offset_n + 0.7 * drift_n_per_s * t,
+                ];
             }
             Hidden::Delay { delay_s } => {
                 let k = i.saturating_sub((delay_s / c.dt_s).round() as usize);
                 h = hist[k];
             }
-            Hidden::Hum { amplitude_n, freq_hz } => {
+            Hidden::Hum {
+                amplitude_n,
+                freq_hz,
+            } => {
                 let s = amplitude_n * (2.0 * PI * freq_hz * t + 0.3).sin();
                 sensor_offset = [s, s];
             }
@@ -281,8 +309,14 @@ pub fn step(c: &StepConfig) -> Trial {
         // the sample shows the state at t, before this interval's integration
         let mut off = [0.0; 2];
         match c.hidden {
-            Hidden::Drift { offset_n, drift_n_per_s } => off = [offset_n + drift_n_per_s * t, offset_n - drift_n_per_s * t],
-            Hidden::Hum { amplitude_n, freq_hz } => {
+            Hidden::Drift {
+                offset_n,
+                drift_n_per_s,
+            } => off = [offset_n + drift_n_per_s * t, offset_n - drift_n_per_s * t],
+            Hidden::Hum {
+                amplitude_n,
+                freq_hz,
+            } => {
                 let s = amplitude_n * (2.0 * PI * freq_hz * t + 0.3).sin();
                 off = [s, s];
             }
@@ -296,7 +330,9 @@ pub fn step(c: &StepConfig) -> Trial {
             fref[ax].push(refs[ax]);
         }
         let u = match c.hidden {
-            Hidden::Delay { delay_s } => hist[i.saturating_sub((delay_s / c.dt_s).round() as usize)],
+            Hidden::Delay { delay_s } => {
+                hist[i.saturating_sub((delay_s / c.dt_s).round() as usize)]
+            }
             _ => refs,
         };
         for _ in 0..sub {
@@ -308,11 +344,15 @@ pub fn step(c: &StepConfig) -> Trial {
                     _ => {}
                 }
                 if let Hidden::SlewLimit { rate_n_per_s } = c.hidden {
-                    driven[ax] = target.clamp(driven[ax] - 1.3 * rate_n_per_s * h, driven[ax] + rate_n_per_s * h);
+                    driven[ax] = target.clamp(
+                        driven[ax] - 1.3 * rate_n_per_s * h,
+                        driven[ax] + rate_n_per_s * h,
+                    );
                 } else {
                     driven[ax] = target;
                 }
-                let acc = c.omega_n * c.omega_n * (driven[ax] - y[ax]) - 2.0 * c.zeta * c.omega_n * yd[ax];
+                let acc = c.omega_n * c.omega_n * (driven[ax] - y[ax])
+                    - 2.0 * c.zeta * c.omega_n * yd[ax];
                 yd[ax] += acc * h;
                 y[ax] += yd[ax] * h;
             }
