@@ -289,8 +289,10 @@ impl Rig {
         self.ctl.set_mode(mode).map_err(|e| err(format!("controller refused mode {mode:?}: {e:?}")))
     }
 
-    /// One period. `record` adds a log row.
-    fn period(&mut self, handle: &HandleCondition, force_ref: Option<Vec2<f64>>, hand_ref: Option<Vec2<f64>>, record: bool) -> Result<(), ExperimentError> {
+    /// One period. `handle_at(offset_s)` says what holds the handle at `offset_s` into the
+    /// period: the hand is updated every millisecond even when the loop runs at 50 ms (a real
+    /// hand moves continuously). `record` adds a log row.
+    fn period(&mut self, handle_at: impl Fn(f64) -> HandleCondition, force_ref: Option<Vec2<f64>>, hand_ref: Option<Vec2<f64>>, record: bool) -> Result<(), ExperimentError> {
         let m = self.last;
         let sensors = Sensors {
             alpha_rad: [m.alpha_rad[0] as f32, m.alpha_rad[1] as f32],
@@ -327,7 +329,11 @@ impl Rig {
             self.log.push_row(&row);
             self.seq += 1;
         }
-        self.last = self.twin.step(self.period_s, currents, handle);
+        let sub = (self.period_s / 0.001).round().max(1.0) as usize;
+        let h = self.period_s / sub as f64;
+        for k in 0..sub {
+            self.last = self.twin.step(h, currents, &handle_at(k as f64 * h));
+        }
         Ok(())
     }
 
@@ -375,14 +381,17 @@ pub fn dynamic_trial(cfg: &ExperimentConfig, point: usize, level: StiffnessLevel
     rig.arm(Mode::Joint { alpha_rad: [alpha[0] as f32, alpha[1] as f32], torque_nm: [0.0; 2], stiffness_nm_per_rad: [k[0] as f32, k[1] as f32] })?;
     let hold = HandleCondition::held_at(centre);
     for _ in 0..rig.periods(cfg.settle_s) {
-        rig.period(&hold, None, None, false)?;
+        rig.period(|_| hold, None, None, false)?;
     }
     let path = OperatorPath::new(centre, cfg.path_amplitude_m, cfg.path_band_hz, duration_s, cfg.twin.seed);
     let n = rig.periods(duration_s);
     for i in 0..n {
         let t = i as f64 * cfg.period_s;
-        let (p, v) = path.at(t);
-        rig.period(&HandleCondition::moved(p, v), None, Some(p), true)?;
+        let hand = |off: f64| {
+            let (p, v) = path.at(t + off);
+            HandleCondition::moved(p, v)
+        };
+        rig.period(hand, None, Some(path.at(t).0), true)?;
     }
     Ok(rig.finish(
         cfg,
@@ -409,7 +418,7 @@ pub fn static_trial(cfg: &ExperimentConfig, point: usize, level: StiffnessLevel)
     rig.arm(Mode::Joint { alpha_rad: [alpha[0] as f32, alpha[1] as f32], torque_nm: [0.0; 2], stiffness_nm_per_rad: [k[0] as f32, k[1] as f32] })?;
     let hold = HandleCondition::held_at(centre);
     for _ in 0..rig.periods(cfg.settle_s) {
-        rig.period(&hold, None, None, false)?;
+        rig.period(|_| hold, None, None, false)?;
     }
     let points = static_points(centre, 0.04);
     let (move_s, hold_s) = (1.5, 5.0);
@@ -417,16 +426,27 @@ pub fn static_trial(cfg: &ExperimentConfig, point: usize, level: StiffnessLevel)
     for &to in &points {
         // minimum-jerk-like cosine move
         let n_move = rig.periods(move_s);
-        for i in 0..n_move {
-            let s = i as f64 / n_move as f64;
+        let along = |t: f64| {
+            let s = (t / move_s).clamp(0.0, 1.0);
             let w = 0.5 - 0.5 * (std::f64::consts::PI * s).cos();
-            let dw = 0.5 * std::f64::consts::PI * (std::f64::consts::PI * s).sin() / move_s;
+            let dw = if t < move_s { 0.5 * std::f64::consts::PI * (std::f64::consts::PI * s).sin() / move_s } else { 0.0 };
             let p = [from[0] + w * (to[0] - from[0]), from[1] + w * (to[1] - from[1])];
-            let v = [dw * (to[0] - from[0]), dw * (to[1] - from[1])];
-            rig.period(&HandleCondition::moved(p, v), None, Some(p), true)?;
+            (p, [dw * (to[0] - from[0]), dw * (to[1] - from[1])])
+        };
+        for i in 0..n_move {
+            let t = i as f64 * cfg.period_s;
+            rig.period(
+                |off| {
+                    let (p, v) = along(t + off);
+                    HandleCondition::moved(p, v)
+                },
+                None,
+                Some(along(t).0),
+                true,
+            )?;
         }
         for _ in 0..rig.periods(hold_s) {
-            rig.period(&HandleCondition::held_at(to), None, Some(to), true)?;
+            rig.period(|_| HandleCondition::held_at(to), None, Some(to), true)?;
         }
         from = to;
     }
@@ -447,7 +467,7 @@ pub fn step_levels() -> Vec<f64> {
     for k in (-3..=2).rev() {
         v.push(k as f64 * STEP_N);
     }
-    for k in (-2..=0).rev() {
+    for k in -2..=0 {
         v.push(k as f64 * STEP_N);
     }
     v
@@ -471,7 +491,7 @@ pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log
     rig.arm(Mode::Force { force_n: [0.0; 2], stiffness_nm_per_rad: stiffness, feed_forward: ff })?;
     let blocked = HandleCondition::Blocked;
     for _ in 0..rig.periods(cfg.settle_s) {
-        rig.period(&blocked, Some([0.0; 2]), None, false)?;
+        rig.period(|_| blocked, Some([0.0; 2]), None, false)?;
     }
     for axis in 0..2 {
         for level in step_levels() {
@@ -479,7 +499,7 @@ pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log
             f[axis] = level;
             rig.set_mode(Mode::Force { force_n: [f[0] as f32, f[1] as f32], stiffness_nm_per_rad: stiffness, feed_forward: ff })?;
             for _ in 0..rig.periods(cfg.step_hold_s) {
-                rig.period(&blocked, Some(f), None, true)?;
+                rig.period(|_| blocked, Some(f), None, true)?;
             }
         }
     }

@@ -276,8 +276,20 @@ impl Twin {
         let dt = if dt_s.is_finite() && dt_s > 0.0 { dt_s } else { 0.0 };
         let n = (dt / self.cfg.max_substep_s.max(1e-6)).ceil().max(1.0) as usize;
         let h = dt / n as f64;
-        for _ in 0..n {
-            self.substep(h, &currents_ma, handle);
+        for k in 0..n {
+            // a moving hand's target advances with its velocity inside the step, so a long
+            // loop period does not turn the operator's path into a staircase
+            let elapsed = k as f64 * h;
+            let advance = |s: &HandSpring| HandSpring {
+                target_user_m: [s.target_user_m[0] + s.target_velocity_user_m_s[0] * elapsed, s.target_user_m[1] + s.target_velocity_user_m_s[1] * elapsed],
+                ..*s
+            };
+            let here = match handle {
+                HandleCondition::Hand(s) => HandleCondition::Hand(advance(s)),
+                HandleCondition::Joint1Locked(Some(s)) => HandleCondition::Joint1Locked(Some(advance(s))),
+                other => *other,
+            };
+            self.substep(h, &currents_ma, &here);
         }
         self.sample()
     }
