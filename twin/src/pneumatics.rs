@@ -80,7 +80,12 @@ impl MuscleVolume {
         let cos_lock = (1.0f64 / 3.0).sqrt();
         let cos_theta0 = (cos_lock / (1.0 - cfg.max_contraction)).min(0.999);
         let cos2 = cos_theta0 * cos_theta0;
-        MuscleVolume { v0_m3: v0, cos2_theta0: cos2, sin2_theta0: 1.0 - cos2, dead_m3: cfg.dead_volume_m3 }
+        MuscleVolume {
+            v0_m3: v0,
+            cos2_theta0: cos2,
+            sin2_theta0: 1.0 - cos2,
+            dead_m3: cfg.dead_volume_m3,
+        }
     }
 
     /// (V, dV/dε) at contraction ratio ε.
