@@ -37,7 +37,7 @@ impl Effect for CarrierBallFriction {
         "carrier_ball_friction"
     }
     fn summary(&self) -> &'static str {
-        "Dry (Coulomb, smoothed) plus viscous friction of the carrier ball on the table, acting on the handle against its velocity; seen by the load cell."
+        "Dry (Coulomb, smoothed) plus viscous friction of the carrier ball on the table, acting at the handle against its velocity; on the arm side of the load cell by default, so the load cell sees the hand push through it."
     }
     effect_params! {
         coulomb_n, "N", "Coulomb friction force";
