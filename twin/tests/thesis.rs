@@ -412,3 +412,30 @@ fn experiments_refuse_bad_requests_clearly() {
         .message
         .contains("period"));
 }
+
+/// The operator path: the requested peak amplitude, starts and ends at the centre at rest,
+/// velocity is the derivative of position, and it differs between seeds.
+#[test]
+fn operator_path_has_the_requested_shape() {
+    let path = OperatorPath::new([0.01, -0.02], 0.04, (0.1, 2.0), 90.0, 9);
+    let (mut peak, mut worst_dv) = ([0.0f64; 2], 0.0f64);
+    let h = 1e-4;
+    for i in 0..90_000 {
+        let t = i as f64 * 0.001;
+        let (p, v) = path.at(t);
+        let (p2, _) = path.at(t + h);
+        for a in 0..2 {
+            peak[a] = peak[a].max((p[a] - [0.01, -0.02][a]).abs());
+            worst_dv = worst_dv.max(((p2[a] - p[a]) / h - v[a]).abs());
+        }
+    }
+    assert!(peak.iter().all(|&x| (x - 0.04).abs() < 0.002), "{peak:?}");
+    assert!(worst_dv < 1e-3, "{worst_dv}");
+    assert_eq!(path.at(0.0), ([0.01, -0.02], [0.0, 0.0]));
+    let (end, v_end) = path.at(90.0);
+    assert!((end[0] - 0.01).abs() < 1e-12 && v_end == [0.0; 2]);
+    assert_ne!(
+        OperatorPath::new([0.0; 2], 0.04, (0.1, 2.0), 90.0, 10).at(30.0),
+        OperatorPath::new([0.0; 2], 0.04, (0.1, 2.0), 90.0, 9).at(30.0)
+    );
+}
