@@ -194,13 +194,18 @@ impl CurrentLoopOutputs {
     /// channel, whether the loop has been reported open for the debounce time.
     pub fn poll_open_loop(&mut self) -> [bool; CHANNELS] {
         let mut open = [false; CHANNELS];
-        for c in 0..CHANNELS {
-            self.error_periods[c] = if self.error_flags[c].is_low() {
-                self.error_periods[c].saturating_add(1)
+        for ((flag, periods), open) in self
+            .error_flags
+            .iter()
+            .zip(self.error_periods.iter_mut())
+            .zip(open.iter_mut())
+        {
+            *periods = if flag.is_low() {
+                periods.saturating_add(1)
             } else {
                 0
             };
-            open[c] = self.error_periods[c] >= board::OUTPUT_ERROR_DEBOUNCE_PERIODS;
+            *open = *periods >= board::OUTPUT_ERROR_DEBOUNCE_PERIODS;
         }
         open
     }
