@@ -84,7 +84,6 @@ pub const CONTROL_IRQ: embassy_stm32::interrupt::Interrupt = embassy_stm32::inte
 /// highest; embassy's drivers leave theirs at the reset value, so the ones we use are
 /// lowered in `main`).
 pub const CONTROL_PRIORITY: Priority = Priority::P2;
-#[allow(dead_code)] // for the USB link task (protocol crate)
 /// Priority of the peripheral interrupts the low-priority tasks use (USB).
 pub const LINK_PRIORITY: Priority = Priority::P6;
 
@@ -93,12 +92,8 @@ pub const LINK_PRIORITY: Priority = Priority::P6;
 pub const WATCHDOG_TIMEOUT_US: u32 = 50_000;
 
 // ---------------------------------------------------------------------------------------
-// Encoders
+// Encoders (counts per revolution and direction are rig calibration: `pam-device`)
 
-/// Counts per joint revolution after ×4 quadrature decoding. ASSUMPTION: the thesis does not
-/// give its encoders' resolution; 2048 lines (8192 counts, 0.77 mrad) is a common industrial
-/// value. Change it here to the encoder fitted.
-pub const ENCODER_COUNTS_PER_REV: u32 = 8192;
 /// Encoder outputs are often open collector: the internal pull-ups (≈40 kΩ) do no harm to
 /// push-pull outputs either.
 pub const ENCODER_PULL: Pull = Pull::Up;
@@ -156,6 +151,16 @@ pub type Encoder2Timer = TIM5;
 pub type OutputTimer = TIM3;
 pub type LoadCellAdcMaster = ADC1;
 pub type LoadCellAdcSlave = ADC2;
+pub type UsbPeripheral = USB;
+
+embassy_stm32::bind_interrupts!(
+    /// The USB peripheral's interrupt (low priority: `LINK_PRIORITY`).
+    pub struct UsbIrqs {
+        USB_LP => embassy_stm32::usb::InterruptHandler<USB>;
+    }
+);
+/// The vector bound above, for setting its priority.
+pub const USB_IRQ: embassy_stm32::interrupt::Interrupt = embassy_stm32::interrupt::USB_LP;
 
 /// Quadrature encoder of joint 1.
 pub struct Encoder1 {
@@ -193,8 +198,7 @@ pub struct CurrentOutputs {
     pub error_flag4: Peri<'static, PB15>,
 }
 
-/// USB full-speed device (host link; its task comes with the protocol crate).
-#[allow(dead_code)]
+/// USB full-speed device (host link).
 pub struct Usb {
     pub usb: Peri<'static, USB>,
     pub dp: Peri<'static, PA12>,
@@ -208,7 +212,6 @@ pub struct Board {
     pub encoder2: Encoder2,
     pub load_cell: LoadCell,
     pub outputs: CurrentOutputs,
-    #[allow(dead_code)]
     pub usb: Usb,
     pub watchdog: Peri<'static, IWDG>,
 }

@@ -2,8 +2,10 @@
 //! filter and an XTR111 voltage-to-current converter (circuit, part values, ripple and
 //! settling in `docs/output-stage.md`).
 //!
-//! * Per-channel calibration: duty = `duty_per_ma` × I + `duty_offset` (fractions of the
-//!   PWM period), measured on the rig with a meter in the loop.
+//! * Per-channel law: duty = `duty_per_ma` × I + `duty_offset` (fractions of the PWM
+//!   period), given at construction (the circuit's nominal law from `board`). The rig's
+//!   measured per-channel trim is `pam_protocol::OutputCalibration`, set by the host and
+//!   applied by `pam-device` before the current reaches this driver: one place for it.
 //! * Every request is clamped to 4–20 mA (NaN → 4 mA) before it reaches the timer.
 //! * Open-loop detection: each XTR111 pulls its EF pin low when it cannot drive the loop
 //!   (broken wire, I/P converter unplugged, no compliance). A flag low for
@@ -42,8 +44,6 @@ pub struct ChannelCalibration {
     pub duty_offset: f32,
 }
 
-// Set and read over the link once the protocol crate lands (configuration get/set).
-#[allow(dead_code)]
 impl ChannelCalibration {
     /// The stage's nominal law (`board::OUTPUT_FULL_SCALE_MA` at 100 % duty).
     pub const fn nominal() -> Self {
@@ -70,11 +70,6 @@ impl ChannelCalibration {
     }
 }
 
-#[allow(dead_code)]
-/// The calibration was refused (see [`ChannelCalibration::is_valid`]); nothing changed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
-pub struct InvalidCalibration;
-
 /// What one write put on the loops.
 #[derive(Clone, Copy, Debug, PartialEq, defmt::Format)]
 pub struct AppliedCurrents {
@@ -95,8 +90,9 @@ pub struct CurrentLoopOutputs {
 }
 
 impl CurrentLoopOutputs {
-    /// Starts the timer with every channel at 4 mA, then enables the outputs.
-    pub fn new(o: board::CurrentOutputs) -> Self {
+    /// Starts the timer with every channel at 4 mA, then enables the outputs. A channel
+    /// whose law is invalid (see [`ChannelCalibration::is_valid`]) gets the nominal one.
+    pub fn new(o: board::CurrentOutputs, calibration: [ChannelCalibration; CHANNELS]) -> Self {
         let pwm = SimplePwm::new(
             o.timer,
             Some(PwmPin::new(o.ch1, OutputType::PushPull)),
@@ -116,7 +112,13 @@ impl CurrentLoopOutputs {
                 Input::new(o.error_flag4, pull),
             ],
             error_periods: [0; CHANNELS],
-            calibration: [ChannelCalibration::nominal(); CHANNELS],
+            calibration: calibration.map(|c| {
+                if c.is_valid() {
+                    c
+                } else {
+                    ChannelCalibration::nominal()
+                }
+            }),
             full_duty_counts,
             pwm,
         };
@@ -168,26 +170,6 @@ impl CurrentLoopOutputs {
             current_ma: applied,
             clamped,
         }
-    }
-
-    /// Replaces one channel's law; refused (nothing changes) if invalid.
-    #[allow(dead_code)] // configuration set over the link (protocol crate)
-    pub fn set_calibration(
-        &mut self,
-        channel: usize,
-        calibration: ChannelCalibration,
-    ) -> Result<(), InvalidCalibration> {
-        if channel >= CHANNELS || !calibration.is_valid() {
-            return Err(InvalidCalibration);
-        }
-        self.calibration[channel] = calibration;
-        self.publish_safe_compares();
-        Ok(())
-    }
-
-    #[allow(dead_code)] // configuration get over the link (protocol crate)
-    pub fn calibration(&self) -> [ChannelCalibration; CHANNELS] {
-        self.calibration
     }
 
     /// Reads the error flags once (call once per control period) and returns, per

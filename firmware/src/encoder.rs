@@ -5,7 +5,7 @@
 //!
 //! Wrap safety: between two reads the hardware count may move by at most ±32767 counts
 //! (half the 16-bit range) for the difference to be unambiguous. Read every control period
-//! (≤ 10 ms), that allows 3.2 M counts/s, i.e. 400 rev/s at 8192 counts/rev: far beyond
+//! (≤ 10 ms), that allows 3.2 M counts/s, i.e. 400 rev/s at 8000 counts/rev: far beyond
 //! what a joint with hard stops at ±32.5° can do.
 
 use embassy_stm32::timer::qei::{Config, Qei, QeiMode};

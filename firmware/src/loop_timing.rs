@@ -80,17 +80,20 @@ impl CycleMeter {
         self.last_start = None;
     }
 
-    /// Call first thing after the wake-up.
-    pub fn cycle_start(&mut self) {
+    /// Call first thing after the wake-up; returns this wake-up's jitter (0 for the first
+    /// period after a start or a period change).
+    pub fn cycle_start(&mut self) -> u32 {
         let now = DWT::cycle_count();
+        let mut jitter = 0;
         if let Some(last) = self.last_start {
             let interval = now.wrapping_sub(last);
-            let jitter = interval.abs_diff(self.timing.period_cycles);
+            jitter = interval.abs_diff(self.timing.period_cycles);
             self.timing.jitter_last_cycles = jitter;
             self.timing.jitter_max_cycles = self.timing.jitter_max_cycles.max(jitter);
         }
         self.last_start = Some(now);
         self.start = now;
+        jitter
     }
 
     /// Call after the outputs are written; publishes the summary.

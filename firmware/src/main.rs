@@ -3,7 +3,11 @@
 //! Two executors, after embassy's `multiprio` example:
 //! * a high-priority interrupt executor (`board::CONTROL_IRQ`) runs the control loop
 //!   ([`control`]), so the link and logging can never delay it;
-//! * the thread-mode executor runs the low-priority work: heartbeat LED, telemetry.
+//! * the thread-mode executor runs the low-priority work: the USB link ([`link`]), the
+//!   heartbeat LED and a once-per-second status log.
+//!
+//! The hardware-independent work (sensor front end, controller, supervisor, request
+//! handling) is `pam_device::Device`; this crate only wires it to the peripherals.
 //!
 //! Boot order puts the outputs in the safe state first: until the timer is configured the
 //! hardware holds 0 mA (vent); the first driver set up is the output stage, at 4 mA (vent).
@@ -14,13 +18,15 @@
 
 mod board;
 mod control;
-mod convert;
 mod current_output;
 mod encoder;
+mod link;
 mod load_cell_adc;
 mod loop_timing;
 mod panic;
 mod watchdog;
+
+use core::sync::atomic::Ordering;
 
 use cortex_m_rt::entry;
 use defmt::{info, unwrap, warn};
@@ -29,29 +35,52 @@ use embassy_executor::{Executor, InterruptExecutor};
 use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::InterruptExt;
+use embassy_stm32::usb::Driver;
 use embassy_time::Timer;
-use pam_control::{Controller, Faults, SafetyConfig};
-use pam_model::RobotModel;
+use embassy_usb::class::cdc_acm::{CdcAcmClass, State};
+use pam_control::{Faults, SafetyConfig};
+use pam_device::{Device, DeviceOptions};
+use pam_model::RobotParams;
+use pam_protocol::Version;
 use static_cell::StaticCell;
 
 use crate::board::Board;
-use crate::control::{ControlHardware, CONTROLLER, TELEMETRY, TELEMETRY_DROPPED};
-use crate::convert::SensorConversion;
-use crate::current_output::CurrentLoopOutputs;
+use crate::control::{ControlHardware, FAULT_EVENTS_DROPPED, TELEMETRY_DROPPED};
+use crate::current_output::{ChannelCalibration, CurrentLoopOutputs, CHANNELS};
 use crate::encoder::QuadratureEncoder;
-use crate::load_cell_adc::LoadCellAdc;
 use crate::loop_timing::{CycleMeter, LoopTiming};
 use crate::watchdog::{LoopWatchdog, ResetCause};
-
-/// Log a telemetry summary every this many samples (1 s at 1 kHz).
-const LOG_EVERY_SAMPLES: u32 = 1000;
 
 static CONTROL_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
 static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
 
+/// Buffers of the USB stack (descriptors, control transfers, CDC-ACM state).
+static USB_CONFIG_DESCRIPTOR: StaticCell<[u8; 256]> = StaticCell::new();
+static USB_BOS_DESCRIPTOR: StaticCell<[u8; 256]> = StaticCell::new();
+static USB_CONTROL_BUF: StaticCell<[u8; 64]> = StaticCell::new();
+static USB_CDC_STATE: StaticCell<State> = StaticCell::new();
+
 #[interrupt]
 unsafe fn UART4() {
     unsafe { CONTROL_EXECUTOR.on_interrupt() }
+}
+
+/// The crate version, for the protocol's handshake.
+const FIRMWARE_VERSION: Version = Version {
+    major: parse_u16(env!("CARGO_PKG_VERSION_MAJOR")),
+    minor: parse_u16(env!("CARGO_PKG_VERSION_MINOR")),
+    patch: parse_u16(env!("CARGO_PKG_VERSION_PATCH")),
+};
+
+const fn parse_u16(digits: &str) -> u16 {
+    let bytes = digits.as_bytes();
+    let mut value: u16 = 0;
+    let mut i = 0;
+    while i < bytes.len() {
+        value = value * 10 + (bytes[i] - b'0') as u16;
+        i += 1;
+    }
+    value
 }
 
 /// Low-priority heartbeat on LD2: 1 Hz blink while the thread-mode executor is alive.
@@ -63,33 +92,24 @@ async fn heartbeat(mut led: Output<'static>) {
     }
 }
 
-/// Drains the telemetry channel and logs a summary once per second over defmt. The USB
-/// link task replaces it as the channel's consumer when the protocol crate lands.
+/// Once per second: loop timing (the shared summary) and drop counters over defmt.
 #[embassy_executor::task]
-async fn telemetry_log() {
+async fn status_log() {
     loop {
-        let s = TELEMETRY.receive().await;
-        if s.seq % LOG_EVERY_SAMPLES == 0 {
-            // The maxima from the shared summary (the path a reader without the channel
-            // uses), this period's execution time from the sample.
-            let t = loop_timing::snapshot();
-            info!(
-                "seq {} state {} faults {=u16:#x} counts {} alpha {} rad U {} V F_sensor {} N I {} mA | exec {} ns (max {}), jitter max {} ns, overruns {}, dropped {}",
-                s.seq,
-                s.output.state as u8,
-                s.output.faults.0,
-                s.encoder_counts,
-                s.sensors.alpha_rad,
-                s.load_cell_volts,
-                s.sensors.force_sensor_n,
-                s.applied_ma,
-                LoopTiming::cycles_to_ns(s.timing.exec_last_cycles),
-                LoopTiming::cycles_to_ns(t.exec_max_cycles),
-                LoopTiming::cycles_to_ns(t.jitter_max_cycles),
-                t.overruns,
-                TELEMETRY_DROPPED.load(core::sync::atomic::Ordering::Relaxed),
-            );
-        }
+        Timer::after_secs(1).await;
+        let t = loop_timing::snapshot();
+        let state = control::with_device(|d| (d.controller().state(), d.controller().faults().0));
+        info!(
+            "loop: {} cycles, exec {} ns (max {}), jitter max {} ns, overruns {}; telemetry dropped {}, fault events dropped {}; state {}",
+            t.cycles,
+            LoopTiming::cycles_to_ns(t.exec_last_cycles),
+            LoopTiming::cycles_to_ns(t.exec_max_cycles),
+            LoopTiming::cycles_to_ns(t.jitter_max_cycles),
+            t.overruns,
+            TELEMETRY_DROPPED.load(Ordering::Relaxed),
+            FAULT_EVENTS_DROPPED.load(Ordering::Relaxed),
+            state.map(|(s, f)| (s as u8, f)),
+        );
     }
 }
 
@@ -100,8 +120,8 @@ fn main() -> ! {
     let board = Board::new(embassy_stm32::init(board::clock_config()));
 
     // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
-    let outputs = CurrentLoopOutputs::new(board.outputs);
-    info!("pam-firmware: STM32G474RE at 170 MHz, reset cause {}", reset_cause);
+    let outputs = CurrentLoopOutputs::new(board.outputs, [ChannelCalibration::nominal(); CHANNELS]);
+    info!("pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}", env!("CARGO_PKG_VERSION"), reset_cause);
 
     let encoder1 = QuadratureEncoder::new(
         board.encoder1.timer,
@@ -113,18 +133,49 @@ fn main() -> ! {
         board.encoder2.ch_a,
         board.encoder2.ch_b,
     );
-    let load_cell = LoadCellAdc::new(board.load_cell);
+    let load_cell = load_cell_adc::LoadCellAdc::new(board.load_cell);
 
-    let mut controller = Controller::new(RobotModel::<f32>::thesis(), SafetyConfig::default_1khz());
+    // Thesis parameters until the host sends the rig's (no persistent storage yet).
+    let mut device = Device::new(
+        RobotParams::thesis(),
+        SafetyConfig::default_1khz(),
+        DeviceOptions {
+            firmware_version: FIRMWARE_VERSION,
+            // the encoder driver delivers 64-bit extended counts, passed on as u32
+            encoder_counter_bits: 32,
+        },
+    );
     if reset_cause.is_watchdog() {
         warn!("the last reset was a watchdog reset: latched WATCHDOG_RESET");
-        controller.raise(Faults::WATCHDOG_RESET);
+        device.raise(Faults::WATCHDOG_RESET);
     }
-    let period_cycles = control::period_cycles(1_000);
-    CONTROLLER.lock(|c| c.replace(Some(controller)));
+    let period_us = device.period_us();
+    control::install_device(device);
 
     let mut core = unwrap!(cortex_m::Peripherals::take());
-    let meter = CycleMeter::new(&mut core.DCB, &mut core.DWT, period_cycles);
+    let meter = CycleMeter::new(&mut core.DCB, &mut core.DWT, control::period_cycles(period_us));
+
+    // USB link (started in thread mode below; its interrupt below the control loop's).
+    let driver = Driver::new(board.usb.usb, board::UsbIrqs, board.usb.dp, board.usb.dm);
+    board::USB_IRQ.set_priority(board::LINK_PRIORITY);
+    let mut usb_config = embassy_usb::Config::new(link::USB_VID, link::USB_PID);
+    usb_config.manufacturer = Some("PAM rehabilitation robot");
+    usb_config.product = Some("pam-firmware (NUCLEO-G474RE)");
+    usb_config.max_power = 100;
+    let mut builder = embassy_usb::Builder::new(
+        driver,
+        usb_config,
+        USB_CONFIG_DESCRIPTOR.init([0; 256]),
+        USB_BOS_DESCRIPTOR.init([0; 256]),
+        &mut [], // no Microsoft OS descriptors
+        USB_CONTROL_BUF.init([0; 64]),
+    );
+    let class = CdcAcmClass::new(
+        &mut builder,
+        USB_CDC_STATE.init(State::new()),
+        link::USB_PACKET_BYTES as u16,
+    );
+    let usb = builder.build();
 
     // Last before the loop starts: from here only the control task keeps the MCU alive.
     let watchdog = LoopWatchdog::start(board.watchdog);
@@ -139,16 +190,15 @@ fn main() -> ! {
 
     board::CONTROL_IRQ.set_priority(board::CONTROL_PRIORITY);
     let spawner = CONTROL_EXECUTOR.start(board::CONTROL_IRQ);
-    spawner.spawn(unwrap!(control::control_task(
-        hardware,
-        SensorConversion::at_power_up()
-    )));
+    spawner.spawn(unwrap!(control::control_task(hardware)));
 
     // Thread mode: everything else.
     let led = Output::new(board.led, Level::Low, Speed::Low);
     let executor = THREAD_EXECUTOR.init(Executor::new());
     executor.run(|spawner| {
+        spawner.spawn(unwrap!(link::usb_task(usb)));
+        spawner.spawn(unwrap!(link::link_task(class)));
         spawner.spawn(unwrap!(heartbeat(led)));
-        spawner.spawn(unwrap!(telemetry_log()));
+        spawner.spawn(unwrap!(status_log()));
     })
 }
