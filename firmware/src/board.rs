@@ -43,6 +43,7 @@ use embassy_stm32::peripherals::{
 };
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{Peri, Peripherals};
+use pam_firmware_logic::adc_scale::AdcFrontEnd;
 
 // ---------------------------------------------------------------------------------------
 // Clocks
@@ -101,8 +102,6 @@ pub const ENCODER_PULL: Pull = Pull::Up;
 // ---------------------------------------------------------------------------------------
 // Load cell front end
 
-/// Analogue supply and ADC reference of the Nucleo (VDDA = VREF+ = 3.3 V).
-pub const ADC_VREF_V: f32 = 3.3;
 /// 12-bit conversions.
 pub const ADC_FULL_SCALE_COUNTS: u16 = 4095;
 /// ADC input channel of the X and Z signals (DS12288 pin table: PC0 = ADC12_IN6,
@@ -115,11 +114,15 @@ pub const LOAD_CELL_SAMPLE_TIME: pac::adc::vals::SampleTime =
     pac::adc::vals::SampleTime::CYCLES47_5;
 /// The amplifier's ±10 V outputs (the NI 9215's input range) reach the ADC through a
 /// level shifter: V_adc = mid + gain × V_amp, with the nominal values of its resistors
-/// (100 k / 30.1 k / 43.2 k, `docs/output-stage.md`, input front end).
-pub const LOAD_CELL_FRONT_END_GAIN: f32 = 0.1507;
-pub const LOAD_CELL_FRONT_END_MID_V: f32 = 1.652;
-/// Readings this close (in counts) to either rail are reported as saturated.
-pub const ADC_RAIL_MARGIN_COUNTS: u16 = 8;
+/// (100 k / 30.1 k / 43.2 k, `docs/output-stage.md`, input front end). The reference is
+/// the Nucleo's VDDA = VREF+ = 3.3 V. Codes within 8 of either rail are saturation.
+pub const LOAD_CELL_FRONT_END: AdcFrontEnd = AdcFrontEnd {
+    vref_v: 3.3,
+    full_scale_counts: ADC_FULL_SCALE_COUNTS,
+    gain: 0.1507,
+    mid_v: 1.652,
+    rail_margin_counts: 8,
+};
 /// Master and slave of the simultaneous pair and their common block.
 pub const LOAD_CELL_ADC_MASTER: pac::adc::Adc = pac::ADC1;
 pub const LOAD_CELL_ADC_SLAVE: pac::adc::Adc = pac::ADC2;
@@ -134,6 +137,10 @@ pub const OUTPUT_PWM_HZ: Hertz = Hertz(20_000);
 /// Loop current at 100 % duty with the nominal parts of `docs/output-stage.md`:
 /// 10 × 3.000 V / 1.24 kΩ (XTR111 gain 10, PWM high level from a 3.000 V reference).
 pub const OUTPUT_FULL_SCALE_MA: f32 = 10.0 * 3.000 / 1.24;
+/// The stage's nominal mA → duty law (0 mA at 0 %, full scale at 100 %).
+pub fn output_nominal_law() -> pam_firmware_logic::current_loop::ChannelLaw {
+    pam_firmware_logic::current_loop::ChannelLaw::proportional(OUTPUT_FULL_SCALE_MA)
+}
 /// The XTR111's EF pins are open drain, low on an output error (open loop, no compliance).
 pub const OUTPUT_ERROR_FLAG_PULL: Pull = Pull::Up;
 /// An error flag must be seen this many consecutive periods before it is a fault: the

@@ -24,7 +24,7 @@ use crate::board;
 use crate::current_output::{CurrentLoopOutputs, CHANNELS, LOOP_MIN_MA};
 use crate::encoder::QuadratureEncoder;
 use crate::load_cell_adc::LoadCellAdc;
-use crate::loop_timing::{CycleMeter, LoopTiming};
+use crate::loop_timing::{self, CycleMeter};
 use crate::watchdog::LoopWatchdog;
 
 /// The device service, shared with the link task. `None` only before `main` installs it.
@@ -48,8 +48,7 @@ pub fn with_device<R>(f: impl FnOnce(&mut Device) -> R) -> Option<R> {
 pub const TELEMETRY_DEPTH: usize = 16;
 /// Filled by the control task at the loop rate (or the telemetry divider's), drained by
 /// the link.
-pub static TELEMETRY: Channel<CriticalSectionRawMutex, Telemetry, TELEMETRY_DEPTH> =
-    Channel::new();
+pub static TELEMETRY: Channel<CriticalSectionRawMutex, Telemetry, TELEMETRY_DEPTH> = Channel::new();
 /// New latched faults, for the link to report as events.
 pub static FAULT_EVENTS: Channel<CriticalSectionRawMutex, FaultEvent, 4> = Channel::new();
 /// Telemetry samples and fault events the control task could not queue.
@@ -77,7 +76,7 @@ pub fn period_cycles(period_us: u32) -> u32 {
 }
 
 fn saturating_us(cycles: u32) -> u16 {
-    (LoopTiming::cycles_to_ns(cycles) / 1_000).min(u32::from(u16::MAX)) as u16
+    (loop_timing::ns(cycles) / 1_000).min(u32::from(u16::MAX)) as u16
 }
 
 #[embassy_executor::task]
@@ -92,8 +91,8 @@ pub async fn control_task(mut hw: ControlHardware) {
 
         // The extended counts, truncated: the device extends them again modulo 2^32, which
         // is exact for any motion below 2^31 counts per period.
-        let encoder_counts = [hw.encoder1.read_counts(), hw.encoder2.read_counts()]
-            .map(|count| count as u32);
+        let encoder_counts =
+            [hw.encoder1.read_counts(), hw.encoder2.read_counts()].map(|count| count as u32);
         let adc = hw.load_cell.read();
         let open_loop = hw.outputs.poll_open_loop();
         let (loadcell_volts, saturated) = match adc {

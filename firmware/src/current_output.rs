@@ -16,59 +16,26 @@
 //!   PWM pins float, the filter's pull-down holds the XTR111 input at 0 V and the loop
 //!   carries 0 mA: the I/P converters vent as well.
 //!
-//! The per-period write goes straight to the compare registers (one store per channel, no
+//! The law, the clamp and the debounce are `pam_firmware_logic` (host-tested). The
+//! per-period write goes straight to the compare registers (one store per channel, no
 //! assertion on the control path); the HAL does the setup.
 
 use core::sync::atomic::{AtomicU16, Ordering};
 
 use embassy_stm32::gpio::{Input, OutputType};
-use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
 use embassy_stm32::timer::low_level::CountingMode;
+use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
+use pam_firmware_logic::current_loop::clamp_loop_ma;
+pub use pam_firmware_logic::current_loop::{ChannelLaw, LOOP_MIN_MA};
+use pam_firmware_logic::debounce::Debounce;
 
 use crate::board;
 
 pub const CHANNELS: usize = 4;
-pub const LOOP_MIN_MA: f32 = 4.0;
-pub const LOOP_MAX_MA: f32 = 20.0;
 
 /// Compare values giving 4 mA on each channel, for the panic handler. 0 (0 mA, also a
 /// vent) until the driver has been set up.
 static SAFE_COMPARE: [AtomicU16; CHANNELS] = [const { AtomicU16::new(0) }; CHANNELS];
-
-/// mA → duty law of one channel.
-#[derive(Clone, Copy, Debug, PartialEq, defmt::Format)]
-pub struct ChannelCalibration {
-    /// Duty fraction per mA (nominal: 1 / full-scale current).
-    pub duty_per_ma: f32,
-    /// Duty fraction at 0 mA (op-amp offset, leakage), nominal 0.
-    pub duty_offset: f32,
-}
-
-impl ChannelCalibration {
-    /// The stage's nominal law (`board::OUTPUT_FULL_SCALE_MA` at 100 % duty).
-    pub const fn nominal() -> Self {
-        Self {
-            duty_per_ma: 1.0 / board::OUTPUT_FULL_SCALE_MA,
-            duty_offset: 0.0,
-        }
-    }
-
-    fn duty(&self, current_ma: f32) -> f32 {
-        self.duty_per_ma * current_ma + self.duty_offset
-    }
-
-    /// A usable law is finite, increasing, and puts the whole 4–20 mA range inside the
-    /// PWM's 0–100 % duty.
-    pub fn is_valid(&self) -> bool {
-        let lo = self.duty(LOOP_MIN_MA);
-        let hi = self.duty(LOOP_MAX_MA);
-        self.duty_per_ma.is_finite()
-            && self.duty_offset.is_finite()
-            && self.duty_per_ma > 0.0
-            && lo >= 0.0
-            && hi <= 1.0
-    }
-}
 
 /// What one write put on the loops.
 #[derive(Clone, Copy, Debug, PartialEq, defmt::Format)]
@@ -83,16 +50,16 @@ pub struct CurrentLoopOutputs {
     // Owns the timer and its pins (configured once, then only the compares change).
     pwm: SimplePwm<'static, board::OutputTimer>,
     error_flags: [Input<'static>; CHANNELS],
-    error_periods: [u16; CHANNELS],
-    calibration: [ChannelCalibration; CHANNELS],
+    open_loop: [Debounce; CHANNELS],
+    law: [ChannelLaw; CHANNELS],
     /// Compare value of 100 % duty (= timer period in counts).
-    full_duty_counts: u32,
+    full_duty_counts: u16,
 }
 
 impl CurrentLoopOutputs {
     /// Starts the timer with every channel at 4 mA, then enables the outputs. A channel
-    /// whose law is invalid (see [`ChannelCalibration::is_valid`]) gets the nominal one.
-    pub fn new(o: board::CurrentOutputs, calibration: [ChannelCalibration; CHANNELS]) -> Self {
+    /// whose law is invalid (see [`ChannelLaw::is_valid`]) gets the nominal one.
+    pub fn new(o: board::CurrentOutputs, law: [ChannelLaw; CHANNELS]) -> Self {
         let pwm = SimplePwm::new(
             o.timer,
             Some(PwmPin::new(o.ch1, OutputType::PushPull)),
@@ -102,7 +69,8 @@ impl CurrentLoopOutputs {
             board::OUTPUT_PWM_HZ,
             CountingMode::EdgeAlignedUp,
         );
-        let full_duty_counts = pwm.max_duty_cycle();
+        // A 16-bit timer's period always fits (8500 counts at 20 kHz).
+        let full_duty_counts = pwm.max_duty_cycle().min(u32::from(u16::MAX)) as u16;
         let pull = board::OUTPUT_ERROR_FLAG_PULL;
         let mut this = Self {
             error_flags: [
@@ -111,18 +79,23 @@ impl CurrentLoopOutputs {
                 Input::new(o.error_flag3, pull),
                 Input::new(o.error_flag4, pull),
             ],
-            error_periods: [0; CHANNELS],
-            calibration: calibration.map(|c| {
-                if c.is_valid() {
-                    c
+            open_loop: [Debounce::new(board::OUTPUT_ERROR_DEBOUNCE_PERIODS); CHANNELS],
+            law: law.map(|l| {
+                if l.is_valid() {
+                    l
                 } else {
-                    ChannelCalibration::nominal()
+                    board::output_nominal_law()
                 }
             }),
             full_duty_counts,
             pwm,
         };
-        this.publish_safe_compares();
+        for (c, slot) in SAFE_COMPARE.iter().enumerate() {
+            slot.store(
+                this.law[c].compare(LOOP_MIN_MA, full_duty_counts),
+                Ordering::Relaxed,
+            );
+        }
         this.write_ma([LOOP_MIN_MA; CHANNELS]);
         // The compares are preloaded: force an update so the 4 mA values are live before
         // the pins start driving.
@@ -134,34 +107,16 @@ impl CurrentLoopOutputs {
         this
     }
 
-    fn compare_for(&self, channel: usize, current_ma: f32) -> u16 {
-        let duty = self.calibration[channel].duty(current_ma).clamp(0.0, 1.0);
-        let counts = duty * self.full_duty_counts as f32 + 0.5;
-        // `as` saturates; the period fits in 16 bits (checked by `new`'s timer setup).
-        (counts as u32).min(self.full_duty_counts) as u16
-    }
-
-    fn publish_safe_compares(&self) {
-        for (c, slot) in SAFE_COMPARE.iter().enumerate() {
-            slot.store(self.compare_for(c, LOOP_MIN_MA), Ordering::Relaxed);
-        }
-    }
-
     /// Writes the four loop currents, clamped to 4–20 mA. Takes effect at the next PWM
     /// period (≤ 50 µs), all channels together.
     pub fn write_ma(&mut self, current_ma: [f32; CHANNELS]) -> AppliedCurrents {
         let mut clamped = false;
         let mut applied = [LOOP_MIN_MA; CHANNELS];
-        for c in 0..CHANNELS {
-            let request = current_ma[c];
-            let ma = if request.is_nan() {
-                LOOP_MIN_MA
-            } else {
-                request.clamp(LOOP_MIN_MA, LOOP_MAX_MA)
-            };
-            clamped |= ma != request;
+        for (c, (&request, law)) in current_ma.iter().zip(self.law.iter()).enumerate() {
+            let (ma, changed) = clamp_loop_ma(request);
+            clamped |= changed;
             applied[c] = ma;
-            let compare = self.compare_for(c, ma);
+            let compare = law.compare(ma, self.full_duty_counts);
             board::OUTPUT_TIMER_REGS
                 .ccr(c)
                 .write(|w| w.set_ccr(compare));
@@ -176,18 +131,13 @@ impl CurrentLoopOutputs {
     /// channel, whether the loop has been reported open for the debounce time.
     pub fn poll_open_loop(&mut self) -> [bool; CHANNELS] {
         let mut open = [false; CHANNELS];
-        for ((flag, periods), open) in self
+        for ((flag, debounce), open) in self
             .error_flags
             .iter()
-            .zip(self.error_periods.iter_mut())
+            .zip(self.open_loop.iter_mut())
             .zip(open.iter_mut())
         {
-            *periods = if flag.is_low() {
-                periods.saturating_add(1)
-            } else {
-                0
-            };
-            *open = *periods >= board::OUTPUT_ERROR_DEBOUNCE_PERIODS;
+            *open = debounce.update(flag.is_low());
         }
         open
     }

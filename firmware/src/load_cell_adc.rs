@@ -36,7 +36,7 @@ pub struct LoadCellSample {
     /// Sensor X and Z channel voltages at the amplifier outputs, V.
     pub volts: [f32; 2],
     pub raw_counts: [u16; 2],
-    /// A channel read within `ADC_RAIL_MARGIN_COUNTS` of either rail: the voltage is not
+    /// A channel read at either rail (`board::LOAD_CELL_FRONT_END`): the voltage is not
     /// trustworthy (front end or amplifier saturated).
     pub saturated: bool,
 }
@@ -137,20 +137,11 @@ impl LoadCellAdc {
                 w.set_jeoc(true);
             });
         }
-        let margin = board::ADC_RAIL_MARGIN_COUNTS;
-        let saturated = raw_counts
-            .iter()
-            .any(|&r| r <= margin || r >= board::ADC_FULL_SCALE_COUNTS - margin);
+        let front_end = board::LOAD_CELL_FRONT_END;
         Ok(LoadCellSample {
-            volts: raw_counts.map(amplifier_volts),
+            volts: raw_counts.map(|r| front_end.input_volts(r)),
+            saturated: raw_counts.iter().any(|&r| front_end.saturated(r)),
             raw_counts,
-            saturated,
         })
     }
-}
-
-/// ADC counts → pin volts → amplifier-output volts (inverting the front end's level shift).
-fn amplifier_volts(raw: u16) -> f32 {
-    let pin_v = f32::from(raw) * (board::ADC_VREF_V / f32::from(board::ADC_FULL_SCALE_COUNTS));
-    (pin_v - board::LOAD_CELL_FRONT_END_MID_V) / board::LOAD_CELL_FRONT_END_GAIN
 }

@@ -46,9 +46,9 @@ use static_cell::StaticCell;
 
 use crate::board::Board;
 use crate::control::{ControlHardware, FAULT_EVENTS_DROPPED, TELEMETRY_DROPPED};
-use crate::current_output::{ChannelCalibration, CurrentLoopOutputs, CHANNELS};
+use crate::current_output::{CurrentLoopOutputs, CHANNELS};
 use crate::encoder::QuadratureEncoder;
-use crate::loop_timing::{CycleMeter, LoopTiming};
+use crate::loop_timing::CycleMeter;
 use crate::watchdog::{LoopWatchdog, ResetCause};
 
 static CONTROL_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
@@ -102,9 +102,9 @@ async fn status_log() {
         info!(
             "loop: {} cycles, exec {} ns (max {}), jitter max {} ns, overruns {}; telemetry dropped {}, fault events dropped {}; state {}",
             t.cycles,
-            LoopTiming::cycles_to_ns(t.exec_last_cycles),
-            LoopTiming::cycles_to_ns(t.exec_max_cycles),
-            LoopTiming::cycles_to_ns(t.jitter_max_cycles),
+            loop_timing::ns(t.exec_last_cycles),
+            loop_timing::ns(t.exec_max_cycles),
+            loop_timing::ns(t.jitter_max_cycles),
             t.overruns,
             TELEMETRY_DROPPED.load(Ordering::Relaxed),
             FAULT_EVENTS_DROPPED.load(Ordering::Relaxed),
@@ -120,8 +120,12 @@ fn main() -> ! {
     let board = Board::new(embassy_stm32::init(board::clock_config()));
 
     // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
-    let outputs = CurrentLoopOutputs::new(board.outputs, [ChannelCalibration::nominal(); CHANNELS]);
-    info!("pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}", env!("CARGO_PKG_VERSION"), reset_cause);
+    let outputs = CurrentLoopOutputs::new(board.outputs, [board::output_nominal_law(); CHANNELS]);
+    info!(
+        "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}",
+        env!("CARGO_PKG_VERSION"),
+        reset_cause
+    );
 
     let encoder1 = QuadratureEncoder::new(
         board.encoder1.timer,
@@ -153,7 +157,11 @@ fn main() -> ! {
     control::install_device(device);
 
     let mut core = unwrap!(cortex_m::Peripherals::take());
-    let meter = CycleMeter::new(&mut core.DCB, &mut core.DWT, control::period_cycles(period_us));
+    let meter = CycleMeter::new(
+        &mut core.DCB,
+        &mut core.DWT,
+        control::period_cycles(period_us),
+    );
 
     // USB link (started in thread mode below; its interrupt below the control loop's).
     let driver = Driver::new(board.usb.usb, board::UsbIrqs, board.usb.dp, board.usb.dm);
