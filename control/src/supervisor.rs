@@ -1,10 +1,14 @@
 //! Modes, state machine and supervisor. f32 throughout (the target's type).
 
 use pam_model::kinematics::Kinematics;
+use pam_model::params::LoadCell;
 use pam_model::{Limited, Real, RobotModel, Vec2};
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
 
 /// What the robot is asked to do while armed.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 pub enum Mode {
     /// Safe outputs (vent).
     Idle,
@@ -25,6 +29,7 @@ pub enum Mode {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 pub enum State {
     Disarmed,
     Armed,
@@ -62,6 +67,7 @@ impl Faults {
 
 /// Limits the firmware enforces whatever the host says.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 pub struct SafetyConfig {
     pub period_s: f32,
     pub command_timeout_s: f32,
@@ -311,6 +317,32 @@ impl Controller {
         safety.validate()?;
         self.safety = safety;
         self.accepted();
+        Ok(())
+    }
+
+    /// Replaces the robot model (new parameters). Refused while armed; latched faults stay.
+    pub fn set_model(&mut self, model: RobotModel<f32>) -> Result<(), Reject> {
+        if self.state == State::Armed {
+            return Err(Reject::WrongState);
+        }
+        self.model = model;
+        self.accepted();
+        Ok(())
+    }
+
+    /// Replaces the load-cell calibration (tare, gain/offset). It derives no constant, so
+    /// it is allowed in any state.
+    pub fn set_load_cell(&mut self, load_cell: LoadCell<f32>) {
+        self.model.params.load_cell = load_cell;
+    }
+
+    /// Forgets the previous angle sample, so that a deliberate change of the angle origin
+    /// (homing) is not taken for an encoder jump. Refused while armed.
+    pub fn reset_angle_history(&mut self) -> Result<(), Reject> {
+        if self.state == State::Armed {
+            return Err(Reject::WrongState);
+        }
+        self.last_alpha_rad = None;
         Ok(())
     }
 

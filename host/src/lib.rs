@@ -2,8 +2,9 @@
 //! Logic lives here, one module per subcommand; `main.rs` only parses and reports.
 
 pub mod cmd;
+pub mod link;
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -12,8 +13,21 @@ use clap::{Parser, Subcommand};
     about = "Command line of the pneumatic-muscle rehabilitation robot"
 )]
 pub struct Cli {
+    #[command(flatten)]
+    pub link: LinkArgs,
     #[command(subcommand)]
     pub command: Command,
+}
+
+/// How to reach the device (every command that talks to it).
+#[derive(Args, Debug, Clone)]
+pub struct LinkArgs {
+    /// The device: a serial port (/dev/ttyACM0, COM3) or tcp://HOST:PORT (the emulator).
+    #[arg(long, global = true, env = "PAMCTL_DEVICE")]
+    pub device: Option<String>,
+    /// How long to wait for each reply, ms.
+    #[arg(long, global = true, default_value_t = 1000)]
+    pub timeout_ms: u64,
 }
 
 #[derive(Subcommand, Debug)]
@@ -21,10 +35,44 @@ pub enum Command {
     /// Ask the robot model (no device needed): capability, inverse model, reference tables.
     #[command(subcommand)]
     Model(cmd::model::ModelCommand),
+    /// List the serial ports that may be the robot.
+    Ports,
+    /// State, mode, faults, loop timing and a live sample of the device.
+    Status,
+    /// Arm the robot (it must be homed and free of faults).
+    Arm,
+    /// Disarm: the outputs vent at once.
+    Disarm,
+    /// Take the present pose as the neutral pose (α = 0). Disarmed only.
+    Home,
+    /// Take the present load-cell reading as zero force. Disarmed only.
+    Tare,
+    /// Latched faults.
+    #[command(subcommand)]
+    Fault(cmd::fault::FaultCommand),
+    /// Set the control mode and its targets.
+    Set(cmd::set::SetArgs),
+    /// Robot parameters, calibration and limits, as TOML.
+    #[command(subcommand)]
+    Config(cmd::config::ConfigCommand),
+    /// Record telemetry to a log-format-v1 CSV file.
+    Record(cmd::record::RecordArgs),
 }
 
 pub fn run(cli: Cli) -> Result<(), String> {
+    let out = &mut std::io::stdout();
+    let link = &cli.link;
     match cli.command {
-        Command::Model(m) => cmd::model::run(m, &mut std::io::stdout()),
+        Command::Model(m) => cmd::model::run(m, out),
+        Command::Ports => cmd::ports::run(out),
+        Command::Status => cmd::status::run(link, out),
+        Command::Arm => cmd::arm::run(link, out),
+        Command::Disarm => cmd::disarm::run(link, out),
+        Command::Home => cmd::home::run(link, out),
+        Command::Tare => cmd::tare::run(link, out),
+        Command::Fault(f) => cmd::fault::run(f, link, out),
+        Command::Set(s) => cmd::set::run(s, link, out),
+        Command::Config(c) => cmd::config::run(c, link, out),
+        Command::Record(r) => cmd::record::run(r, link, out),
     }
 }

@@ -11,10 +11,12 @@ use core::hint::black_box;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
-use pam_control::{Controller, Mode, SafetyConfig, Sensors};
+use pam_control::{Mode, SafetyConfig, State};
+use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
+use pam_protocol::{Request, RequestBody, Version};
 use pam_model::checks::{precision, workload, Check, CHECKS_F32, CHECKS_F64};
 use pam_model::kinematics::Kinematics;
-use pam_model::RobotModel;
+use pam_model::{RobotModel, RobotParams};
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
@@ -78,21 +80,27 @@ fn main() -> ! {
     );
     run("f32", CHECKS_F32, &mut passed, &mut failed);
     run("f64", CHECKS_F64, &mut passed, &mut failed);
-    for c in pam_control::checks::CHECKS {
-        match (c.run)() {
-            Ok(()) => {
-                passed += 1;
-                hprintln!("ok   control {}", c.name);
-            }
-            Err(e) => {
-                failed += 1;
-                hprintln!(
-                    "FAIL control {}: {} got {} expected {}",
-                    c.name,
-                    e.what,
-                    e.got,
-                    e.expected
-                );
+    for (label, checks) in [
+        ("control", pam_control::checks::CHECKS),
+        ("device", pam_device::checks::CHECKS),
+    ] {
+        for c in checks {
+            match (c.run)() {
+                Ok(()) => {
+                    passed += 1;
+                    hprintln!("ok   {} {}", label, c.name);
+                }
+                Err(e) => {
+                    failed += 1;
+                    hprintln!(
+                        "FAIL {} {}: {} got {} expected {}",
+                        label,
+                        c.name,
+                        e.what,
+                        e.got,
+                        e.expected
+                    );
+                }
             }
         }
     }
@@ -167,35 +175,72 @@ fn main() -> ! {
     let per_force = (force_ticks.saturating_sub(empty_ticks)) as f32 * insn_per_tick / n;
     hprintln!("bench force path (load-cell rotation + gain plane + J^T F + inverse, both joints), f32/{}: {:.0} instructions per evaluation", math, per_force);
 
-    // One full control step, sensors in -> outputs out: supervisor, load-cell rotation,
-    // mode (force with feed-forward: the longest path), slew limits, currents.
-    let mut ctl = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
-    let _ = ctl.arm();
-    let _ = ctl.set_mode(Mode::Force {
+    // One full control step through the device service, raw sensors in -> output
+    // currents out: encoder count accumulation, load-cell volts -> N, supervisor,
+    // load-cell rotation, mode (force with feed-forward: the longest path), slew limits,
+    // currents, output calibration and the telemetry sample.
+    let mut dev = Device::new(
+        RobotParams::thesis(),
+        SafetyConfig::default_1khz(),
+        DeviceOptions {
+            firmware_version: Version {
+                major: 0,
+                minor: 1,
+                patch: 0,
+            },
+            encoder_counter_bits: 16,
+        },
+    );
+    let req = |body| Request { id: 1, body };
+    let home = RawSensors {
+        encoder_counts: [0, 0],
+        loadcell_volts: [0.0, 0.0],
+    };
+    dev.step(home, StepTiming::default());
+    dev.handle(&req(RequestBody::Home));
+    dev.handle(&req(RequestBody::Arm));
+    dev.handle(&req(RequestBody::SetMode(Mode::Force {
         force_n: [9.1, -4.0],
         stiffness_nm_per_rad: [60.0, 27.0],
         feed_forward: true,
-    });
+    })));
     let mut k = 0u32;
     let step_ticks = ticks(|| {
         for _ in 0..REPS {
             for w in inputs.iter() {
-                ctl.heartbeat();
+                // the command timeout's counter reset, as a host request does
+                dev.handle(&req(RequestBody::Heartbeat));
                 k += 1;
-                let a = [
-                    w.alpha_rad[0] * 0.001 * (k & 7) as f32,
-                    w.alpha_rad[1] * 0.001 * (k & 7) as f32,
-                ];
-                let s = Sensors {
-                    alpha_rad: a,
-                    force_sensor_n: [w.torque_nm[0] * 0.1, w.torque_nm[1] * 0.1],
+                // small wandering pose (a few counts, no encoder jump), dithering load cell
+                let raw = RawSensors {
+                    encoder_counts: [(k & 7).wrapping_sub(4) & 0xFFFF, (k & 3) * 2],
+                    loadcell_volts: [w.torque_nm[0] * 0.001, w.torque_nm[1] * 0.001],
                 };
-                black_box(ctl.step(black_box(&s)));
+                black_box(dev.step(
+                    black_box(raw),
+                    StepTiming {
+                        time_us: k * 1000,
+                        loop_exec_us: 20,
+                        loop_jitter_us: 1,
+                    },
+                ));
             }
         }
     });
-    let per_step = (step_ticks.saturating_sub(empty_ticks)) as f32 * insn_per_tick / n;
-    hprintln!("bench control step (sensors in -> outputs out, force mode + feed-forward + supervisor), f32/{}: {:.0} instructions per step; state {:?}", math, per_step, ctl.state());
+    let heartbeat_ticks = ticks(|| {
+        for _ in 0..REPS {
+            for _ in inputs.iter() {
+                black_box(dev.handle(&req(RequestBody::Heartbeat)));
+            }
+        }
+    });
+    let per_step = (step_ticks.saturating_sub(heartbeat_ticks)) as f32 * insn_per_tick / n;
+    hprintln!("bench control step (pam-device: raw counts/volts in -> output currents out, force mode + feed-forward + supervisor + telemetry), f32/{}: {:.0} instructions per step; state {:?}, faults {:#x}", math, per_step, dev.controller().state(), dev.controller().faults().0);
+    if dev.controller().state() != State::Armed {
+        // a faulted device takes the short path: the figure would be meaningless
+        failed += 1;
+        hprintln!("FAIL bench: the device left the armed state during the benchmark");
+    }
 
     hprintln!("qemu: {} passed, {} failed", passed, failed);
     if failed == 0 {

@@ -93,17 +93,28 @@ fn cargo_test_counts(lines: &[String]) -> (u64, u64) {
     (passed, failed)
 }
 
-/// Makes sure `qemu-system-arm` is on the PATH, installing Debian's package when we are
-/// root on a Debian-like system; otherwise says exactly what to do.
+/// Makes sure `qemu-system-arm` is on the PATH (the Cortex-M4F suite runs in it).
 fn ensure_qemu() -> bool {
-    let found = |_: ()| {
-        Command::new("qemu-system-arm")
+    ensure_debian_tool("qemu-system-arm", "qemu-system-arm", "the Cortex-M4F tests")
+}
+
+/// Makes sure headless Chromium is there (the model report's screenshot test renders in it).
+fn ensure_chromium() -> bool {
+    ensure_debian_tool("chromium", "chromium", "the HTML report's rendering test")
+}
+
+/// Makes sure `binary` runs (`binary --version`), installing Debian's `package` when we are
+/// root on a Debian-like system; otherwise says exactly what to do.
+fn ensure_debian_tool(binary: &str, package: &str, needed_for: &str) -> bool {
+    let found = || {
+        Command::new(binary)
             .arg("--version")
             .stdout(Stdio::null())
+            .stderr(Stdio::null())
             .status()
             .is_ok_and(|s| s.success())
     };
-    if found(()) {
+    if found() {
         return true;
     }
     let is_root = Command::new("id")
@@ -113,20 +124,20 @@ fn ensure_qemu() -> bool {
         .unwrap_or(false);
     let has_apt = Path::new("/usr/bin/apt-get").exists();
     if is_root && has_apt {
-        eprintln!("xtask: qemu-system-arm not found; installing Debian's qemu-system-arm package");
+        eprintln!("xtask: {binary} not found; installing Debian's {package} package");
         let env = [("DEBIAN_FRONTEND", "noninteractive")];
         let ok = run_status(Command::new("apt-get").args(["update", "-qq"]).envs(env)) == 0
             && run_status(
                 Command::new("apt-get")
-                    .args(["install", "-y", "-qq", "qemu-system-arm"])
+                    .args(["install", "-y", "-qq", "--no-install-recommends", package])
                     .envs(env),
             ) == 0;
-        if ok && found(()) {
+        if ok && found() {
             return true;
         }
     }
     eprintln!(
-        "xtask: qemu-system-arm is needed for the Cortex-M4F tests. Install it with\n    sudo apt-get install qemu-system-arm\n(Debian/Ubuntu), then run `cargo xtask test` again."
+        "xtask: {binary} is needed for {needed_for}. Install it with\n    sudo apt-get install {package}\n(Debian/Ubuntu), then run `cargo xtask test` again."
     );
     false
 }
@@ -150,6 +161,9 @@ fn qemu_counts(lines: &[String]) -> Option<(u64, u64)> {
 }
 
 fn test() -> i32 {
+    // Installed before the host suite so the report's rendering test finds it; when it is
+    // missing that test fails and says how to install it.
+    ensure_chromium();
     println!("== host: cargo test --workspace");
     let (host_code, host_lines) = run_streaming(
         Command::new(cargo())

@@ -1,0 +1,373 @@
+//! The device service of the PAM robot: everything between the peripherals and the link
+//! that does not depend on the hardware. The firmware and the emulator both run it, so
+//! they share this logic literally.
+//!
+//! The firmware's whole job, per control period:
+//!
+//! ```text
+//! let out = device.step(RawSensors { encoder_counts, loadcell_volts }, timing);
+//! write out.current_ma to the four 4–20 mA stages;
+//! queue out.telemetry / out.fault_event (if any) to the link.
+//! ```
+//!
+//! and, per request frame received (bytes through a `pam_protocol::FrameDecoder<Request>`):
+//!
+//! ```text
+//! let reply = device.handle_frame(decoded);   // or device.handle(&request)
+//! send DeviceMessage::Reply(reply)
+//! ```
+//!
+//! `no_std`, no heap, no panic path. f32 throughout.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Per-channel loops index several parallel arrays at once.
+#![allow(clippy::needless_range_loop)]
+
+pub mod frontend;
+mod validate;
+
+#[cfg(any(test, feature = "checks"))]
+pub mod checks;
+
+use frontend::Encoders;
+use pam_control::{Controller, Faults, Mode, Reject, SafetyConfig, Sensors, State};
+use pam_model::{Real, RobotModel, RobotParams};
+use pam_protocol::{
+    Calibration, Config, ConfigSection, DecodeError, DeviceInfo, EncoderCalibration, ErrorCode,
+    FaultEvent, ModeKind, OutputCalibration, Reply, ReplyData, Request, RequestBody, Status,
+    Telemetry, Version, LIMITED_OUTPUT, PROTOCOL_VERSION, UNKNOWN_REQUEST_ID,
+};
+
+/// One period's raw readings, as the peripherals give them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawSensors {
+    /// Free-running encoder counter values (16- or 32-bit timers, see [`DeviceOptions`]).
+    pub encoder_counts: [u32; 2],
+    /// Load-cell channel voltages, sampled at the same instant.
+    pub loadcell_volts: [f32; 2],
+}
+
+/// Timing of the period, measured by the firmware (DWT cycle counter) or the emulator.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StepTiming {
+    pub time_us: u32,
+    /// Execution time of the previous step.
+    pub loop_exec_us: u16,
+    /// |actual − nominal| start of this period.
+    pub loop_jitter_us: u16,
+}
+
+/// What one period produced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepResult {
+    /// Setpoints for the four output stages (loop current after the output calibration).
+    pub current_ma: [f32; 4],
+    /// The sample to send, when the telemetry divider says so.
+    pub telemetry: Option<Telemetry>,
+    /// New faults latched this period.
+    pub fault_event: Option<FaultEvent>,
+}
+
+/// Facts about the hardware the device runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeviceOptions {
+    pub firmware_version: Version,
+    /// Width of the encoder counters (16 or 32).
+    pub encoder_counter_bits: u8,
+}
+
+/// Pressures above this are never allowed, whatever parameters the host sends (issue 4:
+/// pressure limits 0–5 bar).
+pub const ABSOLUTE_MAX_PRESSURE_BAR: f32 = 5.0;
+
+pub struct Device {
+    controller: Controller,
+    encoders: Encoders,
+    output_calibration: [OutputCalibration; 4],
+    options: DeviceOptions,
+    telemetry_divider: u16,
+    periods_to_telemetry: u16,
+    seq: u32,
+    last_raw: Option<RawSensors>,
+    last_sensors: Option<Sensors>,
+    last_faults: Faults,
+}
+
+impl Device {
+    /// Boots disarmed, not homed, vented, telemetry at every period. Parameters the model
+    /// refuses, or pressure limits beyond [`ABSOLUTE_MAX_PRESSURE_BAR`], fall back to the
+    /// thesis values (the device must boot whatever is stored).
+    pub fn new(params: RobotParams<f32>, safety: SafetyConfig, options: DeviceOptions) -> Self {
+        let params = if validate::robot_params(&params).is_ok() {
+            params
+        } else {
+            RobotParams::thesis()
+        };
+        let safety = if safety.validate().is_ok() {
+            safety
+        } else {
+            SafetyConfig::default_1khz()
+        };
+        Device {
+            controller: Controller::new(RobotModel::new(params), safety),
+            encoders: Encoders::new(
+                options.encoder_counter_bits,
+                [EncoderCalibration::default(); 2],
+            ),
+            output_calibration: [OutputCalibration::default(); 4],
+            options,
+            telemetry_divider: 1,
+            periods_to_telemetry: 1,
+            seq: 0,
+            last_raw: None,
+            last_sensors: None,
+            last_faults: Faults::NONE,
+        }
+    }
+
+    pub fn controller(&self) -> &Controller {
+        &self.controller
+    }
+
+    /// The control period the firmware must run at (it may change with `SetConfig(Limits)`).
+    pub fn period_us(&self) -> u32 {
+        (self.controller.safety().period_s * 1.0e6 + 0.5) as u32
+    }
+
+    pub fn homed(&self) -> bool {
+        self.encoders.homed()
+    }
+
+    /// The firmware reports a hardware fault (watchdog reset, open current loop).
+    pub fn raise(&mut self, fault: Faults) {
+        self.controller.raise(fault);
+    }
+
+    pub fn calibration(&self) -> Calibration {
+        Calibration {
+            encoder: self.encoders.calibration(),
+            load_cell: self.controller.model().params.load_cell,
+            output: self.output_calibration,
+        }
+    }
+
+    /// One control period: sensors in, outputs out. Never panics.
+    pub fn step(&mut self, raw: RawSensors, timing: StepTiming) -> StepResult {
+        let sensors = Sensors {
+            alpha_rad: self.encoders.update(raw.encoder_counts),
+            force_sensor_n: self
+                .controller
+                .model()
+                .params
+                .load_cell
+                .forces_n(raw.loadcell_volts),
+        };
+        self.last_raw = Some(raw);
+        self.last_sensors = Some(sensors);
+        let out = self.controller.step(&sensors);
+
+        let ip = &self.controller.model().params.ip;
+        let mut current_ma = [0.0; 4];
+        for c in 0..4 {
+            let cal = self.output_calibration[c];
+            // clamp_to, not f32::clamp: it cannot panic and maps NaN to the low end
+            current_ma[c] = (cal.gain * out.current_ma[c] + cal.offset_ma)
+                .clamp_to(ip.current_min_ma, ip.current_max_ma);
+        }
+
+        let new_faults = out.faults.0 & !self.last_faults.0;
+        self.last_faults = out.faults;
+        let fault_event = (new_faults != 0).then(|| FaultEvent {
+            code: new_faults.trailing_zeros() as u8,
+            bits: out.faults.0,
+        });
+
+        let telemetry = if self.telemetry_divider == 0 {
+            None
+        } else {
+            self.periods_to_telemetry = self.periods_to_telemetry.saturating_sub(1);
+            if self.periods_to_telemetry == 0 {
+                self.periods_to_telemetry = self.telemetry_divider;
+                let mode = self.controller.mode();
+                let t = Telemetry {
+                    seq: self.seq,
+                    time_us: timing.time_us,
+                    alpha_rad: sensors.alpha_rad,
+                    force_user_n: out.force_user_n,
+                    force_ref_n: match mode {
+                        Mode::Force { force_n, .. } => Some(force_n),
+                        _ => None,
+                    },
+                    current_ma: out.current_ma,
+                    pressure_cmd_bar: out.pressure_bar,
+                    mode: ModeKind::of(&mode),
+                    state: out.state,
+                    faults: out.faults.0,
+                    limited: (out.limited.0 & !LIMITED_OUTPUT)
+                        | if out.output_limited { LIMITED_OUTPUT } else { 0 },
+                    loop_exec_us: timing.loop_exec_us,
+                    loop_jitter_us: timing.loop_jitter_us,
+                };
+                self.seq = self.seq.wrapping_add(1);
+                Some(t)
+            } else {
+                None
+            }
+        };
+        StepResult {
+            current_ma,
+            telemetry,
+            fault_event,
+        }
+    }
+
+    /// The reply to whatever came out of the frame decoder: a request is handled, a
+    /// corrupted frame gets `Malformed` (with its id if that much was readable).
+    pub fn handle_frame(&mut self, frame: Result<Request, DecodeError>) -> Reply {
+        match frame {
+            Ok(request) => self.handle(&request),
+            Err(e) => Reply {
+                id: match e {
+                    DecodeError::Message {
+                        leading_u16: Some(id),
+                    } => id,
+                    _ => UNKNOWN_REQUEST_ID,
+                },
+                result: Err(ErrorCode::Malformed),
+            },
+        }
+    }
+
+    /// Carries out one request. Every request counts as a heartbeat; a refused one
+    /// changes nothing else.
+    pub fn handle(&mut self, request: &Request) -> Reply {
+        self.controller.heartbeat();
+        Reply {
+            id: request.id,
+            result: self.execute(&request.body),
+        }
+    }
+
+    fn execute(&mut self, body: &RequestBody) -> Result<ReplyData, ErrorCode> {
+        const DONE: Result<ReplyData, ErrorCode> = Ok(ReplyData::Done);
+        let armed = self.controller.state() == State::Armed;
+        match *body {
+            RequestBody::Hello { protocol_version } => {
+                if protocol_version != PROTOCOL_VERSION {
+                    return Err(ErrorCode::UnsupportedVersion);
+                }
+                Ok(ReplyData::Hello(DeviceInfo {
+                    protocol_version: PROTOCOL_VERSION,
+                    firmware_version: self.options.firmware_version,
+                    period_us: self.period_us(),
+                    params_hash: pam_protocol::params_hash(&self.controller.model().params),
+                }))
+            }
+            RequestBody::Heartbeat => DONE,
+            RequestBody::Arm => {
+                if !self.encoders.homed() {
+                    return Err(ErrorCode::NotHomed);
+                }
+                self.controller.arm().map_err(error_code)?;
+                DONE
+            }
+            RequestBody::Disarm => {
+                self.controller.disarm();
+                DONE
+            }
+            RequestBody::Home => {
+                if armed {
+                    return Err(ErrorCode::WrongState);
+                }
+                self.controller.reset_angle_history().map_err(error_code)?;
+                self.encoders.home();
+                DONE
+            }
+            RequestBody::Tare => {
+                let Some(raw) = self.last_raw.filter(|_| !armed) else {
+                    return Err(ErrorCode::WrongState);
+                };
+                if !raw.loadcell_volts.iter().all(|v| v.is_finite()) {
+                    return Err(ErrorCode::OutOfRange);
+                }
+                let mut cell = self.controller.model().params.load_cell;
+                cell.tare(raw.loadcell_volts);
+                self.controller.set_load_cell(cell);
+                DONE
+            }
+            RequestBody::ClearFaults => {
+                let sensors = self.last_sensors.ok_or(ErrorCode::WrongState)?;
+                self.controller.clear_faults(&sensors).map_err(error_code)?;
+                self.last_faults = Faults::NONE;
+                DONE
+            }
+            RequestBody::GetStatus => Ok(ReplyData::Status(Status {
+                state: self.controller.state(),
+                mode: self.controller.mode(),
+                faults: self.controller.faults().0,
+                homed: self.encoders.homed(),
+                period_us: self.period_us(),
+                telemetry_divider: self.telemetry_divider,
+            })),
+            RequestBody::SetMode(mode) => {
+                self.controller.set_mode(mode).map_err(error_code)?;
+                DONE
+            }
+            RequestBody::GetConfig(section) => Ok(ReplyData::Config(match section {
+                ConfigSection::Robot => Config::Robot(self.controller.model().params),
+                ConfigSection::Calibration => Config::Calibration(self.calibration()),
+                ConfigSection::Limits => Config::Limits(*self.controller.safety()),
+            })),
+            RequestBody::SetConfig(config) => {
+                self.set_config(&config, armed)?;
+                DONE
+            }
+            RequestBody::SetTelemetry { divider } => {
+                self.telemetry_divider = divider;
+                self.periods_to_telemetry = divider.min(1);
+                DONE
+            }
+        }
+    }
+
+    fn set_config(&mut self, config: &Config, armed: bool) -> Result<(), ErrorCode> {
+        match config {
+            Config::Robot(params) => {
+                if armed {
+                    return Err(ErrorCode::WrongState);
+                }
+                validate::robot_params(params)?;
+                self.controller
+                    .set_model(RobotModel::new(*params))
+                    .map_err(error_code)?;
+                // a new geometry may move the angle limits: start the jump check afresh
+                self.controller.reset_angle_history().map_err(error_code)
+            }
+            Config::Calibration(cal) => {
+                if armed {
+                    return Err(ErrorCode::WrongState);
+                }
+                validate::calibration(cal)?;
+                self.encoders.set_calibration(cal.encoder);
+                self.controller.set_load_cell(cal.load_cell);
+                self.output_calibration = cal.output;
+                self.controller.reset_angle_history().map_err(error_code)
+            }
+            Config::Limits(safety) => {
+                if armed && safety.period_s != self.controller.safety().period_s {
+                    return Err(ErrorCode::WrongState);
+                }
+                self.controller.set_safety(*safety).map_err(error_code)
+            }
+        }
+    }
+}
+
+fn error_code(r: Reject) -> ErrorCode {
+    match r {
+        Reject::OutOfRange => ErrorCode::OutOfRange,
+        Reject::WrongState => ErrorCode::WrongState,
+        Reject::FaultStillPresent => ErrorCode::FaultStillPresent,
+    }
+}

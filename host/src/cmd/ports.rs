@@ -1,0 +1,19 @@
+//! `pamctl ports`: serial ports that may be the robot.
+
+use crate::link::transport::list_ports;
+
+pub fn run(out: &mut dyn std::io::Write) -> Result<(), String> {
+    let ports = list_ports()?;
+    if ports.is_empty() {
+        writeln!(
+            out,
+            "no serial port found: plug the board's USB cable (the NUCLEO's user USB, not the ST-LINK one), \
+             or use the emulator with --device tcp://127.0.0.1:PORT"
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    for (name, what) in ports {
+        writeln!(out, "{name}\t{what}").map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}

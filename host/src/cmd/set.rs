@@ -1,0 +1,142 @@
+//! `pamctl set …`: the control mode and its targets. The device checks every value; the
+//! host only parses.
+
+use crate::LinkArgs;
+use clap::{Args, Subcommand};
+use pam_control::Mode;
+use pam_protocol::RequestBody;
+use std::io::Write;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+#[derive(Args, Debug)]
+pub struct SetArgs {
+    #[command(subcommand)]
+    pub mode: SetMode,
+    /// Keep the link alive (heartbeats) this many seconds, or until Ctrl-C with `inf`;
+    /// without it the device's command timeout ends the mode soon after pamctl exits.
+    #[arg(long, global = true, value_name = "SECONDS")]
+    pub hold: Option<f64>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum SetMode {
+    /// Safe outputs (vent).
+    Idle,
+    /// Four channel pressures, bar.
+    Pressures {
+        #[arg(value_delimiter = ',', allow_negative_numbers = true, value_name = "P1,P2,P3,P4")]
+        pressure_bar: Vec<f64>,
+    },
+    /// Per joint: equilibrium angle, torque and stiffness.
+    Joint {
+        #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], allow_negative_numbers = true, value_name = "A1,A2")]
+        alpha_deg: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], allow_negative_numbers = true, value_name = "T1,T2")]
+        torque_nm: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_values_t = [60.0, 27.0], allow_negative_numbers = true, value_name = "K1,K2")]
+        stiffness_nm_per_rad: Vec<f64>,
+    },
+    /// Handle force in the user frame (τ = Jᵀ F at the measured pose).
+    Force {
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_name = "FX,FY")]
+        force_n: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_values_t = [60.0, 27.0], allow_negative_numbers = true, value_name = "K1,K2")]
+        stiffness_nm_per_rad: Vec<f64>,
+        /// Correct the force with the gain plane (thesis eq. 5.2).
+        #[arg(long)]
+        feed_forward: bool,
+    },
+}
+
+fn values<const N: usize>(name: &str, v: &[f64]) -> Result<[f32; N], String> {
+    if v.len() != N {
+        return Err(format!(
+            "{name} takes {N} comma-separated values, got {}",
+            v.len()
+        ));
+    }
+    let mut out = [0.0f32; N];
+    for (o, x) in out.iter_mut().zip(v) {
+        if !x.is_finite() {
+            return Err(format!("{name}: {x} is not a number"));
+        }
+        *o = *x as f32;
+    }
+    Ok(out)
+}
+
+pub fn mode_of(m: &SetMode) -> Result<Mode, String> {
+    Ok(match m {
+        SetMode::Idle => Mode::Idle,
+        SetMode::Pressures { pressure_bar } => Mode::Pressures {
+            pressure_bar: values::<4>("pressures", pressure_bar)?,
+        },
+        SetMode::Joint {
+            alpha_deg,
+            torque_nm,
+            stiffness_nm_per_rad,
+        } => Mode::Joint {
+            alpha_rad: values::<2>("--alpha-deg", alpha_deg)?.map(f32::to_radians),
+            torque_nm: values::<2>("--torque-nm", torque_nm)?,
+            stiffness_nm_per_rad: values::<2>("--stiffness-nm-per-rad", stiffness_nm_per_rad)?,
+        },
+        SetMode::Force {
+            force_n,
+            stiffness_nm_per_rad,
+            feed_forward,
+        } => Mode::Force {
+            force_n: values::<2>("--force-n", force_n)?,
+            stiffness_nm_per_rad: values::<2>("--stiffness-nm-per-rad", stiffness_nm_per_rad)?,
+            feed_forward: *feed_forward,
+        },
+    })
+}
+
+pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+    let mode = mode_of(&args.mode)?;
+    let hold = match args.hold {
+        Some(h) if h.is_nan() || h < 0.0 => {
+            return Err(format!("--hold {h}: give a duration in seconds ≥ 0, or inf"))
+        }
+        h => h.unwrap_or(0.0),
+    };
+    let client = super::connect(link)?;
+    client.start_telemetry();
+    client
+        .command(RequestBody::SetMode(mode))
+        .map_err(|e| e.to_string())?;
+    writeln!(out, "mode set: {}", super::status::describe_mode(&mode)).map_err(|e| e.to_string())?;
+    // a few samples tell whether the target had to be clamped at this pose
+    let mut clamped = false;
+    for _ in 0..5 {
+        if let Ok(Some(t)) = client.next_telemetry(Duration::from_millis(20)) {
+            clamped |= t.limited != 0;
+        }
+    }
+    if clamped {
+        writeln!(
+            out,
+            "warning: the target is beyond what the robot can do at this pose: it is clamped \
+             (see `pamctl model capability` at the pose)"
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    if hold > 0.0 {
+        let stop = super::interrupted();
+        let start = Instant::now();
+        while start.elapsed().as_secs_f64() < hold && !stop.load(Ordering::SeqCst) {
+            client.heartbeat().map_err(|e| e.to_string())?;
+            std::thread::sleep(Duration::from_millis(20));
+            while let Ok(Some(_)) = client.next_telemetry(Duration::ZERO) {}
+        }
+        let faults = client.fault_events();
+        if let Some(f) = faults.last() {
+            return Err(format!(
+                "the device faulted while holding: {}",
+                super::fault_names(f.bits)
+            ));
+        }
+    }
+    Ok(())
+}

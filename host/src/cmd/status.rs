@@ -1,0 +1,128 @@
+//! `pamctl status`: what the device is doing.
+
+use crate::LinkArgs;
+use pam_control::{Mode, State};
+use pam_protocol::{ReplyData, RequestBody, Telemetry};
+use std::io::Write;
+use std::time::Duration;
+
+pub fn describe_mode(mode: &Mode) -> String {
+    match mode {
+        Mode::Idle => "idle".into(),
+        Mode::Pressures { pressure_bar: p } => format!(
+            "pressures {:.2}, {:.2}, {:.2}, {:.2} bar",
+            p[0], p[1], p[2], p[3]
+        ),
+        Mode::Joint {
+            alpha_rad,
+            torque_nm,
+            stiffness_nm_per_rad,
+        } => format!(
+            "joint α {:+.2}°, {:+.2}°; τ {:+.2}, {:+.2} N·m; K {:.1}, {:.1} N·m/rad",
+            alpha_rad[0].to_degrees(),
+            alpha_rad[1].to_degrees(),
+            torque_nm[0],
+            torque_nm[1],
+            stiffness_nm_per_rad[0],
+            stiffness_nm_per_rad[1]
+        ),
+        Mode::Force {
+            force_n,
+            stiffness_nm_per_rad,
+            feed_forward,
+        } => format!(
+            "force ({:+.2}, {:+.2}) N, K {:.1}, {:.1} N·m/rad, gain-plane feed-forward {}",
+            force_n[0],
+            force_n[1],
+            stiffness_nm_per_rad[0],
+            stiffness_nm_per_rad[1],
+            if *feed_forward { "on" } else { "off" }
+        ),
+    }
+}
+
+pub fn state_name(s: State) -> &'static str {
+    match s {
+        State::Disarmed => "disarmed",
+        State::Armed => "armed",
+        State::Faulted => "FAULTED",
+    }
+}
+
+pub fn describe_sample(t: &Telemetry) -> String {
+    format!(
+        "α {:+.3}°, {:+.3}°  force ({:+.2}, {:+.2}) N  currents {:.2}, {:.2}, {:.2}, {:.2} mA  \
+         pressures {:.2}, {:.2}, {:.2}, {:.2} bar  loop {} µs (jitter {} µs){}",
+        t.alpha_rad[0].to_degrees(),
+        t.alpha_rad[1].to_degrees(),
+        t.force_user_n[0],
+        t.force_user_n[1],
+        t.current_ma[0],
+        t.current_ma[1],
+        t.current_ma[2],
+        t.current_ma[3],
+        t.pressure_cmd_bar[0],
+        t.pressure_cmd_bar[1],
+        t.pressure_cmd_bar[2],
+        t.pressure_cmd_bar[3],
+        t.loop_exec_us,
+        t.loop_jitter_us,
+        if t.limited != 0 {
+            "  [target clamped]"
+        } else {
+            ""
+        }
+    )
+}
+
+pub fn run(link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+    let client = super::connect(link)?;
+    let info = *client.info();
+    client.start_telemetry();
+    let s = match client
+        .request(RequestBody::GetStatus)
+        .map_err(|e| e.to_string())?
+    {
+        ReplyData::Status(s) => s,
+        _ => return Err("the device answered status with the wrong kind of reply".into()),
+    };
+    let sample = client
+        .next_telemetry(Duration::from_millis(200))
+        .ok()
+        .flatten();
+    let w = |out: &mut dyn Write, line: String| writeln!(out, "{line}").map_err(|e| e.to_string());
+    let v = info.firmware_version;
+    w(
+        out,
+        format!(
+            "device: firmware {}.{}.{}, protocol {}, parameters hash {:08x}",
+            v.major, v.minor, v.patch, info.protocol_version, info.params_hash
+        ),
+    )?;
+    w(out, format!("state: {}", state_name(s.state)))?;
+    w(out, format!("mode: {}", describe_mode(&s.mode)))?;
+    w(out, format!("faults: {}", super::fault_names(s.faults)))?;
+    w(
+        out,
+        format!(
+            "homed: {}{}",
+            if s.homed { "yes" } else { "no" },
+            if s.homed {
+                ""
+            } else {
+                " (put the arm at the neutral pose and run `pamctl home`)"
+            }
+        ),
+    )?;
+    w(
+        out,
+        format!(
+            "loop: {} µs period, telemetry every {} period(s)",
+            s.period_us, s.telemetry_divider
+        ),
+    )?;
+    match sample {
+        Some(t) => w(out, format!("sample: {}", describe_sample(&t))),
+        None => w(out, "sample: none (telemetry off: `pamctl record` turns it on)".into()),
+    }
+}

@@ -1,0 +1,426 @@
+//! Protocol client: handshake with version check, requests with timeouts, the telemetry
+//! stream with drop counting, fault events.
+
+use super::transport::{self, DeviceAddress};
+use pam_protocol::{
+    encode_frame, DeviceInfo, DeviceMessage, ErrorCode, FaultEvent, FrameDecoder, Reply,
+    ReplyData, Request, RequestBody, Telemetry, MAX_FRAME, PROTOCOL_VERSION,
+};
+use std::fmt;
+use std::io::{ErrorKind, Write};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum ClientError {
+    /// Opening or writing the link failed (message says what to check).
+    Link(String),
+    /// No reply in time.
+    Timeout { request: &'static str, after: Duration },
+    /// The device refused the request; it changed nothing.
+    Refused {
+        request: &'static str,
+        code: ErrorCode,
+    },
+    /// The device closed the link.
+    Disconnected,
+    /// The device does not speak our protocol version.
+    Version { device: Option<u16> },
+    /// A reply of the wrong kind (a device bug).
+    Unexpected { request: &'static str },
+}
+
+pub fn advice(code: ErrorCode) -> &'static str {
+    match code {
+        ErrorCode::Malformed => {
+            "the device could not read the request (corrupted on the link); try again"
+        }
+        ErrorCode::UnsupportedVersion => "the device speaks another protocol version",
+        ErrorCode::OutOfRange => {
+            "a value is NaN or outside the device's limits; nothing was changed (see `pamctl config get limits`)"
+        }
+        ErrorCode::WrongState => {
+            "not allowed in the device's present state (see `pamctl status`): disarm first, or clear the faults"
+        }
+        ErrorCode::FaultStillPresent => {
+            "a fault condition is still present: remove its cause (see `pamctl status`), then clear again"
+        }
+        ErrorCode::NotHomed => {
+            "the encoders are not homed: put the arm at the neutral pose and run `pamctl home`"
+        }
+    }
+}
+
+impl fmt::Display for ClientError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ClientError::Link(m) => write!(f, "{m}"),
+            ClientError::Timeout { request, after } => write!(
+                f,
+                "no reply to {request} within {} ms: is the device powered and running the pamctl-compatible firmware? (check the --device address)",
+                after.as_millis()
+            ),
+            ClientError::Refused { request, code } => {
+                write!(f, "the device refused {request} ({code:?}): {}", advice(*code))
+            }
+            ClientError::Disconnected => write!(
+                f,
+                "the device closed the link (unplugged, reset, or the emulator stopped)"
+            ),
+            ClientError::Version { device } => write!(
+                f,
+                "protocol version mismatch: pamctl speaks version {PROTOCOL_VERSION}, the device {}; \
+                 flash the firmware that matches this pamctl, or use the pamctl that matches the firmware",
+                match device {
+                    Some(v) => format!("speaks version {v}"),
+                    None => "refused it".to_string(),
+                }
+            ),
+            ClientError::Unexpected { request } => {
+                write!(f, "the device answered {request} with the wrong kind of reply")
+            }
+        }
+    }
+}
+
+impl std::error::Error for ClientError {}
+
+/// Counts telemetry frames lost on the link from the gaps in their sequence numbers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DropCounter {
+    last_seq: Option<u32>,
+    pub received: u64,
+    pub dropped: u64,
+}
+
+impl DropCounter {
+    /// Records a sample; returns how many frames were lost just before it.
+    pub fn record(&mut self, seq: u32) -> u64 {
+        // wrapping difference: a u32 wrap is no gap; an old or repeated frame is no loss
+        // and does not move the reference
+        let lost = match self.last_seq {
+            Some(last) => {
+                let d = seq.wrapping_sub(last);
+                if (1..u32::MAX / 2).contains(&d) {
+                    self.last_seq = Some(seq);
+                    (d - 1) as u64
+                } else {
+                    0
+                }
+            }
+            None => {
+                self.last_seq = Some(seq);
+                0
+            }
+        };
+        self.received += 1;
+        self.dropped += lost;
+        lost
+    }
+}
+
+/// Everything the reader thread shares with the client.
+struct Shared {
+    stop: AtomicBool,
+    forward_telemetry: AtomicBool,
+    /// Frames from the device that failed CRC/COBS/decoding.
+    corrupted: AtomicU64,
+}
+
+pub struct Client {
+    writer: Mutex<Box<dyn Write + Send>>,
+    next_id: Mutex<u16>,
+    replies: Receiver<Reply>,
+    telemetry: Receiver<Telemetry>,
+    faults: Receiver<FaultEvent>,
+    shared: Arc<Shared>,
+    reader: Option<JoinHandle<()>>,
+    timeout: Duration,
+    info: DeviceInfo,
+}
+
+fn body_name(b: &RequestBody) -> &'static str {
+    match b {
+        RequestBody::Hello { .. } => "the handshake",
+        RequestBody::Heartbeat => "heartbeat",
+        RequestBody::Arm => "arm",
+        RequestBody::Disarm => "disarm",
+        RequestBody::Home => "home",
+        RequestBody::Tare => "tare",
+        RequestBody::ClearFaults => "fault clear",
+        RequestBody::GetStatus => "status",
+        RequestBody::SetMode(_) => "the mode change",
+        RequestBody::GetConfig(_) => "config get",
+        RequestBody::SetConfig(_) => "config set",
+        RequestBody::SetTelemetry { .. } => "the telemetry rate",
+    }
+}
+
+impl Client {
+    /// Opens `--device`, does the handshake and checks the protocol version.
+    pub fn connect(device: &str, timeout: Duration) -> Result<Client, ClientError> {
+        let address = DeviceAddress::parse(device).map_err(ClientError::Link)?;
+        let stream = transport::open(&address, timeout).map_err(ClientError::Link)?;
+        Self::over(stream, timeout, PROTOCOL_VERSION)
+    }
+
+    /// Handshake over an open stream, announcing `protocol_version` (tests use another one
+    /// to see the mismatch handled).
+    pub fn over(
+        stream: transport::Stream,
+        timeout: Duration,
+        protocol_version: u16,
+    ) -> Result<Client, ClientError> {
+        let (reply_tx, replies) = channel();
+        let (telemetry_tx, telemetry) = channel();
+        let (fault_tx, faults) = channel();
+        let shared = Arc::new(Shared {
+            stop: AtomicBool::new(false),
+            forward_telemetry: AtomicBool::new(false),
+            corrupted: AtomicU64::new(0),
+        });
+        let reader = {
+            let shared = shared.clone();
+            let mut r = stream.reader;
+            std::thread::spawn(move || {
+                read_loop(&mut *r, &shared, reply_tx, telemetry_tx, fault_tx)
+            })
+        };
+        let mut client = Client {
+            writer: Mutex::new(stream.writer),
+            next_id: Mutex::new(1),
+            replies,
+            telemetry,
+            faults,
+            shared,
+            reader: Some(reader),
+            timeout,
+            info: DeviceInfo {
+                protocol_version: 0,
+                firmware_version: pam_protocol::Version {
+                    major: 0,
+                    minor: 0,
+                    patch: 0,
+                },
+                period_us: 0,
+                params_hash: 0,
+            },
+        };
+        // a lone delimiter ends whatever half frame the device may hold from before
+        client.write_bytes(&[0]).map_err(ClientError::Link)?;
+        match client.request(RequestBody::Hello { protocol_version }) {
+            Ok(ReplyData::Hello(info)) if info.protocol_version == PROTOCOL_VERSION => {
+                client.info = info;
+                Ok(client)
+            }
+            Ok(ReplyData::Hello(info)) => Err(ClientError::Version {
+                device: Some(info.protocol_version),
+            }),
+            Ok(_) => Err(ClientError::Unexpected {
+                request: "the handshake",
+            }),
+            Err(ClientError::Refused {
+                code: ErrorCode::UnsupportedVersion,
+                ..
+            }) => Err(ClientError::Version { device: None }),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// What the device said in the handshake.
+    pub fn info(&self) -> &DeviceInfo {
+        &self.info
+    }
+
+    fn write_bytes(&self, bytes: &[u8]) -> Result<(), String> {
+        let mut w = self.writer.lock().map_err(|_| "link writer poisoned")?;
+        w.write_all(bytes)
+            .and_then(|_| w.flush())
+            .map_err(|e| format!("cannot write to the device: {e}"))
+    }
+
+    /// Raw bytes onto the link (tests use it to inject corruption).
+    pub fn send_raw(&self, bytes: &[u8]) -> Result<(), ClientError> {
+        self.write_bytes(bytes).map_err(ClientError::Link)
+    }
+
+    fn send(&self, body: RequestBody) -> Result<u16, ClientError> {
+        let id = {
+            let mut next = self.next_id.lock().map_err(|_| ClientError::Disconnected)?;
+            let id = *next;
+            // 0 is the device's "unknown request" id
+            *next = next.wrapping_add(1).max(1);
+            id
+        };
+        let mut buf = [0u8; MAX_FRAME];
+        let n = encode_frame(&Request { id, body }, &mut buf).map_err(|e| {
+            ClientError::Link(format!("cannot encode the request ({e:?}); this is a pamctl bug"))
+        })?;
+        self.write_bytes(&buf[..n]).map_err(ClientError::Link)?;
+        Ok(id)
+    }
+
+    /// Sends a request and waits for its reply.
+    pub fn request(&self, body: RequestBody) -> Result<ReplyData, ClientError> {
+        let name = body_name(&body);
+        let id = self.send(body)?;
+        let deadline = Instant::now() + self.timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.replies.recv_timeout(left) {
+                Ok(r) if r.id == id => {
+                    return r.result.map_err(|code| ClientError::Refused {
+                        request: name,
+                        code,
+                    })
+                }
+                Ok(_) => continue, // a late reply to an earlier request, or a heartbeat's
+                Err(RecvTimeoutError::Timeout) => {
+                    return Err(ClientError::Timeout {
+                        request: name,
+                        after: self.timeout,
+                    })
+                }
+                Err(RecvTimeoutError::Disconnected) => return Err(ClientError::Disconnected),
+            }
+        }
+    }
+
+    /// A request whose reply is only `Done`.
+    pub fn command(&self, body: RequestBody) -> Result<(), ClientError> {
+        let name = body_name(&body);
+        match self.request(body)? {
+            ReplyData::Done => Ok(()),
+            _ => Err(ClientError::Unexpected { request: name }),
+        }
+    }
+
+    /// Fire-and-forget keep-alive (the device's command timeout counts from the last
+    /// request it received). Its reply is dropped by [`Client::request`].
+    pub fn heartbeat(&self) -> Result<(), ClientError> {
+        self.send(RequestBody::Heartbeat).map(|_| ())
+    }
+
+    /// Starts handing telemetry samples to [`Client::next_telemetry`]; samples that came
+    /// before are discarded.
+    pub fn start_telemetry(&self) {
+        while self.telemetry.try_recv().is_ok() {}
+        self.shared.forward_telemetry.store(true, Ordering::SeqCst);
+    }
+
+    pub fn next_telemetry(&self, wait: Duration) -> Result<Option<Telemetry>, ClientError> {
+        match self.telemetry.recv_timeout(wait) {
+            Ok(t) => Ok(Some(t)),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(ClientError::Disconnected),
+        }
+    }
+
+    /// Fault events received so far.
+    pub fn fault_events(&self) -> Vec<FaultEvent> {
+        self.faults.try_iter().collect()
+    }
+
+    /// Frames from the device rejected as corrupted so far.
+    pub fn corrupted_frames(&self) -> u64 {
+        self.shared.corrupted.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for Client {
+    fn drop(&mut self) {
+        self.shared.stop.store(true, Ordering::SeqCst);
+        if let Some(h) = self.reader.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+fn read_loop(
+    r: &mut dyn std::io::Read,
+    shared: &Shared,
+    replies: Sender<Reply>,
+    telemetry: Sender<Telemetry>,
+    faults: Sender<FaultEvent>,
+) {
+    let mut decoder = FrameDecoder::<DeviceMessage>::new();
+    let mut buf = [0u8; 4096];
+    while !shared.stop.load(Ordering::SeqCst) {
+        let n = match r.read(&mut buf) {
+            Ok(0) => return, // closed: the senders drop and the client sees Disconnected
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
+                ) =>
+            {
+                continue
+            }
+            Err(_) => return,
+        };
+        for &b in &buf[..n] {
+            match decoder.push(b) {
+                None => {}
+                Some(Ok(DeviceMessage::Reply(rep))) => {
+                    let _ = replies.send(rep);
+                }
+                Some(Ok(DeviceMessage::Telemetry(t)))
+                    if shared.forward_telemetry.load(Ordering::Relaxed) =>
+                {
+                    let _ = telemetry.send(t);
+                }
+                Some(Ok(DeviceMessage::Telemetry(_))) => {}
+                Some(Ok(DeviceMessage::FaultEvent(e))) => {
+                    let _ = faults.send(e);
+                }
+                Some(Err(_)) => {
+                    shared.corrupted.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn drop_counter_counts_gaps_and_survives_wrap() {
+        let mut d = DropCounter::default();
+        for s in [5, 6, 7, 10, 11] {
+            d.record(s);
+        }
+        assert_eq!((d.received, d.dropped), (5, 2));
+        let mut d = DropCounter::default();
+        for s in [u32::MAX - 1, u32::MAX, 0, 2] {
+            d.record(s);
+        }
+        assert_eq!((d.received, d.dropped), (4, 1));
+        // a repeated or old frame is no loss
+        let mut d = DropCounter::default();
+        for s in [3, 3, 2, 4] {
+            d.record(s);
+        }
+        assert_eq!(d.dropped, 0);
+    }
+
+    #[test]
+    fn device_addresses_parse_or_explain() {
+        assert_eq!(
+            DeviceAddress::parse("tcp://127.0.0.1:7878"),
+            Ok(DeviceAddress::Tcp("127.0.0.1:7878".into()))
+        );
+        assert_eq!(
+            DeviceAddress::parse("/dev/ttyACM0"),
+            Ok(DeviceAddress::Serial("/dev/ttyACM0".into()))
+        );
+        assert!(DeviceAddress::parse("tcp://nohost").unwrap_err().contains("tcp://HOST:PORT"));
+        assert!(DeviceAddress::parse("udp://x:1").unwrap_err().contains("unknown scheme"));
+        assert!(DeviceAddress::parse("").unwrap_err().contains("--device"));
+    }
+}

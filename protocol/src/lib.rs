@@ -1,0 +1,45 @@
+//! The link between the firmware (or the emulator) and the host: one crate, used by both
+//! ends, so the wire format has exactly one definition.
+//!
+//! - [`messages`]: requests (host → device), replies, telemetry and fault events
+//!   (device → host), [`PROTOCOL_VERSION`].
+//! - [`frame`]: `COBS(postcard(message) ‖ CRC-16/CCITT-FALSE) ‖ 0x00` framing and the
+//!   streaming [`FrameDecoder`], which resynchronises at the next 0x00 after any garbage.
+//!
+//! `no_std`, no heap: every buffer is a fixed array of at most [`MAX_FRAME`] bytes.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+
+pub mod cobs;
+pub mod crc;
+pub mod frame;
+pub mod messages;
+
+pub use frame::{
+    decode_block, encode_frame, DecodeError, EncodeError, FrameDecoder, MAX_FRAME, MAX_PAYLOAD,
+};
+pub use messages::*;
+
+/// Largest telemetry frame on the wire, delimiter included (all varints at their longest,
+/// force reference present). Typical frames are a few bytes shorter. Checked by the
+/// `telemetry_frame_size` test.
+pub const TELEMETRY_FRAME_MAX: usize = 84;
+
+/// A 32-bit fingerprint (FNV-1a over the postcard encoding) of a parameter set, so the
+/// host can tell whether the device runs the parameters it expects.
+pub fn params_hash(params: &pam_model::RobotParams<f32>) -> u32 {
+    let mut buf = [0u8; MAX_PAYLOAD];
+    let bytes: &[u8] = match postcard::to_slice(params, &mut buf) {
+        Ok(b) => b,
+        Err(_) => &[],
+    };
+    let mut h: u32 = 0x811C_9DC5;
+    for &b in bytes {
+        h ^= b as u32;
+        h = h.wrapping_mul(0x0100_0193);
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests;
