@@ -3,6 +3,7 @@
 
 pub mod cmd;
 pub mod link;
+pub mod sim;
 
 use clap::{Args, Parser, Subcommand};
 
@@ -57,6 +58,8 @@ pub enum Command {
     Config(cmd::config::ConfigCommand),
     /// Record telemetry to a log-format-v1 CSV file.
     Record(cmd::record::RecordArgs),
+    /// The device emulator: pam-device against the digital twin, in real time, on TCP/pty.
+    Sim(cmd::sim::SimArgs),
 }
 
 pub fn run(cli: Cli) -> Result<(), String> {
@@ -74,5 +77,6 @@ pub fn run(cli: Cli) -> Result<(), String> {
         Command::Set(s) => cmd::set::run(s, link, out),
         Command::Config(c) => cmd::config::run(c, link, out),
         Command::Record(r) => cmd::record::run(r, link, out),
+        Command::Sim(s) => cmd::sim::run(s, out),
     }
 }

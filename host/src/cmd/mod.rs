@@ -7,6 +7,7 @@ pub mod model;
 pub mod ports;
 pub mod record;
 pub mod set;
+pub mod sim;
 pub mod status;
 pub mod tare;
 
