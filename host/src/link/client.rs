@@ -128,6 +128,8 @@ struct Shared {
     forward_telemetry: AtomicBool,
     /// Frames from the device that failed CRC/COBS/decoding.
     corrupted: AtomicU64,
+    /// Every byte read from the link (throughput statistics).
+    bytes_received: AtomicU64,
 }
 
 pub struct Client {
@@ -181,6 +183,7 @@ impl Client {
             stop: AtomicBool::new(false),
             forward_telemetry: AtomicBool::new(false),
             corrupted: AtomicU64::new(0),
+            bytes_received: AtomicU64::new(0),
         });
         let reader = {
             let shared = shared.clone();
@@ -324,6 +327,11 @@ impl Client {
         self.faults.try_iter().collect()
     }
 
+    /// Bytes received from the device so far (frames, delimiters and any garbage).
+    pub fn bytes_received(&self) -> u64 {
+        self.shared.bytes_received.load(Ordering::Relaxed)
+    }
+
     /// Frames from the device rejected as corrupted so far.
     pub fn corrupted_frames(&self) -> u64 {
         self.shared.corrupted.load(Ordering::Relaxed)
@@ -362,6 +370,7 @@ fn read_loop(
             }
             Err(_) => return,
         };
+        shared.bytes_received.fetch_add(n as u64, Ordering::Relaxed);
         for &b in &buf[..n] {
             match decoder.push(b) {
                 None => {}
