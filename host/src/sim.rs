@@ -298,8 +298,8 @@ struct Plant {
     last: Measurement,
     handle_mode: HandleMode,
     model: RobotModel<f64>,
-    /// Operator path around (0, 0); the centre is added.
-    path: OperatorPath,
+    /// Operator path around (0, 0); the centre is added. Built only for the operator.
+    path: Option<OperatorPath>,
     /// Condition chosen at the last arm/mode change, and when that was (plant time).
     hold_point: Vec2<f64>,
     since_s: f64,
@@ -326,14 +326,15 @@ impl Plant {
         );
         // the rig's calibration: the twin's encoder resolution
         let mut cal: Calibration = device.calibration();
-        for j in 0..2 {
-            cal.encoder[j] = EncoderCalibration { counts_per_rev: counts_per_rev[j].max(1), sign: 1 };
+        for (enc, counts) in cal.encoder.iter_mut().zip(counts_per_rev) {
+            *enc = EncoderCalibration { counts_per_rev: counts.max(1), sign: 1 };
         }
         let reply = device.handle(&Request { id: 0, body: RequestBody::SetConfig(Config::Calibration(cal)) });
         reply.result.map_err(|e| format!("the device refused the emulator's calibration: {e:?}"))?;
         let last = twin.step(1e-6, [4.0; 4], &HandleCondition::Free);
-        let model = twin.model().clone();
-        let path = OperatorPath::new([0.0; 2], 0.04, (0.1, 2.0), OPERATOR_PATH_S, config.seed);
+        let model = *twin.model();
+        let path = (config.handle == HandleMode::Operator)
+            .then(|| OperatorPath::new([0.0; 2], 0.04, (0.1, 2.0), OPERATOR_PATH_S, config.seed));
         let hold_point = twin.state().handle_user_m;
         let last_mode = (device.controller().state(), device.controller().mode());
         Ok(Plant { device, twin, last, handle_mode: config.handle, model, path, hold_point, since_s: 0.0, last_mode, t_s: 0.0 })
@@ -374,12 +375,13 @@ impl Plant {
             HandleMode::Operator if armed && force => HandleCondition::Blocked,
             HandleMode::Operator if armed && joint => {
                 let t = self.t_s - self.since_s - OPERATOR_HOLD_S;
-                if t <= 0.0 {
-                    HandleCondition::held_at(self.hold_point)
-                } else {
-                    let (p, v) = self.path.at(t);
-                    let c = self.hold_point;
-                    HandleCondition::moved([c[0] + p[0], c[1] + p[1]], v)
+                match &self.path {
+                    Some(path) if t > 0.0 => {
+                        let (p, v) = path.at(t);
+                        let c = self.hold_point;
+                        HandleCondition::moved([c[0] + p[0], c[1] + p[1]], v)
+                    }
+                    _ => HandleCondition::held_at(self.hold_point),
                 }
             }
             HandleMode::Operator => HandleCondition::Free,
