@@ -10,6 +10,7 @@ pub mod set;
 pub mod sim;
 pub mod status;
 pub mod tare;
+pub mod watch;
 
 use crate::link::{transport::no_device_message, Client};
 use crate::LinkArgs;
