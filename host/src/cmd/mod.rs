@@ -1,6 +1,7 @@
 pub mod arm;
 pub mod config;
 pub mod disarm;
+pub mod experiment;
 pub mod fault;
 pub mod home;
 pub mod model;
