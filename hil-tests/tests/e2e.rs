@@ -311,3 +311,40 @@ fn ctrl_c_during_record_leaves_a_valid_csv_with_everything_received() {
     assert!(stdout.contains(&format!("recorded {} samples", log.len())), "{stdout}");
     assert_eq!(seq_gaps(&log), 0);
 }
+
+#[test]
+fn force_step_experiment_writes_one_log_that_follows_the_reference() {
+    let _serial = exclusive();
+    let target = Target::acquire(SIM);
+    if !target.is_emulator() {
+        // on a real board the operator must block the handle: run it by hand
+        eprintln!("skipped on PAM_DEVICE: `pamctl experiment step` needs the handle blocked by hand");
+        return;
+    }
+    target.prepare(1.0);
+    let dir = tmp("experiment");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = ok(
+        &target.address,
+        &["experiment", "step", "--pose", "0", "--hold-s", "0.25", "--settle-s", "0.3", "--yes", "--out", dir.to_str().unwrap()],
+    );
+    assert!(out.contains("1 log(s)"), "{out}");
+    let log = pam_log::read_path(dir.join("step_pose0.csv")).expect("a valid log");
+    assert_eq!(log.meta("experiment"), Some("force_step"));
+    assert_eq!(log.meta("pose_deg"), Some("0 0"));
+    assert_eq!(seq_gaps(&log), 0);
+    let (fx, fy) = (column(&log, col::FX_N), column(&log, col::FY_N));
+    let (rx, ry) = (column(&log, col::FX_REF_N), column(&log, col::FY_REF_N));
+    // 2 axes × 13 levels, each ending settled near its reference (blocked handle)
+    let mut levels = 0;
+    for i in 1..log.len() {
+        let end_of_level = rx[i] != rx[i - 1] || ry[i] != ry[i - 1];
+        if end_of_level {
+            levels += 1;
+            let (ex, ey) = (fx[i - 1] - rx[i - 1], fy[i - 1] - ry[i - 1]);
+            assert!(ex.abs() < 4.0 && ey.abs() < 4.0, "level ({}, {}) N: measured ({:.2}, {:.2}) N", rx[i - 1], ry[i - 1], fx[i - 1], fy[i - 1]);
+        }
+    }
+    assert!(levels >= 20, "{levels} level changes");
+    assert!(rx.iter().chain(ry).any(|&f| (f - 27.3).abs() < 1e-3) && rx.iter().chain(ry).any(|&f| (f + 27.3).abs() < 1e-3));
+}
