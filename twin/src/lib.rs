@@ -19,6 +19,7 @@ pub mod effects;
 pub mod experiments;
 pub mod plant;
 pub mod pneumatics;
+pub mod rig;
 pub mod rng;
 
 pub use effects::{Effect, EffectSet};

@@ -108,11 +108,28 @@ pub struct MechanicsConfig {
     pub hard_stop_margin_rad: f64,
     pub hard_stop_stiffness_nm_per_rad: f64,
     pub hard_stop_damping_nm_s_per_rad: f64,
+    /// Passive stiffness in parallel with each muscle pair, rest at the neutral pose
+    /// (α = 0). The default is calibrated from the thesis's identified stiffness
+    /// ([`crate::rig`]); zero gives the thesis's model alone.
+    pub parallel_stiffness_nm_per_rad: [f64; 2],
+}
+
+impl MechanicsConfig {
+    /// The thesis's model alone: no parallel stiffness.
+    pub fn thesis_model() -> Self {
+        MechanicsConfig {
+            parallel_stiffness_nm_per_rad: [0.0; 2],
+            ..Self::default()
+        }
+    }
 }
 
 impl Default for MechanicsConfig {
     fn default() -> Self {
         MechanicsConfig {
+            parallel_stiffness_nm_per_rad: crate::rig::parallel_stiffness_from_thesis(
+                &RobotParams::thesis(),
+            ),
             joint_damping_nm_s_per_rad: [0.05, 0.05],
             hard_stop_margin_rad: 0.06,
             hard_stop_stiffness_nm_per_rad: 3000.0,
@@ -442,7 +459,8 @@ impl Twin {
         for j in 0..2 {
             let map = self.cfg.params.joints[j].channel_of_muscle;
             let r = self.cfg.params.joints[j].pulley_radius_m;
-            torque[j] = r * (force[(map[1] & 3) as usize] - force[(map[0] & 3) as usize]);
+            torque[j] = r * (force[(map[1] & 3) as usize] - force[(map[0] & 3) as usize])
+                - self.cfg.mechanics.parallel_stiffness_nm_per_rad[j] * self.state.alpha_rad[j];
         }
         {
             let ctx = self.ctx(h, blocked);

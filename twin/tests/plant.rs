@@ -17,7 +17,7 @@ fn ideal_twin(alpha: [f64; 2]) -> Twin {
 }
 
 /// Blocked at a pose with steady pressures, the load cell reads J⁻ᵀ τ with τ from the model's
-/// direct model (eq. 3.2, 3.1) at those pressures.
+/// direct model (eq. 3.2, 3.1) at those pressures, less the rig's parallel stiffness.
 #[test]
 fn blocked_force_is_the_statics_of_the_model() {
     let model = RobotModel::<f64>::thesis();
@@ -30,7 +30,9 @@ fn blocked_force_is_the_statics_of_the_model() {
     }
     let m = m.unwrap();
     let joint_p = model.joint_pressures_bar(m.pressure_bar);
-    let tau = model.direct(alpha, joint_p).map(|(t, _)| t);
+    let k_parallel = twin.config().mechanics.parallel_stiffness_nm_per_rad;
+    let tau_muscles = model.direct(alpha, joint_p).map(|(t, _)| t);
+    let tau = [0, 1].map(|j| tau_muscles[j] - k_parallel[j] * alpha[j]);
     let f = model
         .kinematics
         .jacobian(alpha)

@@ -9,6 +9,16 @@ use pam_model::{Mat2, RobotModel};
 use pam_twin::experiments::*;
 use pam_twin::{HandleCondition, Twin, TwinConfig};
 
+/// The stiffness the twin's physics should show at point 1: the model's trial stiffness plus
+/// the rig's parallel stiffness (`pam_twin::rig`), mapped to the handle.
+fn expected_k(cfg: &ExperimentConfig, model: &RobotModel<f64>, level: StiffnessLevel) -> Mat2<f64> {
+    let k_muscles = trial_stiffness(model, [0.0; 2], level);
+    let k_parallel = cfg.twin.mechanics.parallel_stiffness_nm_per_rad;
+    model
+        .cartesian_stiffness([0.0; 2], [0, 1].map(|j| k_muscles[j] + k_parallel[j]))
+        .unwrap()
+}
+
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
@@ -28,7 +38,9 @@ fn print_mat(name: &str, m: &Mat2<f64>) -> String {
 /// B_C = [[26.6, 9.4], [9.4, 0.9]], M_C = [[0.93, −0.053], [−0.053, −0.027]];
 /// static trial K_C = [[145.9, 73.5], [73.5, 387.0]]. The model's K_C at K_min is
 /// [[85.8, 55.2], [55.2, 221.3]]: the thesis measured more than its model predicts (Fig. 4.3),
-/// statically too. The twin reproduces its physics, not that gap (see README, "Known gap").
+/// statically too. The twin's rig has a parallel stiffness calibrated on the static and the
+/// high-stiffness trials (`pam_twin::rig`); this trial is held out of that calibration, and
+/// issue 3 asks for it within a factor 1.5 of the print.
 #[test]
 fn dynamic_trial_point1_fits_linear_msd_with_positive_masses() {
     let cfg = ExperimentConfig::thesis();
@@ -36,12 +48,7 @@ fn dynamic_trial_point1_fits_linear_msd_with_positive_masses() {
     let log = dynamic_trial(&cfg, 1, StiffnessLevel::Low, 90.0).unwrap();
     assert_eq!(log.len(), 90_000);
     let fit = fit_msd(&log, &model, [0.0, 0.0]);
-    let k_model = model
-        .cartesian_stiffness(
-            [0.0; 2],
-            trial_stiffness(&model, [0.0; 2], StiffnessLevel::Low),
-        )
-        .unwrap();
+    let k_model = expected_k(&cfg, &model, StiffnessLevel::Low);
     let m_model = model.cartesian_mass([0.0; 2]).unwrap();
     println!(
         "{}   (thesis temporal fit [[253.7, 107.1], [107.1, 364.0]]; model {:?})",
@@ -85,6 +92,33 @@ fn dynamic_trial_point1_fits_linear_msd_with_positive_masses() {
         fit.b
     );
     assert!(fit.r2[0] > 0.9 && fit.r2[1] > 0.9, "{:?}", fit.r2);
+    let printed = pam_twin::rig::KC_DYNAMIC_LOW_POINT1_N_PER_M;
+    for (i, j) in [(0, 0), (0, 1), (1, 1)] {
+        let ratio = fit.k.0[i][j] / printed[i][j];
+        println!("K[{i}][{j}]: twin / thesis = {ratio:.2}");
+        assert!(
+            (1.0 / 1.5..=1.5).contains(&ratio),
+            "K[{i}][{j}] {} is not within a factor 1.5 of the thesis's {}",
+            fit.k.0[i][j],
+            printed[i][j]
+        );
+    }
+}
+
+/// Without the rig's parallel stiffness the twin is the thesis's model: the fitted stiffness
+/// is the model's K_C (and so a factor 1.6–3 under the thesis's measurement).
+#[test]
+fn thesis_model_alone_gives_the_model_stiffness() {
+    let mut cfg = ExperimentConfig::thesis();
+    cfg.twin.mechanics = pam_twin::MechanicsConfig::thesis_model();
+    let model = RobotModel::new(cfg.twin.params);
+    let fit = fit_msd(&dynamic_trial(&cfg, 1, StiffnessLevel::Low, 45.0).unwrap(), &model, [0.0; 2]);
+    let k_model = expected_k(&cfg, &model, StiffnessLevel::Low);
+    println!("{}   (model {:?})", print_mat("K_fit, thesis model alone", &fit.k), k_model.0);
+    for (i, j) in [(0, 0), (0, 1), (1, 1)] {
+        assert!(rel(fit.k.0[i][j], k_model.0[i][j]) < 0.10, "K[{i}][{j}] {:?}", fit.k);
+    }
+    assert!(fit.k.0[0][0] < 0.5 * pam_twin::rig::KC_DYNAMIC_LOW_POINT1_N_PER_M[0][0]);
 }
 
 /// The high-stiffness trial is stiffer than the low one, by the model's ratio.
@@ -102,18 +136,13 @@ fn dynamic_trial_point1_high_stiffness_is_stiffer() {
         &model,
         [0.0; 2],
     );
-    let k_high = model
-        .cartesian_stiffness(
-            [0.0; 2],
-            trial_stiffness(&model, [0.0; 2], StiffnessLevel::High),
-        )
-        .unwrap();
+    let k_high = expected_k(&cfg, &model, StiffnessLevel::High);
     println!(
         "{}   (thesis max [[304.1, 166.7], [166.7, 491.5]]; model {:?})",
         print_mat("K_fit high", &high.k),
         k_high.0
     );
-    assert!(high.k.0[0][0] > 1.5 * low.k.0[0][0] && high.k.0[1][1] > 1.5 * low.k.0[1][1]);
+    assert!(high.k.0[0][0] > 1.2 * low.k.0[0][0] && high.k.0[1][1] > 1.2 * low.k.0[1][1]);
     assert!(rel(high.k.0[0][0], k_high.0[0][0]) < 0.1 && rel(high.k.0[1][1], k_high.0[1][1]) < 0.1);
 }
 
@@ -128,12 +157,7 @@ fn dynamic_trial_at_the_thesis_50ms_period() {
     let period = log.sample_period_s().unwrap();
     assert!((period - 0.05).abs() < 1e-9, "{period}");
     let fit = fit_msd(&log, &model, [0.0; 2]);
-    let k_model = model
-        .cartesian_stiffness(
-            [0.0; 2],
-            trial_stiffness(&model, [0.0; 2], StiffnessLevel::Low),
-        )
-        .unwrap();
+    let k_model = expected_k(&cfg, &model, StiffnessLevel::Low);
     println!(
         "50 ms: {} {} {}",
         print_mat("K", &fit.k),
@@ -174,12 +198,7 @@ fn static_trial_point1_gives_the_spring_of_the_model() {
     assert!(rows.len() > 2 * 8 * 4000, "{} hold samples", rows.len() / 2);
     let p = least_squares(&rows, &rhs);
     let k = Mat2::symmetric(p[0], p[1], p[2]);
-    let k_model = model
-        .cartesian_stiffness(
-            [0.0; 2],
-            trial_stiffness(&model, [0.0; 2], StiffnessLevel::Low),
-        )
-        .unwrap();
+    let k_model = expected_k(&cfg, &model, StiffnessLevel::Low);
     println!(
         "{}   (thesis static [[145.9, 73.5], [73.5, 387.0]]; model {:?})",
         print_mat("K_static", &k),

@@ -319,8 +319,8 @@ pub fn record(
 }
 
 pub fn run(args: RecordArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
-    let client = super::connect(link)?;
     let stop = super::interrupted();
+    let client = super::connect(link)?;
     let s = record(
         &client,
         &args,
