@@ -51,18 +51,22 @@ fn unequal_pressures_turn_the_twin_and_the_encoders_see_it() {
     c.command(RequestBody::Arm).unwrap();
     let still = run(&c, 0.2);
     assert!(still.alpha_rad.iter().all(|a| a.abs() < 1e-3), "{:?}", still.alpha_rad);
-    // joint 1's pair (channels 0, 1): one muscle at 3 bar, the other vented, then the reverse
-    let turn = |p: [f32; 4]| {
-        c.command(RequestBody::SetMode(Mode::Pressures { pressure_bar: p })).unwrap();
-        run(&c, 0.6).alpha_rad[0]
-    };
-    let a = turn([3.0, 0.1, 1.5, 1.5]);
-    c.command(RequestBody::SetMode(Mode::Pressures { pressure_bar: [1.5; 4] })).unwrap();
-    run(&c, 0.6);
-    let b = turn([0.1, 3.0, 1.5, 1.5]);
+    // joint 1's pair (channels 0, 1): one muscle at 3 bar, the other vented. The free arm
+    // swings (the twin's arm is lightly damped): look at the largest excursion.
+    c.command(RequestBody::SetMode(Mode::Pressures { pressure_bar: [3.0, 0.1, 1.5, 1.5] })).unwrap();
+    c.start_telemetry();
+    let start = Instant::now();
+    let mut largest: f32 = 0.0;
+    while start.elapsed() < Duration::from_millis(800) {
+        c.heartbeat().unwrap();
+        while let Some(t) = c.next_telemetry(Duration::ZERO).unwrap() {
+            largest = largest.max(t.alpha_rad[0].abs());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
     // the twin moved and the device's encoder front end saw it move
-    assert!((a - b).abs() > 0.05, "joint 1 at {a} then {b} rad: the pressures made no difference");
-    assert!(emu.stats.periods.load(std::sync::atomic::Ordering::Relaxed) > 1500);
+    assert!(largest > 0.05, "joint 1 moved at most {largest} rad");
+    assert!(emu.stats.periods.load(std::sync::atomic::Ordering::Relaxed) > 800);
 }
 
 #[test]
