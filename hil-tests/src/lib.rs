@@ -144,11 +144,12 @@ impl Drop for Target {
     }
 }
 
-/// The device's I/P law: (vent pressure, the loop current that commands it).
+/// The safe state: (the converters' floor pressure, the safe loop current, 4 mA).
 pub fn vent(c: &Client) -> (f32, f32) {
     match c.request(RequestBody::GetConfig(ConfigSection::Robot)).expect("robot parameters") {
         ReplyData::Config(Config::Robot(p)) => {
-            (p.ip.output_min_bar, p.ip.current_for(p.ip.output_min_bar).current_ma)
+            // the converter's floor, commanded with the safe current (4 mA)
+            (p.ip.output_min_bar, p.ip.current_min_ma)
         }
         other => panic!("robot parameters: unexpected reply {other:?}"),
     }
