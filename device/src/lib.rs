@@ -17,6 +17,13 @@
 //! send DeviceMessage::Reply(reply)
 //! ```
 //!
+//! `Device` has one owner. On the firmware, the simplest safe wiring is to let the control
+//! task own it: the link task decodes frames and queues the `Result<Request, DecodeError>`s
+//! (a heapless channel), the control task handles at most a few per period before `step`
+//! and queues the replies back. Costs on the Cortex-M4F (QEMU, `cargo xtask qemu-bench`):
+//! `step` ≈ 2 100 instructions, the slowest requests ≈ 1 900 (`Hello`) and ≈ 3 800
+//! (`SetConfig(Robot)`).
+//!
 //! `no_std`, no heap, no panic path. f32 throughout.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]

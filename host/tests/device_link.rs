@@ -139,7 +139,7 @@ fn silence_times_out_into_a_fault_that_clears_on_command() {
     let d = TestDevice::start(Options::default());
     ok(&d.address, &["home"]);
     ok(&d.address, &["arm"]);
-    std::thread::sleep(Duration::from_millis(1500)); // the test device's timeout is 1 s
+    std::thread::sleep(Duration::from_millis(2000)); // the test device's timeout is 1 s
     let out = ok(&d.address, &["status"]);
     assert!(out.contains("state: FAULTED") && out.contains("faults: command timeout"), "{out}");
     let err = fails(&d.address, &["arm"]);
@@ -236,7 +236,12 @@ fn ctrl_c_ends_a_recording_with_a_valid_file() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(1200));
+    // interrupt once the recording is under way, past its first progress tick (0.5 s)
+    let started = std::time::Instant::now();
+    while std::fs::read_to_string(&file).map_or(0, |t| t.lines().count()) < 700 {
+        assert!(started.elapsed() < Duration::from_secs(20), "recording never started");
+        std::thread::sleep(Duration::from_millis(50));
+    }
     let status = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
@@ -246,7 +251,7 @@ fn ctrl_c_ends_a_recording_with_a_valid_file() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{stderr}");
-    assert!(stderr.contains("samples/s") && stderr.contains("dropped"), "progress line: {stderr}");
+    assert!(stderr.contains("samples/s") && stderr.contains("dropped"), "progress line: {stderr} / stdout {stdout}");
     let log = pam_log::read_path(&file).expect("valid after Ctrl-C");
     assert!(log.len() > 100, "{} rows", log.len());
     assert!(stdout.contains(&format!("recorded {} samples", log.len())), "{stdout}");

@@ -235,8 +235,39 @@ fn main() -> ! {
         }
     });
     let per_step = (step_ticks.saturating_sub(heartbeat_ticks)) as f32 * insn_per_tick / n;
+    let armed_through_bench = dev.controller().state() == State::Armed;
     hprintln!("bench control step (pam-device: raw counts/volts in -> output currents out, force mode + feed-forward + supervisor + telemetry), f32/{}: {:.0} instructions per step; state {:?}, faults {:#x}", math, per_step, dev.controller().state(), dev.controller().faults().0);
-    if dev.controller().state() != State::Armed {
+    // The slowest requests, so the firmware knows what handling one costs wherever it
+    // calls it: the handshake (hashes the parameters) and a new parameter set (rebuilds the
+    // model's derived constants). Measured disarmed, where SetConfig is allowed.
+    dev.handle(&req(RequestBody::Disarm));
+    let hello = RequestBody::Hello {
+        protocol_version: pam_protocol::PROTOCOL_VERSION,
+    };
+    let robot = RobotParams::thesis();
+    let mut hello_ok = true;
+    let mut config_ok = true;
+    const REQ_REPS: u32 = 20;
+    let hello_ticks = ticks(|| {
+        for _ in 0..REQ_REPS {
+            hello_ok &= black_box(dev.handle(black_box(&req(hello)))).result.is_ok();
+        }
+    });
+    let config_ticks = ticks(|| {
+        for _ in 0..REQ_REPS {
+            config_ok &= black_box(dev.handle(black_box(&req(RequestBody::SetConfig(
+                pam_protocol::Config::Robot(robot),
+            )))))
+            .result
+            .is_ok();
+        }
+    });
+    hprintln!("bench device.handle(Hello), f32/{}: {:.0} instructions; device.handle(SetConfig(Robot)): {:.0} instructions", math, hello_ticks as f32 * insn_per_tick / REQ_REPS as f32, config_ticks as f32 * insn_per_tick / REQ_REPS as f32);
+    if !(hello_ok && config_ok) {
+        failed += 1;
+        hprintln!("FAIL bench: a benchmarked request was refused");
+    }
+    if !armed_through_bench {
         // a faulted device takes the short path: the figure would be meaningless
         failed += 1;
         hprintln!("FAIL bench: the device left the armed state during the benchmark");

@@ -11,7 +11,9 @@
 use std::process::ExitCode;
 
 use pam_twin::effects::{self, EffectSet};
-use pam_twin::experiments::{dynamic_trial, force_step_test, static_trial, ExperimentConfig, StiffnessLevel, STEP_POSES_DEG};
+use pam_twin::experiments::{
+    dynamic_trial, force_step_test, static_trial, ExperimentConfig, StiffnessLevel, STEP_POSES_DEG,
+};
 use pam_twin::TwinConfig;
 
 fn usage() -> &'static str {
@@ -30,9 +32,16 @@ fn run() -> Result<(), String> {
     let mut i = 0;
     let value = |i: &mut usize| -> Result<String, String> {
         *i += 1;
-        args.get(*i).cloned().ok_or_else(|| format!("{} needs a value\n{}", args[*i - 1], usage()))
+        args.get(*i)
+            .cloned()
+            .ok_or_else(|| format!("{} needs a value\n{}", args[*i - 1], usage()))
     };
-    let num = |s: String, what: &str| -> Result<f64, String> { s.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| format!("{what}: `{s}` is not a number")) };
+    let num = |s: String, what: &str| -> Result<f64, String> {
+        s.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("{what}: `{s}` is not a number"))
+    };
     while i < args.len() {
         match args[i].as_str() {
             "--list-effects" => {
@@ -77,10 +86,16 @@ fn run() -> Result<(), String> {
         "dynamic" => dynamic_trial(&cfg, point, level, duration),
         "static" => static_trial(&cfg, point, level),
         "force_step" => {
-            let p = *STEP_POSES_DEG.get(pose).ok_or_else(|| format!("--pose {pose}: expected 0..8"))?;
+            let p = *STEP_POSES_DEG
+                .get(pose)
+                .ok_or_else(|| format!("--pose {pose}: expected 0..8"))?;
             force_step_test(&cfg, p)
         }
-        e => return Err(format!("unknown experiment `{e}` (dynamic, static, force_step)")),
+        e => {
+            return Err(format!(
+                "unknown experiment `{e}` (dynamic, static, force_step)"
+            ))
+        }
     }
     .map_err(|e| e.to_string())?;
     log.write_path(&out).map_err(|e| format!("{out}: {e}"))?;

@@ -24,7 +24,13 @@ use crate::plant::{HandleCondition, Measurement, Twin, TwinConfig};
 use crate::rng::Rng;
 
 /// Joint angles of the five points of interest (Table 4.1), degrees.
-pub const TABLE_4_1_POINTS_DEG: [[f64; 2]; 5] = [[0.0, 0.0], [-16.0, 20.5], [16.5, -26.0], [10.0, 6.5], [-13.5, -11.5]];
+pub const TABLE_4_1_POINTS_DEG: [[f64; 2]; 5] = [
+    [0.0, 0.0],
+    [-16.0, 20.5],
+    [16.5, -26.0],
+    [10.0, 6.5],
+    [-13.5, -11.5],
+];
 
 /// The nine poses of the force-step test (§5.2), degrees.
 pub const STEP_POSES_DEG: [[f64; 2]; 9] = [
@@ -107,7 +113,10 @@ impl fmt::Display for ExperimentError {
 impl std::error::Error for ExperimentError {}
 
 fn err(message: impl Into<String>) -> ExperimentError {
-    ExperimentError { message: message.into(), partial_log: None }
+    ExperimentError {
+        message: message.into(),
+        partial_log: None,
+    }
 }
 
 fn deg2rad(a: [f64; 2]) -> Vec2<f64> {
@@ -115,7 +124,11 @@ fn deg2rad(a: [f64; 2]) -> Vec2<f64> {
 }
 
 /// Joint stiffness of a Table 4.1 trial at `alpha_rad` (from the model's capability).
-pub fn trial_stiffness(model: &RobotModel<f64>, alpha_rad: Vec2<f64>, level: StiffnessLevel) -> Vec2<f64> {
+pub fn trial_stiffness(
+    model: &RobotModel<f64>,
+    alpha_rad: Vec2<f64>,
+    level: StiffnessLevel,
+) -> Vec2<f64> {
     let mut k = [0.0; 2];
     for j in 0..2 {
         let (lo, hi) = model.capability(j, alpha_rad[j]).trial_stiffness_levels();
@@ -131,7 +144,12 @@ pub fn trial_stiffness(model: &RobotModel<f64>, alpha_rad: Vec2<f64>, level: Sti
 /// highest of those.
 pub fn step_test_stiffness(model: &RobotModel<f64>, alpha_rad: Vec2<f64>) -> Vec2<f64> {
     let mut k = [0.0f64; 2];
-    let forces = [[STEP_MAX_N, 0.0], [-STEP_MAX_N, 0.0], [0.0, STEP_MAX_N], [0.0, -STEP_MAX_N]];
+    let forces = [
+        [STEP_MAX_N, 0.0],
+        [-STEP_MAX_N, 0.0],
+        [0.0, STEP_MAX_N],
+        [0.0, -STEP_MAX_N],
+    ];
     for f in forces {
         let tau = model.kinematics.joint_torques(alpha_rad, f);
         for j in 0..2 {
@@ -159,7 +177,13 @@ pub struct OperatorPath {
 }
 
 impl OperatorPath {
-    pub fn new(centre_user_m: Vec2<f64>, amplitude_m: f64, band_hz: (f64, f64), duration_s: f64, seed: u64) -> Self {
+    pub fn new(
+        centre_user_m: Vec2<f64>,
+        amplitude_m: f64,
+        band_hz: (f64, f64),
+        duration_s: f64,
+        seed: u64,
+    ) -> Self {
         let mut rng = Rng::derive(seed, "operator_path");
         let n = 12;
         let (f_lo, f_hi) = (band_hz.0.max(1e-3), band_hz.1.max(band_hz.0.max(1e-3)));
@@ -170,10 +194,19 @@ impl OperatorPath {
                 let u = (k as f64 + rng.uniform()) / n as f64;
                 let f = f_lo * (f_hi / f_lo).powf(u);
                 let a = 1.0 / f.sqrt();
-                components[axis].push((std::f64::consts::TAU * f, a, std::f64::consts::TAU * rng.uniform()));
+                components[axis].push((
+                    std::f64::consts::TAU * f,
+                    a,
+                    std::f64::consts::TAU * rng.uniform(),
+                ));
             }
         }
-        let mut path = OperatorPath { centre_user_m, components, duration_s, fade_s: 2.0f64.min(duration_s / 4.0) };
+        let mut path = OperatorPath {
+            centre_user_m,
+            components,
+            duration_s,
+            fade_s: 2.0f64.min(duration_s / 4.0),
+        };
         // scale each axis so its peak over the trial is the amplitude
         for axis in 0..2 {
             let mut peak: f64 = 0.0;
@@ -208,10 +241,16 @@ impl OperatorPath {
         if t <= 0.0 || t >= self.duration_s {
             (0.0, 0.0)
         } else if t < f {
-            (0.5 - 0.5 * (pi * t / f).cos(), 0.5 * pi / f * (pi * t / f).sin())
+            (
+                0.5 - 0.5 * (pi * t / f).cos(),
+                0.5 * pi / f * (pi * t / f).sin(),
+            )
         } else if t > self.duration_s - f {
             let u = self.duration_s - t;
-            (0.5 - 0.5 * (pi * u / f).cos(), -0.5 * pi / f * (pi * u / f).sin())
+            (
+                0.5 - 0.5 * (pi * u / f).cos(),
+                -0.5 * pi / f * (pi * u / f).sin(),
+            )
         } else {
             (1.0, 0.0)
         }
@@ -245,7 +284,17 @@ struct Rig {
 }
 
 fn columns(with_ref: bool, with_hand_ref: bool) -> Vec<&'static str> {
-    let mut c = vec![col::T_S, col::ALPHA1_RAD, col::ALPHA2_RAD, col::FX_N, col::FY_N, col::I1_MA, col::I2_MA, col::I3_MA, col::I4_MA];
+    let mut c = vec![
+        col::T_S,
+        col::ALPHA1_RAD,
+        col::ALPHA2_RAD,
+        col::FX_N,
+        col::FY_N,
+        col::I1_MA,
+        col::I2_MA,
+        col::I3_MA,
+        col::I4_MA,
+    ];
     if with_ref {
         c.extend([col::FX_REF_N, col::FY_REF_N]);
     }
@@ -259,12 +308,25 @@ fn columns(with_ref: bool, with_hand_ref: bool) -> Vec<&'static str> {
 }
 
 impl Rig {
-    fn new(cfg: &ExperimentConfig, alpha_start_rad: Vec2<f64>, with_ref: bool, with_hand_ref: bool) -> Result<Self, ExperimentError> {
+    fn new(
+        cfg: &ExperimentConfig,
+        alpha_start_rad: Vec2<f64>,
+        with_ref: bool,
+        with_hand_ref: bool,
+    ) -> Result<Self, ExperimentError> {
         if !(cfg.period_s.is_finite() && cfg.period_s > 0.0 && cfg.period_s <= 0.1) {
-            return Err(err(format!("period {} s is outside (0, 0.1] s", cfg.period_s)));
+            return Err(err(format!(
+                "period {} s is outside (0, 0.1] s",
+                cfg.period_s
+            )));
         }
-        cfg.twin.params.validate().map_err(|e| err(format!("plant parameters: {e:?}")))?;
-        cfg.controller_params.validate().map_err(|e| err(format!("controller parameters: {e:?}")))?;
+        cfg.twin
+            .params
+            .validate()
+            .map_err(|e| err(format!("plant parameters: {e:?}")))?;
+        cfg.controller_params
+            .validate()
+            .map_err(|e| err(format!("controller parameters: {e:?}")))?;
         let mut twin_cfg = cfg.twin.clone();
         twin_cfg.initial_alpha_rad = alpha_start_rad;
         let mut twin = Twin::new(twin_cfg);
@@ -275,22 +337,48 @@ impl Rig {
         let mut safety = SafetyConfig::default_1khz();
         safety.period_s = cfg.period_s as f32;
         let ctl = Controller::new(model32, safety);
-        let last = twin.step(1e-9, [cfg.twin.params.ip.current_min_ma; 4], &HandleCondition::Free);
+        let last = twin.step(
+            1e-9,
+            [cfg.twin.params.ip.current_min_ma; 4],
+            &HandleCondition::Free,
+        );
         let log = Log::new(&columns(with_ref, with_hand_ref));
-        Ok(Rig { twin, ctl, period_s: cfg.period_s, last, log, with_ref, with_hand_ref, seq: 0, t0: None })
+        Ok(Rig {
+            twin,
+            ctl,
+            period_s: cfg.period_s,
+            last,
+            log,
+            with_ref,
+            with_hand_ref,
+            seq: 0,
+            t0: None,
+        })
     }
 
     fn arm(&mut self, mode: Mode) -> Result<(), ExperimentError> {
-        self.ctl.arm().map_err(|e| err(format!("controller refused to arm: {e:?}")))?;
+        self.ctl
+            .arm()
+            .map_err(|e| err(format!("controller refused to arm: {e:?}")))?;
         self.set_mode(mode)
     }
 
     fn set_mode(&mut self, mode: Mode) -> Result<(), ExperimentError> {
-        self.ctl.set_mode(mode).map_err(|e| err(format!("controller refused mode {mode:?}: {e:?}")))
+        self.ctl
+            .set_mode(mode)
+            .map_err(|e| err(format!("controller refused mode {mode:?}: {e:?}")))
     }
 
-    /// One period. `record` adds a log row.
-    fn period(&mut self, handle: &HandleCondition, force_ref: Option<Vec2<f64>>, hand_ref: Option<Vec2<f64>>, record: bool) -> Result<(), ExperimentError> {
+    /// One period. `handle_at(offset_s)` says what holds the handle at `offset_s` into the
+    /// period: the hand is updated every millisecond even when the loop runs at 50 ms (a real
+    /// hand moves continuously). `record` adds a log row.
+    fn period(
+        &mut self,
+        handle_at: impl Fn(f64) -> HandleCondition,
+        force_ref: Option<Vec2<f64>>,
+        hand_ref: Option<Vec2<f64>>,
+        record: bool,
+    ) -> Result<(), ExperimentError> {
         let m = self.last;
         let sensors = Sensors {
             alpha_rad: [m.alpha_rad[0] as f32, m.alpha_rad[1] as f32],
@@ -300,14 +388,23 @@ impl Rig {
         let out = self.ctl.step(&sensors);
         if out.state == State::Faulted {
             return Err(ExperimentError {
-                message: format!("controller faulted at t = {:.3} s: faults 0x{:04x}", m.t_s, out.faults.0),
+                message: format!(
+                    "controller faulted at t = {:.3} s: faults 0x{:04x}",
+                    m.t_s, out.faults.0
+                ),
                 partial_log: Some(self.log.clone()),
             });
         }
         let currents = out.current_ma.map(|c| c as f64);
         if record {
             let t0 = *self.t0.get_or_insert(m.t_s);
-            let mut row = vec![m.t_s - t0, m.alpha_rad[0], m.alpha_rad[1], m.force_user_n[0], m.force_user_n[1]];
+            let mut row = vec![
+                m.t_s - t0,
+                m.alpha_rad[0],
+                m.alpha_rad[1],
+                m.force_user_n[0],
+                m.force_user_n[1],
+            ];
             row.extend(currents);
             if self.with_ref {
                 let r = force_ref.unwrap_or([0.0; 2]);
@@ -327,7 +424,11 @@ impl Rig {
             self.log.push_row(&row);
             self.seq += 1;
         }
-        self.last = self.twin.step(self.period_s, currents, handle);
+        let sub = (self.period_s / 0.001).round().max(1.0) as usize;
+        let h = self.period_s / sub as f64;
+        for k in 0..sub {
+            self.last = self.twin.step(h, currents, &handle_at(k as f64 * h));
+        }
         Ok(())
     }
 
@@ -342,7 +443,8 @@ impl Rig {
         }
         self.log.set_meta("sample_period_s", self.period_s);
         self.log.set_meta("seed", cfg.twin.seed);
-        self.log.set_meta("effects", cfg.twin.effects.specs().join(" "));
+        self.log
+            .set_meta("effects", cfg.twin.effects.specs().join(" "));
         self.log.set_meta("source", "pam-twin");
         self.log
     }
@@ -350,7 +452,9 @@ impl Rig {
 
 fn point_alpha(point: usize) -> Result<Vec2<f64>, ExperimentError> {
     if !(1..=5).contains(&point) {
-        return Err(err(format!("point {point} is not one of the five Table 4.1 points (1–5)")));
+        return Err(err(format!(
+            "point {point} is not one of the five Table 4.1 points (1–5)"
+        )));
     }
     Ok(deg2rad(TABLE_4_1_POINTS_DEG[point - 1]))
 }
@@ -363,7 +467,12 @@ fn level_name(level: StiffnessLevel) -> &'static str {
 }
 
 /// §4.2 dynamic trial at a Table 4.1 point (1–5).
-pub fn dynamic_trial(cfg: &ExperimentConfig, point: usize, level: StiffnessLevel, duration_s: f64) -> Result<Log, ExperimentError> {
+pub fn dynamic_trial(
+    cfg: &ExperimentConfig,
+    point: usize,
+    level: StiffnessLevel,
+    duration_s: f64,
+) -> Result<Log, ExperimentError> {
     let alpha = point_alpha(point)?;
     if !(duration_s.is_finite() && duration_s > 0.0) {
         return Err(err(format!("duration {duration_s} s must be positive")));
@@ -372,22 +481,40 @@ pub fn dynamic_trial(cfg: &ExperimentConfig, point: usize, level: StiffnessLevel
     let k = trial_stiffness(&model, alpha, level);
     let mut rig = Rig::new(cfg, alpha, false, true)?;
     let centre = rig.twin.model().kinematics.forward_user(alpha);
-    rig.arm(Mode::Joint { alpha_rad: [alpha[0] as f32, alpha[1] as f32], torque_nm: [0.0; 2], stiffness_nm_per_rad: [k[0] as f32, k[1] as f32] })?;
+    rig.arm(Mode::Joint {
+        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+    })?;
     let hold = HandleCondition::held_at(centre);
     for _ in 0..rig.periods(cfg.settle_s) {
-        rig.period(&hold, None, None, false)?;
+        rig.period(|_| hold, None, None, false)?;
     }
-    let path = OperatorPath::new(centre, cfg.path_amplitude_m, cfg.path_band_hz, duration_s, cfg.twin.seed);
+    let path = OperatorPath::new(
+        centre,
+        cfg.path_amplitude_m,
+        cfg.path_band_hz,
+        duration_s,
+        cfg.twin.seed,
+    );
     let n = rig.periods(duration_s);
     for i in 0..n {
         let t = i as f64 * cfg.period_s;
-        let (p, v) = path.at(t);
-        rig.period(&HandleCondition::moved(p, v), None, Some(p), true)?;
+        let hand = |off: f64| {
+            let (p, v) = path.at(t + off);
+            HandleCondition::moved(p, v)
+        };
+        rig.period(hand, None, Some(path.at(t).0), true)?;
     }
     Ok(rig.finish(
         cfg,
         "dynamic",
-        &[("point", point.to_string()), ("stiffness", level_name(level).into()), ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])), ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1]))],
+        &[
+            ("point", point.to_string()),
+            ("stiffness", level_name(level).into()),
+            ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
+            ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
+        ],
     ))
 }
 
@@ -395,21 +522,39 @@ pub fn dynamic_trial(cfg: &ExperimentConfig, point: usize, level: StiffnessLevel
 /// and edge midpoints (8 cm square, Fig. 4.2b).
 pub fn static_points(centre: Vec2<f64>, half_side_m: f64) -> [Vec2<f64>; 9] {
     let h = half_side_m;
-    let d = [[0.0, 0.0], [h, 0.0], [h, h], [0.0, h], [-h, h], [-h, 0.0], [-h, -h], [0.0, -h], [h, -h]];
+    let d = [
+        [0.0, 0.0],
+        [h, 0.0],
+        [h, h],
+        [0.0, h],
+        [-h, h],
+        [-h, 0.0],
+        [-h, -h],
+        [0.0, -h],
+        [h, -h],
+    ];
     d.map(|o| [centre[0] + o[0], centre[1] + o[1]])
 }
 
 /// §4.2 static trial: 5 s at each of the nine points, 1.5 s smooth moves between them.
-pub fn static_trial(cfg: &ExperimentConfig, point: usize, level: StiffnessLevel) -> Result<Log, ExperimentError> {
+pub fn static_trial(
+    cfg: &ExperimentConfig,
+    point: usize,
+    level: StiffnessLevel,
+) -> Result<Log, ExperimentError> {
     let alpha = point_alpha(point)?;
     let model = RobotModel::new(cfg.controller_params);
     let k = trial_stiffness(&model, alpha, level);
     let mut rig = Rig::new(cfg, alpha, false, true)?;
     let centre = rig.twin.model().kinematics.forward_user(alpha);
-    rig.arm(Mode::Joint { alpha_rad: [alpha[0] as f32, alpha[1] as f32], torque_nm: [0.0; 2], stiffness_nm_per_rad: [k[0] as f32, k[1] as f32] })?;
+    rig.arm(Mode::Joint {
+        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+    })?;
     let hold = HandleCondition::held_at(centre);
     for _ in 0..rig.periods(cfg.settle_s) {
-        rig.period(&hold, None, None, false)?;
+        rig.period(|_| hold, None, None, false)?;
     }
     let points = static_points(centre, 0.04);
     let (move_s, hold_s) = (1.5, 5.0);
@@ -417,23 +562,46 @@ pub fn static_trial(cfg: &ExperimentConfig, point: usize, level: StiffnessLevel)
     for &to in &points {
         // minimum-jerk-like cosine move
         let n_move = rig.periods(move_s);
-        for i in 0..n_move {
-            let s = i as f64 / n_move as f64;
+        let along = |t: f64| {
+            let s = (t / move_s).clamp(0.0, 1.0);
             let w = 0.5 - 0.5 * (std::f64::consts::PI * s).cos();
-            let dw = 0.5 * std::f64::consts::PI * (std::f64::consts::PI * s).sin() / move_s;
-            let p = [from[0] + w * (to[0] - from[0]), from[1] + w * (to[1] - from[1])];
-            let v = [dw * (to[0] - from[0]), dw * (to[1] - from[1])];
-            rig.period(&HandleCondition::moved(p, v), None, Some(p), true)?;
+            let dw = if t < move_s {
+                0.5 * std::f64::consts::PI * (std::f64::consts::PI * s).sin() / move_s
+            } else {
+                0.0
+            };
+            let p = [
+                from[0] + w * (to[0] - from[0]),
+                from[1] + w * (to[1] - from[1]),
+            ];
+            (p, [dw * (to[0] - from[0]), dw * (to[1] - from[1])])
+        };
+        for i in 0..n_move {
+            let t = i as f64 * cfg.period_s;
+            rig.period(
+                |off| {
+                    let (p, v) = along(t + off);
+                    HandleCondition::moved(p, v)
+                },
+                None,
+                Some(along(t).0),
+                true,
+            )?;
         }
         for _ in 0..rig.periods(hold_s) {
-            rig.period(&HandleCondition::held_at(to), None, Some(to), true)?;
+            rig.period(|_| HandleCondition::held_at(to), None, Some(to), true)?;
         }
         from = to;
     }
     Ok(rig.finish(
         cfg,
         "static",
-        &[("point", point.to_string()), ("stiffness", level_name(level).into()), ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])), ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1]))],
+        &[
+            ("point", point.to_string()),
+            ("stiffness", level_name(level).into()),
+            ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
+            ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
+        ],
     ))
 }
 
@@ -447,7 +615,7 @@ pub fn step_levels() -> Vec<f64> {
     for k in (-3..=2).rev() {
         v.push(k as f64 * STEP_N);
     }
-    for k in (-2..=0).rev() {
+    for k in -2..=0 {
         v.push(k as f64 * STEP_N);
     }
     v
@@ -461,25 +629,36 @@ pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log
     for j in 0..2 {
         let jp = &cfg.controller_params.joints[j];
         if !(alpha[j] >= jp.alpha_min_rad && alpha[j] <= jp.alpha_max_rad) {
-            return Err(err(format!("pose {pose_deg:?}° is outside joint {}'s range", j + 1)));
+            return Err(err(format!(
+                "pose {pose_deg:?}° is outside joint {}'s range",
+                j + 1
+            )));
         }
     }
     let k = step_test_stiffness(&model, alpha);
     let mut rig = Rig::new(cfg, alpha, true, false)?;
     let stiffness = [k[0] as f32, k[1] as f32];
     let ff = cfg.feed_forward;
-    rig.arm(Mode::Force { force_n: [0.0; 2], stiffness_nm_per_rad: stiffness, feed_forward: ff })?;
+    rig.arm(Mode::Force {
+        force_n: [0.0; 2],
+        stiffness_nm_per_rad: stiffness,
+        feed_forward: ff,
+    })?;
     let blocked = HandleCondition::Blocked;
     for _ in 0..rig.periods(cfg.settle_s) {
-        rig.period(&blocked, Some([0.0; 2]), None, false)?;
+        rig.period(|_| blocked, Some([0.0; 2]), None, false)?;
     }
     for axis in 0..2 {
         for level in step_levels() {
             let mut f = [0.0f64; 2];
             f[axis] = level;
-            rig.set_mode(Mode::Force { force_n: [f[0] as f32, f[1] as f32], stiffness_nm_per_rad: stiffness, feed_forward: ff })?;
+            rig.set_mode(Mode::Force {
+                force_n: [f[0] as f32, f[1] as f32],
+                stiffness_nm_per_rad: stiffness,
+                feed_forward: ff,
+            })?;
             for _ in 0..rig.periods(cfg.step_hold_s) {
-                rig.period(&blocked, Some(f), None, true)?;
+                rig.period(|_| blocked, Some(f), None, true)?;
             }
         }
     }

@@ -12,12 +12,19 @@
 //! (kinematics, muscle law, I/P and load-cell laws, inertia/Coriolis); this crate adds the
 //! dynamics, the air, the surroundings and the sensors.
 
+// Per-joint and per-channel loops index several parallel arrays at once (as in pam-model).
+#![allow(clippy::needless_range_loop)]
+
 pub mod effects;
 pub mod experiments;
 pub mod plant;
 pub mod pneumatics;
+pub mod rig;
 pub mod rng;
 
 pub use effects::{Effect, EffectSet};
-pub use plant::{HandSpring, HandleCondition, Measurement, MechanicsConfig, SensorConfig, TrueState, Twin, TwinConfig};
+pub use plant::{
+    HandSpring, HandleCondition, Measurement, MechanicsConfig, SensorConfig, TrueState, Twin,
+    TwinConfig,
+};
 pub use pneumatics::PneumaticConfig;

@@ -78,14 +78,24 @@ pub struct SensorConfig {
 
 impl Default for SensorConfig {
     fn default() -> Self {
-        SensorConfig { encoder_counts_per_rev: [10_000; 2], loadcell_noise_n: [0.15, 0.15], adc_bits: 16, adc_span_v: 10.0 }
+        SensorConfig {
+            encoder_counts_per_rev: [10_000; 2],
+            loadcell_noise_n: [0.15, 0.15],
+            adc_bits: 16,
+            adc_span_v: 10.0,
+        }
     }
 }
 
 impl SensorConfig {
     /// Perfect sensors (no quantization, no noise): for tests of the physics.
     pub fn ideal() -> Self {
-        SensorConfig { encoder_counts_per_rev: [0; 2], loadcell_noise_n: [0.0; 2], adc_bits: 0, adc_span_v: 10.0 }
+        SensorConfig {
+            encoder_counts_per_rev: [0; 2],
+            loadcell_noise_n: [0.0; 2],
+            adc_bits: 0,
+            adc_span_v: 10.0,
+        }
     }
 }
 
@@ -98,11 +108,28 @@ pub struct MechanicsConfig {
     pub hard_stop_margin_rad: f64,
     pub hard_stop_stiffness_nm_per_rad: f64,
     pub hard_stop_damping_nm_s_per_rad: f64,
+    /// Passive stiffness in parallel with each muscle pair, rest at the neutral pose
+    /// (α = 0). The default is calibrated from the thesis's identified stiffness
+    /// ([`crate::rig`]); zero gives the thesis's model alone.
+    pub parallel_stiffness_nm_per_rad: [f64; 2],
+}
+
+impl MechanicsConfig {
+    /// The thesis's model alone: no parallel stiffness.
+    pub fn thesis_model() -> Self {
+        MechanicsConfig {
+            parallel_stiffness_nm_per_rad: [0.0; 2],
+            ..Self::default()
+        }
+    }
 }
 
 impl Default for MechanicsConfig {
     fn default() -> Self {
         MechanicsConfig {
+            parallel_stiffness_nm_per_rad: crate::rig::parallel_stiffness_from_thesis(
+                &RobotParams::thesis(),
+            ),
             joint_damping_nm_s_per_rad: [0.05, 0.05],
             hard_stop_margin_rad: 0.06,
             hard_stop_stiffness_nm_per_rad: 3000.0,
@@ -221,7 +248,9 @@ impl Twin {
         }
         let mut effects = cfg.effects.clone();
         effects.reset(cfg.seed);
-        let p0 = cfg.initial_pressure_bar.unwrap_or([cfg.params.ip.output_min_bar; 4]);
+        let p0 = cfg
+            .initial_pressure_bar
+            .unwrap_or([cfg.params.ip.output_min_bar; 4]);
         let alpha = cfg.initial_alpha_rad;
         let mut twin = Twin {
             rng: Rng::derive(cfg.seed, "sensors"),
@@ -272,12 +301,38 @@ impl Twin {
 
     /// Advances the plant by `dt_s` with the four loop currents held, and samples the sensors
     /// at the end. Subdivides into steps of at most `max_substep_s`.
-    pub fn step(&mut self, dt_s: f64, currents_ma: [f64; 4], handle: &HandleCondition) -> Measurement {
-        let dt = if dt_s.is_finite() && dt_s > 0.0 { dt_s } else { 0.0 };
+    pub fn step(
+        &mut self,
+        dt_s: f64,
+        currents_ma: [f64; 4],
+        handle: &HandleCondition,
+    ) -> Measurement {
+        let dt = if dt_s.is_finite() && dt_s > 0.0 {
+            dt_s
+        } else {
+            0.0
+        };
         let n = (dt / self.cfg.max_substep_s.max(1e-6)).ceil().max(1.0) as usize;
         let h = dt / n as f64;
-        for _ in 0..n {
-            self.substep(h, &currents_ma, handle);
+        for k in 0..n {
+            // a moving hand's target advances with its velocity inside the step, so a long
+            // loop period does not turn the operator's path into a staircase
+            let elapsed = k as f64 * h;
+            let advance = |s: &HandSpring| HandSpring {
+                target_user_m: [
+                    s.target_user_m[0] + s.target_velocity_user_m_s[0] * elapsed,
+                    s.target_user_m[1] + s.target_velocity_user_m_s[1] * elapsed,
+                ],
+                ..*s
+            };
+            let here = match handle {
+                HandleCondition::Hand(s) => HandleCondition::Hand(advance(s)),
+                HandleCondition::Joint1Locked(Some(s)) => {
+                    HandleCondition::Joint1Locked(Some(advance(s)))
+                }
+                other => *other,
+            };
+            self.substep(h, &currents_ma, &here);
         }
         self.sample()
     }
@@ -313,7 +368,11 @@ impl Twin {
         // 1. converter set points (eq. 2.2 with its 0.1–5 bar output range)
         let mut p_set = [0.0; 4];
         for c in 0..4 {
-            let i = if currents_ma[c].is_finite() { currents_ma[c] } else { ip.current_min_ma };
+            let i = if currents_ma[c].is_finite() {
+                currents_ma[c]
+            } else {
+                ip.current_min_ma
+            };
             p_set[c] = ip.pressure_bar(i);
         }
         {
@@ -363,7 +422,8 @@ impl Twin {
             let (v, dv_deps) = self.volumes[j].at(eps[c]);
             let v_dot = dv_deps * eps_rate[c];
             let p = pressure[c];
-            let p_dot = flow[c] * self.volume_ref_m3[c] / v - pn.polytropic_index * (p + pn.atmosphere_bar) * v_dot / v;
+            let p_dot = flow[c] * self.volume_ref_m3[c] / v
+                - pn.polytropic_index * (p + pn.atmosphere_bar) * v_dot / v;
             pressure[c] = (p + h * p_dot).clamp(0.0, pn.supply_bar);
         }
 
@@ -381,7 +441,13 @@ impl Twin {
             for c in 0..4 {
                 let (j, _) = self.channel_owner[c];
                 let mut f = self.cfg.params.muscle.force_n(eps[c], p_force[c]).max(0.0);
-                let view = MuscleView { channel: c, joint: j, epsilon: eps[c], epsilon_rate_per_s: eps_rate[c], pressure_bar: p_force[c] };
+                let view = MuscleView {
+                    channel: c,
+                    joint: j,
+                    epsilon: eps[c],
+                    epsilon_rate_per_s: eps_rate[c],
+                    pressure_bar: p_force[c],
+                };
                 for e in effects.all_mut() {
                     e.muscle_force(&ctx, &view, &mut f);
                 }
@@ -393,7 +459,8 @@ impl Twin {
         for j in 0..2 {
             let map = self.cfg.params.joints[j].channel_of_muscle;
             let r = self.cfg.params.joints[j].pulley_radius_m;
-            torque[j] = r * (force[(map[1] & 3) as usize] - force[(map[0] & 3) as usize]);
+            torque[j] = r * (force[(map[1] & 3) as usize] - force[(map[0] & 3) as usize])
+                - self.cfg.mechanics.parallel_stiffness_nm_per_rad[j] * self.state.alpha_rad[j];
         }
         {
             let ctx = self.ctx(h, blocked);
@@ -426,8 +493,10 @@ impl Twin {
             let v = self.state.handle_velocity_user_m_s;
             let hand = match handle {
                 HandleCondition::Hand(s) | HandleCondition::Joint1Locked(Some(s)) => [
-                    s.stiffness_n_per_m * (s.target_user_m[0] - x[0]) + s.damping_n_s_per_m * (s.target_velocity_user_m_s[0] - v[0]),
-                    s.stiffness_n_per_m * (s.target_user_m[1] - x[1]) + s.damping_n_s_per_m * (s.target_velocity_user_m_s[1] - v[1]),
+                    s.stiffness_n_per_m * (s.target_user_m[0] - x[0])
+                        + s.damping_n_s_per_m * (s.target_velocity_user_m_s[0] - v[0]),
+                    s.stiffness_n_per_m * (s.target_user_m[1] - x[1])
+                        + s.damping_n_s_per_m * (s.target_velocity_user_m_s[1] - v[1]),
                 ],
                 _ => [0.0; 2],
             };
@@ -438,9 +507,7 @@ impl Twin {
             [-(hand[0] + hs[0]), -(hand[1] + hs[1])]
         };
 
-        for c in 0..4 {
-            self.state.pressure_bar[c] = pressure[c];
-        }
+        self.state.pressure_bar = pressure;
         self.state.pressure_set_bar = p_set;
         self.state.regulator_flow_bar_s = flow;
         self.state.muscle_force_n = force;
@@ -453,7 +520,14 @@ impl Twin {
     }
 
     /// I(θ2) α̈ + C(θ, θ̇) = τ + Jᵀ F_ext − b α̇ + τ_stops (eq. 4.14–4.17), semi-implicit Euler.
-    fn integrate_arm(&mut self, h: f64, jac: &Mat2<f64>, torque: Vec2<f64>, external_user_n: Vec2<f64>, joint1_locked: bool) {
+    fn integrate_arm(
+        &mut self,
+        h: f64,
+        jac: &Mat2<f64>,
+        torque: Vec2<f64>,
+        external_user_n: Vec2<f64>,
+        joint1_locked: bool,
+    ) {
         let p = &self.cfg.params;
         let mech = &self.cfg.mechanics;
         let theta = self.model.kinematics.theta(self.state.alpha_rad);
@@ -467,13 +541,16 @@ impl Twin {
             let lo = p.joints[j].alpha_min_rad - mech.hard_stop_margin_rad;
             let hi = p.joints[j].alpha_max_rad + mech.hard_stop_margin_rad;
             let stop = if a > hi {
-                -mech.hard_stop_stiffness_nm_per_rad * (a - hi) - mech.hard_stop_damping_nm_s_per_rad * w[j].max(0.0)
+                -mech.hard_stop_stiffness_nm_per_rad * (a - hi)
+                    - mech.hard_stop_damping_nm_s_per_rad * w[j].max(0.0)
             } else if a < lo {
-                mech.hard_stop_stiffness_nm_per_rad * (lo - a) - mech.hard_stop_damping_nm_s_per_rad * w[j].min(0.0)
+                mech.hard_stop_stiffness_nm_per_rad * (lo - a)
+                    - mech.hard_stop_damping_nm_s_per_rad * w[j].min(0.0)
             } else {
                 0.0
             };
-            rhs[j] = torque[j] + ext[j] - coriolis[j] - mech.joint_damping_nm_s_per_rad[j] * w[j] + stop;
+            rhs[j] =
+                torque[j] + ext[j] - coriolis[j] - mech.joint_damping_nm_s_per_rad[j] * w[j] + stop;
         }
         let acc = if joint1_locked {
             [0.0, rhs[1] / inertia.0[1][1]]
@@ -497,11 +574,18 @@ impl Twin {
         let s = &self.cfg.sensors;
         let lc = self.cfg.params.load_cell;
         let alpha = self.state.alpha_rad;
-        let f_sensor = self.model.kinematics.user_to_sensor(alpha, self.state.force_on_holder_user_n);
+        let f_sensor = self
+            .model
+            .kinematics
+            .user_to_sensor(alpha, self.state.force_on_holder_user_n);
         let mut raw = RawSensors {
             loadcell_v: [
-                f_sensor[0] / lc.gain_n_per_v[0] + lc.offset_v[0] + s.loadcell_noise_n[0] * self.rng.normal() / lc.gain_n_per_v[0],
-                f_sensor[1] / lc.gain_n_per_v[1] + lc.offset_v[1] + s.loadcell_noise_n[1] * self.rng.normal() / lc.gain_n_per_v[1],
+                f_sensor[0] / lc.gain_n_per_v[0]
+                    + lc.offset_v[0]
+                    + s.loadcell_noise_n[0] * self.rng.normal() / lc.gain_n_per_v[0],
+                f_sensor[1] / lc.gain_n_per_v[1]
+                    + lc.offset_v[1]
+                    + s.loadcell_noise_n[1] * self.rng.normal() / lc.gain_n_per_v[1],
             ],
             encoder_alpha_rad: alpha,
         };
@@ -534,7 +618,8 @@ impl Twin {
             }
         }
         let force_sensor_n = lc.forces_n(volts);
-        let force_user_n = Kinematics::sensor_to_user_at(&self.model.kinematics.trig(alpha_meas), force_sensor_n);
+        let force_user_n =
+            Kinematics::sensor_to_user_at(&self.model.kinematics.trig(alpha_meas), force_sensor_n);
         Measurement {
             t_s: self.state.t_s,
             encoder_counts: counts,

@@ -80,7 +80,12 @@ impl MuscleVolume {
         let cos_lock = (1.0f64 / 3.0).sqrt();
         let cos_theta0 = (cos_lock / (1.0 - cfg.max_contraction)).min(0.999);
         let cos2 = cos_theta0 * cos_theta0;
-        MuscleVolume { v0_m3: v0, cos2_theta0: cos2, sin2_theta0: 1.0 - cos2, dead_m3: cfg.dead_volume_m3 }
+        MuscleVolume {
+            v0_m3: v0,
+            cos2_theta0: cos2,
+            sin2_theta0: 1.0 - cos2,
+            dead_m3: cfg.dead_volume_m3,
+        }
     }
 
     /// (V, dV/dε) at contraction ratio ε.
@@ -91,5 +96,38 @@ impl MuscleVolume {
         let v = k * s * (1.0 - self.cos2_theta0 * s * s) + self.dead_m3;
         let dv = k * (3.0 * self.cos2_theta0 * s * s - 1.0);
         (v, dv)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn volume_grows_with_contraction_until_the_braid_locks() {
+        let cfg = PneumaticConfig {
+            dead_volume_m3: 0.0,
+            ..PneumaticConfig::default()
+        };
+        let vol = MuscleVolume::new(&cfg, 0.4);
+        let v0 = std::f64::consts::PI * 0.01 * 0.01 * 0.4;
+        let (v_rest, _) = vol.at(0.0);
+        assert!(
+            (v_rest - v0).abs() < 1e-12,
+            "rest volume is the 20 mm cylinder"
+        );
+        // numbers quoted in the docs at ε0 = 6.875 % (joint 1)
+        let (v, dv) = vol.at(0.06875);
+        assert!(
+            (v / v0 - 1.11).abs() < 0.01 && (dv / v0 - 1.33).abs() < 0.02,
+            "{} {}",
+            v / v0,
+            dv / v0
+        );
+        // the derivative is the slope, and it vanishes at the 25 % lock
+        let h = 1e-6;
+        let num = (vol.at(0.1 + h).0 - vol.at(0.1 - h).0) / (2.0 * h);
+        assert!((num - vol.at(0.1).1).abs() < 1e-9 * v0.max(1.0));
+        assert!(vol.at(0.25).1.abs() < 1e-3 * v0, "{}", vol.at(0.25).1);
     }
 }

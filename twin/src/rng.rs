@@ -10,7 +10,10 @@ pub struct Rng {
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Rng { state: seed ^ 0x9E37_79B9_7F4A_7C15, spare_normal: None }
+        Rng {
+            state: seed ^ 0x9E37_79B9_7F4A_7C15,
+            spare_normal: None,
+        }
     }
 
     /// An independent stream for a named consumer (an effect, the operator path), so that

@@ -1,6 +1,7 @@
 pub mod arm;
 pub mod config;
 pub mod disarm;
+pub mod experiment;
 pub mod fault;
 pub mod home;
 pub mod model;
@@ -9,8 +10,10 @@ pub mod model_loop;
 pub mod ports;
 pub mod record;
 pub mod set;
+pub mod sim;
 pub mod status;
 pub mod tare;
+pub mod watch;
 
 use crate::link::{transport::no_device_message, Client};
 use crate::LinkArgs;

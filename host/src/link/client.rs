@@ -8,7 +8,7 @@ use pam_protocol::{
 };
 use std::fmt;
 use std::io::{ErrorKind, Write};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -128,7 +128,14 @@ struct Shared {
     forward_telemetry: AtomicBool,
     /// Frames from the device that failed CRC/COBS/decoding.
     corrupted: AtomicU64,
+    /// The request id a caller is waiting for ([`NOT_WAITING`] if none): other replies
+    /// (heartbeats', late ones) are dropped by the reader instead of piling up.
+    awaited: AtomicU32,
+    /// Every byte read from the link (throughput statistics).
+    bytes_received: AtomicU64,
 }
+
+const NOT_WAITING: u32 = u32::MAX;
 
 pub struct Client {
     writer: Mutex<Box<dyn Write + Send>>,
@@ -181,6 +188,8 @@ impl Client {
             stop: AtomicBool::new(false),
             forward_telemetry: AtomicBool::new(false),
             corrupted: AtomicU64::new(0),
+            awaited: AtomicU32::new(NOT_WAITING),
+            bytes_received: AtomicU64::new(0),
         });
         let reader = {
             let shared = shared.clone();
@@ -247,7 +256,7 @@ impl Client {
         self.write_bytes(bytes).map_err(ClientError::Link)
     }
 
-    fn send(&self, body: RequestBody) -> Result<u16, ClientError> {
+    fn send(&self, body: RequestBody, await_reply: bool) -> Result<u16, ClientError> {
         let id = {
             let mut next = self.next_id.lock().map_err(|_| ClientError::Disconnected)?;
             let id = *next;
@@ -255,6 +264,9 @@ impl Client {
             *next = next.wrapping_add(1).max(1);
             id
         };
+        if await_reply {
+            self.shared.awaited.store(id as u32, Ordering::SeqCst);
+        }
         let mut buf = [0u8; MAX_FRAME];
         let n = encode_frame(&Request { id, body }, &mut buf).map_err(|e| {
             ClientError::Link(format!("cannot encode the request ({e:?}); this is a pamctl bug"))
@@ -263,10 +275,18 @@ impl Client {
         Ok(id)
     }
 
-    /// Sends a request and waits for its reply.
+    /// Sends a request and waits for its reply (one request at a time).
     pub fn request(&self, body: RequestBody) -> Result<ReplyData, ClientError> {
+        let result = self.request_inner(body);
+        self.shared.awaited.store(NOT_WAITING, Ordering::SeqCst);
+        result
+    }
+
+    fn request_inner(&self, body: RequestBody) -> Result<ReplyData, ClientError> {
         let name = body_name(&body);
-        let id = self.send(body)?;
+        // replies still queued are for earlier requests
+        while self.replies.try_recv().is_ok() {}
+        let id = self.send(body, true)?;
         let deadline = Instant::now() + self.timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
@@ -299,9 +319,9 @@ impl Client {
     }
 
     /// Fire-and-forget keep-alive (the device's command timeout counts from the last
-    /// request it received). Its reply is dropped by [`Client::request`].
+    /// request it received). Its reply is dropped by the reader thread.
     pub fn heartbeat(&self) -> Result<(), ClientError> {
-        self.send(RequestBody::Heartbeat).map(|_| ())
+        self.send(RequestBody::Heartbeat, false).map(|_| ())
     }
 
     /// Starts handing telemetry samples to [`Client::next_telemetry`]; samples that came
@@ -322,6 +342,11 @@ impl Client {
     /// Fault events received so far.
     pub fn fault_events(&self) -> Vec<FaultEvent> {
         self.faults.try_iter().collect()
+    }
+
+    /// Bytes received from the device so far (frames, delimiters and any garbage).
+    pub fn bytes_received(&self) -> u64 {
+        self.shared.bytes_received.load(Ordering::Relaxed)
     }
 
     /// Frames from the device rejected as corrupted so far.
@@ -362,12 +387,16 @@ fn read_loop(
             }
             Err(_) => return,
         };
+        shared.bytes_received.fetch_add(n as u64, Ordering::Relaxed);
         for &b in &buf[..n] {
             match decoder.push(b) {
                 None => {}
-                Some(Ok(DeviceMessage::Reply(rep))) => {
+                Some(Ok(DeviceMessage::Reply(rep)))
+                    if rep.id as u32 == shared.awaited.load(Ordering::SeqCst) =>
+                {
                     let _ = replies.send(rep);
                 }
+                Some(Ok(DeviceMessage::Reply(_))) => {}
                 Some(Ok(DeviceMessage::Telemetry(t)))
                     if shared.forward_telemetry.load(Ordering::Relaxed) =>
                 {

@@ -17,7 +17,11 @@ pub struct AsymmetricIpRates {
 
 impl Default for AsymmetricIpRates {
     fn default() -> Self {
-        AsymmetricIpRates { inflation_s: 2.412, deflation_s: 1.608, span_bar: 5.0 }
+        AsymmetricIpRates {
+            inflation_s: 2.412,
+            deflation_s: 1.608,
+            span_bar: 5.0,
+        }
     }
 }
 

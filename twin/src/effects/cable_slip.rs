@@ -23,7 +23,13 @@ pub struct CableSlip {
 
 impl Default for CableSlip {
     fn default() -> Self {
-        CableSlip { backlash_rad: 0.004, hold_torque_nm: 15.0, slip_rate_rad_per_nm_s: 0.002, slip_rad: 0.0, transmitted_rad: None }
+        CableSlip {
+            backlash_rad: 0.004,
+            hold_torque_nm: 15.0,
+            slip_rate_rad_per_nm_s: 0.002,
+            slip_rad: 0.0,
+            transmitted_rad: None,
+        }
     }
 }
 
@@ -53,7 +59,10 @@ impl Effect for CableSlip {
         let excess = ctx.last_joint_torque_nm[0].abs() - self.hold_torque_nm;
         if excess > 0.0 {
             // the cable gives way in the direction the torque pulls the segment
-            self.slip_rad += ctx.last_joint_torque_nm[0].signum() * excess * self.slip_rate_rad_per_nm_s * ctx.dt_s;
+            self.slip_rad += ctx.last_joint_torque_nm[0].signum()
+                * excess
+                * self.slip_rate_rad_per_nm_s
+                * ctx.dt_s;
         }
         let a = alpha[0];
         let half = 0.5 * self.backlash_rad;

@@ -23,7 +23,12 @@ pub struct CarrierBallFriction {
 
 impl Default for CarrierBallFriction {
     fn default() -> Self {
-        CarrierBallFriction { coulomb_n: 2.0, viscous_n_s_per_m: 0.0, smoothing_m_s: 0.005, beyond_load_cell: 0.0 }
+        CarrierBallFriction {
+            coulomb_n: 2.0,
+            viscous_n_s_per_m: 0.0,
+            smoothing_m_s: 0.005,
+            beyond_load_cell: 0.0,
+        }
     }
 }
 
@@ -32,7 +37,7 @@ impl Effect for CarrierBallFriction {
         "carrier_ball_friction"
     }
     fn summary(&self) -> &'static str {
-        "Dry (Coulomb, smoothed) plus viscous friction of the carrier ball on the table, acting on the handle against its velocity; seen by the load cell."
+        "Dry (Coulomb, smoothed) plus viscous friction of the carrier ball on the table, acting at the handle against its velocity; on the arm side of the load cell by default, so the load cell sees the hand push through it."
     }
     effect_params! {
         coulomb_n, "N", "Coulomb friction force";
@@ -41,7 +46,11 @@ impl Effect for CarrierBallFriction {
         beyond_load_cell, "0/1", "1 if the ball is on the handle side of the load cell";
     }
     fn handle_force(&mut self, ctx: &Ctx, forces: &mut HandleForces) {
-        let force = if self.beyond_load_cell >= 0.5 { &mut forces.handle_side_user_n } else { &mut forces.arm_side_user_n };
+        let force = if self.beyond_load_cell >= 0.5 {
+            &mut forces.handle_side_user_n
+        } else {
+            &mut forces.arm_side_user_n
+        };
         let v = ctx.handle_velocity_user_m_s;
         let speed = (v[0] * v[0] + v[1] * v[1]).sqrt();
         if speed == 0.0 {

@@ -15,7 +15,12 @@ pub struct LoadcellDrift {
 
 impl Default for LoadcellDrift {
     fn default() -> Self {
-        LoadcellDrift { offset_x_n: 1.5, offset_z_n: -1.0, drift_x_n_per_s: 0.01, drift_z_n_per_s: -0.005 }
+        LoadcellDrift {
+            offset_x_n: 1.5,
+            offset_z_n: -1.0,
+            drift_x_n_per_s: 0.01,
+            drift_z_n_per_s: -0.005,
+        }
     }
 }
 

@@ -15,7 +15,11 @@ pub struct MainsHum {
 
 impl Default for MainsHum {
     fn default() -> Self {
-        MainsHum { amplitude_n: 0.8, frequency_hz: 50.0, phase_rad: 0.0 }
+        MainsHum {
+            amplitude_n: 0.8,
+            frequency_hz: 50.0,
+            phase_rad: 0.0,
+        }
     }
 }
 

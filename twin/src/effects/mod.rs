@@ -143,9 +143,21 @@ impl Clone for Box<dyn Effect> {
 
 /// Human-readable description of one effect: id, summary, parameters.
 pub fn describe(effect: &dyn Effect) -> String {
-    let mut s = format!("{}{}\n  {}\n", effect.id(), if effect.in_model_catalog() { "" } else { "  [NOT in the model catalog]" }, effect.summary());
+    let mut s = format!(
+        "{}{}\n  {}\n",
+        effect.id(),
+        if effect.in_model_catalog() {
+            ""
+        } else {
+            "  [NOT in the model catalog]"
+        },
+        effect.summary()
+    );
     for p in effect.params() {
-        s.push_str(&format!("  {} = {} {}  — {}\n", p.name, p.value, p.unit, p.doc));
+        s.push_str(&format!(
+            "  {} = {} {}  — {}\n",
+            p.name, p.value, p.unit, p.doc
+        ));
     }
     s
 }
@@ -166,7 +178,12 @@ impl std::error::Error for EffectError {}
 impl EffectError {
     pub fn unknown_param(id: &str, name: &str, known: &[ParamInfo]) -> Self {
         let names: Vec<&str> = known.iter().map(|p| p.name).collect();
-        EffectError { message: format!("effect `{id}` has no parameter `{name}` (known: {})", names.join(", ")) }
+        EffectError {
+            message: format!(
+                "effect `{id}` has no parameter `{name}` (known: {})",
+                names.join(", ")
+            ),
+        }
     }
 }
 
@@ -202,17 +219,29 @@ pub fn parse(spec: &str) -> Result<Box<dyn Effect>, EffectError> {
         Some((id, rest)) => (id.trim(), rest.trim()),
         None => (spec, ""),
     };
-    let mut effect = catalog().into_iter().find(|e| e.id() == id).ok_or_else(|| EffectError {
-        message: format!("unknown effect `{id}` (known: {})", ids().join(", ")),
-    })?;
+    let mut effect = catalog()
+        .into_iter()
+        .find(|e| e.id() == id)
+        .ok_or_else(|| EffectError {
+            message: format!("unknown effect `{id}` (known: {})", ids().join(", ")),
+        })?;
     if !rest.is_empty() {
         for pair in rest.split(',') {
             let (name, value) = pair.split_once('=').ok_or_else(|| EffectError {
                 message: format!("effect `{id}`: `{pair}` is not name=value"),
             })?;
-            let value: f64 = value.trim().parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| EffectError {
-                message: format!("effect `{id}`: parameter `{}` = `{}` is not a finite number", name.trim(), value.trim()),
-            })?;
+            let value: f64 = value
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| EffectError {
+                    message: format!(
+                        "effect `{id}`: parameter `{}` = `{}` is not a finite number",
+                        name.trim(),
+                        value.trim()
+                    ),
+                })?;
             effect.set_param(name.trim(), value)?;
         }
     }
@@ -221,7 +250,11 @@ pub fn parse(spec: &str) -> Result<Box<dyn Effect>, EffectError> {
 
 /// The spec string that rebuilds this effect with its present parameters.
 pub fn spec_of(effect: &dyn Effect) -> String {
-    let params: Vec<String> = effect.params().iter().map(|p| format!("{}={}", p.name, p.value)).collect();
+    let params: Vec<String> = effect
+        .params()
+        .iter()
+        .map(|p| format!("{}={}", p.name, p.value))
+        .collect();
     if params.is_empty() {
         effect.id().to_string()
     } else {
@@ -237,7 +270,9 @@ pub struct EffectSet {
 
 impl fmt::Debug for EffectSet {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_list().entries(self.effects.iter().map(|e| spec_of(e.as_ref()))).finish()
+        f.debug_list()
+            .entries(self.effects.iter().map(|e| spec_of(e.as_ref())))
+            .finish()
     }
 }
 
@@ -257,7 +292,9 @@ impl EffectSet {
 
     pub fn push(&mut self, effect: Box<dyn Effect>) -> Result<(), EffectError> {
         if self.effects.iter().any(|e| e.id() == effect.id()) {
-            return Err(EffectError { message: format!("effect `{}` given twice", effect.id()) });
+            return Err(EffectError {
+                message: format!("effect `{}` given twice", effect.id()),
+            });
         }
         self.effects.push(effect);
         Ok(())

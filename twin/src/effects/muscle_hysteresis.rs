@@ -19,7 +19,11 @@ pub struct MuscleHysteresis {
 
 impl Default for MuscleHysteresis {
     fn default() -> Self {
-        MuscleHysteresis { fraction: 0.04, width: 0.002, z: [0.0; 4] }
+        MuscleHysteresis {
+            fraction: 0.04,
+            width: 0.002,
+            z: [0.0; 4],
+        }
     }
 }
 

@@ -18,7 +18,10 @@ pub struct PoseDependence {
 
 impl Default for PoseDependence {
     fn default() -> Self {
-        PoseDependence { gain_per_rad_1: 0.3, gain_per_rad_2: -0.2 }
+        PoseDependence {
+            gain_per_rad_1: 0.3,
+            gain_per_rad_2: -0.2,
+        }
     }
 }
 
@@ -34,7 +37,9 @@ impl Effect for PoseDependence {
         gain_per_rad_2, "1/rad", "gain slope along α2";
     }
     fn muscle_pressure(&mut self, ctx: &Ctx, p: &mut [f64; 4]) {
-        let g = (1.0 + self.gain_per_rad_1 * ctx.alpha_rad[0] + self.gain_per_rad_2 * ctx.alpha_rad[1]).max(0.0);
+        let g =
+            (1.0 + self.gain_per_rad_1 * ctx.alpha_rad[0] + self.gain_per_rad_2 * ctx.alpha_rad[1])
+                .max(0.0);
         for x in p.iter_mut() {
             *x *= g;
         }

@@ -15,7 +15,10 @@ pub struct PressureSaturation {
 
 impl Default for PressureSaturation {
     fn default() -> Self {
-        PressureSaturation { max_bar: 4.0, knee_bar: 3.2 }
+        PressureSaturation {
+            max_bar: 4.0,
+            knee_bar: 3.2,
+        }
     }
 }
 

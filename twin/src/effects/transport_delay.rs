@@ -15,7 +15,10 @@ pub struct TransportDelay {
 
 impl Default for TransportDelay {
     fn default() -> Self {
-        TransportDelay { delay_s: 0.04, history: VecDeque::new() }
+        TransportDelay {
+            delay_s: 0.04,
+            history: VecDeque::new(),
+        }
     }
 }
 

@@ -17,7 +17,9 @@ pub struct VelocitySquared {
 
 impl Default for VelocitySquared {
     fn default() -> Self {
-        VelocitySquared { coeff_n_s2_per_m2: 40.0 }
+        VelocitySquared {
+            coeff_n_s2_per_m2: 40.0,
+        }
     }
 }
 

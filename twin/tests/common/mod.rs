@@ -2,7 +2,7 @@
 //! zero-phase low-pass), the linear mass-spring-damper least-squares fit of eq. 4.30 and the
 //! graphical second-order step analysis of §5.3. Deliberately small: the identification
 //! crate proper is written elsewhere.
-#![allow(dead_code)]
+#![allow(dead_code, clippy::needless_range_loop)]
 
 use pam_log::{col, Log};
 use pam_model::{Mat2, RobotModel};
@@ -62,7 +62,9 @@ pub fn least_squares(rows: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
     }
     // Gauss–Jordan with partial pivoting
     for c in 0..n {
-        let p = (c..n).max_by(|&a, &b| ata[a][c].abs().total_cmp(&ata[b][c].abs())).unwrap();
+        let p = (c..n)
+            .max_by(|&a, &b| ata[a][c].abs().total_cmp(&ata[b][c].abs()))
+            .unwrap();
         ata.swap(c, p);
         let d = ata[c][c];
         assert!(d.abs() > 1e-300, "singular normal equations");
@@ -94,7 +96,11 @@ pub struct MsdFit {
 pub fn handle_positions(log: &Log, model: &RobotModel<f64>) -> (Vec<f64>, Vec<f64>) {
     let a1 = log.column(col::ALPHA1_RAD).unwrap();
     let a2 = log.column(col::ALPHA2_RAD).unwrap();
-    a1.iter().zip(a2).map(|(&p, &q)| model.kinematics.forward_user([p, q])).map(|x| (x[0], x[1])).unzip()
+    a1.iter()
+        .zip(a2)
+        .map(|(&p, &q)| model.kinematics.forward_user([p, q]))
+        .map(|x| (x[0], x[1]))
+        .unzip()
 }
 
 /// Fits −f = M ẍ + B ẋ + K (x − x0) (eq. 4.29–4.30, symmetric matrices, x0 given) on the
@@ -155,8 +161,14 @@ pub struct StepFigures {
 /// Splits a force-step log at the reference changes and analyses each step.
 pub fn analyse_steps(log: &Log) -> Vec<StepFigures> {
     let dt = log.sample_period_s().unwrap();
-    let refs = [log.column(col::FX_REF_N).unwrap(), log.column(col::FY_REF_N).unwrap()];
-    let meas = [filtfilt(log.column(col::FX_N).unwrap(), 15.0, dt), filtfilt(log.column(col::FY_N).unwrap(), 15.0, dt)];
+    let refs = [
+        log.column(col::FX_REF_N).unwrap(),
+        log.column(col::FY_REF_N).unwrap(),
+    ];
+    let meas = [
+        filtfilt(log.column(col::FX_N).unwrap(), 15.0, dt),
+        filtfilt(log.column(col::FY_N).unwrap(), 15.0, dt),
+    ];
     let n = refs[0].len();
     let mut starts = vec![0usize];
     for i in 1..n {
@@ -195,11 +207,21 @@ pub fn analyse_steps(log: &Log) -> Vec<StepFigures> {
             let l = mp.ln();
             let z = -l / (std::f64::consts::PI.powi(2) + l * l).sqrt();
             let tp = (peak_i - s) as f64 * dt;
-            (Some(z), Some(std::f64::consts::PI / (tp * (1.0 - z * z).sqrt())))
+            (
+                Some(z),
+                Some(std::f64::consts::PI / (tp * (1.0 - z * z).sqrt())),
+            )
         } else {
             (None, None)
         };
-        out.push(StepFigures { axis, from_n: u0, to_n: u1, gain, zeta, omega_n_rad_s: wn });
+        out.push(StepFigures {
+            axis,
+            from_n: u0,
+            to_n: u1,
+            gain,
+            zeta,
+            omega_n_rad_s: wn,
+        });
     }
     out
 }
