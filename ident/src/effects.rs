@@ -469,11 +469,22 @@ impl ModelEffect for PoseDependence {
     fn applies(&self, _e: Experiment) -> bool {
         true
     }
-    fn dynamic_term(&self, ctx: &DynCtx, _s: &Shape) -> DynTerm {
+    /// Two forms, chosen on the data like any shape: the gain plane acting on the muscle
+    /// pressures (needs the currents; 2 parameters), or a restoring force quadratic in the
+    /// displacement (6 parameters; any simulator or rig).
+    fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
+        let mut v = vec![Shape(vec![("quadratic_form", 1.0)])];
+        if joint_pressures(ctx.p, ctx.model).is_some() {
+            v.insert(0, Shape(vec![("quadratic_form", 0.0)]));
+        }
+        v
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         // with the pressures known (currents in the log): the pressure part of each joint's
         // torque scaled by a plane in (α1, α2) — the gain plane of eq. 5.2 acting on the
         // muscles; the parameters are the plane's slopes
-        if let Some(pr) = joint_pressures(ctx.p, ctx.model) {
+        let pressures = if shape.get("quadratic_form") == 0.0 { joint_pressures(ctx.p, ctx.model) } else { None };
+        if let Some(pr) = pressures {
             let p = ctx.p;
             let a = &p.alpha_smooth_rad;
             let mut cols = Vec::new();
