@@ -27,6 +27,8 @@ pub struct Settings {
     pub peak_prominence: f64,
     /// ...carrying at least this share of the residual variance.
     pub peak_min_share: f64,
+    /// Slow wander of the residual: share of its variance in 20 time-bin means.
+    pub structure_min_share: f64,
 }
 
 impl Default for Settings {
@@ -38,6 +40,7 @@ impl Default for Settings {
             step_threshold_n: 3.0,
             peak_prominence: 40.0,
             peak_min_share: 0.03,
+            structure_min_share: 0.2,
         }
     }
 }
@@ -1098,7 +1101,49 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
             });
         }
     }
+    // slow structure: the residual's level wandering over the trial (20 time bins), which
+    // neither the model nor a linear drift (the catalog's) accounts for
+    // (dynamic trials: a step trial's residual has levels by construction)
+    let axes = if lp.experiment == Experiment::Dynamic { fit.axes.clone() } else { Vec::new() };
+    for a in axes {
+        let r = fit.residual(a);
+        let share = binned_share(&r, 20);
+        if share >= s.structure_min_share {
+            out.push(UnexplainedReport {
+                kind: "slow_wander".into(),
+                signal: names[a].into(),
+                frequency_hz: None,
+                amplitude_n: None,
+                variance_share: share,
+                detail: format!(
+                    "the {} residual's level wanders over the trial: its means over 20 time bins carry {:.0} % of its variance, and no catalog effect removes it",
+                    names[a],
+                    100.0 * share
+                ),
+            });
+        }
+    }
     out
+}
+
+/// Share of the variance of `r` carried by its means over `bins` equal time bins.
+fn binned_share(r: &[f64], bins: usize) -> f64 {
+    let n = r.len();
+    if n < 10 * bins {
+        return 0.0;
+    }
+    let m = r.iter().sum::<f64>() / n as f64;
+    let total: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
+    if total <= 0.0 {
+        return 0.0;
+    }
+    let mut between = 0.0;
+    for b in 0..bins {
+        let (lo, hi) = (b * n / bins, (b + 1) * n / bins);
+        let mb = r[lo..hi].iter().sum::<f64>() / (hi - lo) as f64;
+        between += (hi - lo) as f64 * (mb - m).powi(2);
+    }
+    between / total
 }
 
 /// Convenience for reports: NRMSE per axis of a fit as an AxisPair.

@@ -276,6 +276,31 @@ fn a_mains_tone_is_unexplained_and_named() {
 }
 
 #[test]
+fn a_slow_wander_is_unexplained_and_named() {
+    for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
+        let d = run_dynamic(
+            Hidden::Wander {
+                amplitude_n: 2.0,
+                period_s: 25.0,
+            },
+            dt,
+            noise,
+            dur,
+            90 + k as u64,
+        );
+        assert!(
+            d.unexplained.iter().any(|u| u.kind == "slow_wander"),
+            "dt {dt}: {:?} {:?}",
+            d.verdict,
+            d.unexplained
+        );
+    }
+    // and none in a trial without it
+    let d = run_dynamic(Hidden::None, 0.01, 0.3, 90.0, 95);
+    assert!(d.unexplained.is_empty(), "{:?}", d.unexplained);
+}
+
+#[test]
 fn step_effects_are_found_with_their_parameters() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate() {
         let dur = dur.max(60.0);

@@ -29,17 +29,45 @@ impl Rng {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Hidden {
     None,
-    Friction { coulomb_n: f64 },
-    VelocitySquared { c: f64 },
-    Cubic { cubic_n: f64 },
-    Hysteresis { fraction: f64, width: f64 },
-    PoseQuadratic { k_per_m: f64 },
-    Drift { offset_n: f64, drift_n_per_s: f64 },
-    Delay { delay_s: f64 },
-    Hum { amplitude_n: f64, freq_hz: f64 },
+    Friction {
+        coulomb_n: f64,
+    },
+    VelocitySquared {
+        c: f64,
+    },
+    Cubic {
+        cubic_n: f64,
+    },
+    Hysteresis {
+        fraction: f64,
+        width: f64,
+    },
+    PoseQuadratic {
+        k_per_m: f64,
+    },
+    Drift {
+        offset_n: f64,
+        drift_n_per_s: f64,
+    },
+    Delay {
+        delay_s: f64,
+    },
+    Hum {
+        amplitude_n: f64,
+        freq_hz: f64,
+    },
+    /// Out of the catalog: the force offset wanders slowly (a sine of period `period_s`).
+    Wander {
+        amplitude_n: f64,
+        period_s: f64,
+    },
     // step-only
-    SlewLimit { rate_n_per_s: f64 },
-    Saturation { max_n: f64 },
+    SlewLimit {
+        rate_n_per_s: f64,
+    },
+    Saturation {
+        max_n: f64,
+    },
 }
 
 pub struct DynConfig {
@@ -230,6 +258,13 @@ pub fn dynamic(c: &DynConfig) -> Trial {
             } => {
                 let s = amplitude_n * (2.0 * PI * freq_hz * t + 0.3).sin();
                 sensor_offset = [s, s];
+            }
+            Hidden::Wander {
+                amplitude_n,
+                period_s,
+            } => {
+                h[0] += amplitude_n * (2.0 * PI * t / period_s).sin();
+                h[1] += 0.5 * amplitude_n * (2.0 * PI * t / period_s + 1.0).sin();
             }
             _ => {}
         }
