@@ -1,6 +1,35 @@
 #!/usr/bin/env bash
-# The main job. Today: the robot model's torque/stiffness capability at a pose
-# (extra arguments go to `pamctl model capability`, e.g. --alpha1-deg 10 --alpha2-deg 6.5).
+# The main job: start the device emulator (pam-device, the firmware's own device service,
+# against the digital twin at 1 kHz in real time), make the robot respond over the link
+# protocol, watch it, and stop the emulator. Extra arguments go to `pamctl sim`, e.g.
+#   ./run.sh --with mains_hum --handle operator
 set -euo pipefail
 cd "$(dirname "$0")"
-exec cargo run --quiet --release -p pamctl -- model capability "$@"
+cargo build --quiet --release -p pamctl
+pamctl=target/release/pamctl
+work=$(mktemp -d)
+# a script runs one pamctl per step: allow 1 s between them (the firmware's default is 0.1 s)
+"$pamctl" sim --listen 127.0.0.1:0 --command-timeout-s 1 "$@" >"$work/sim.out" 2>"$work/sim.err" &
+sim=$!
+stop_sim() {
+    kill -INT "$sim" 2>/dev/null || true
+    wait "$sim" 2>/dev/null || true
+    cat "$work/sim.err" >&2
+    rm -rf "$work"
+}
+trap stop_sim EXIT
+for _ in $(seq 100); do
+    grep -q '^listening on ' "$work/sim.out" && break
+    kill -0 "$sim" 2>/dev/null || { cat "$work/sim.err" >&2; exit 1; }
+    sleep 0.05
+done
+export PAMCTL_DEVICE
+PAMCTL_DEVICE=$(sed -n 's/^listening on //p' "$work/sim.out")
+cat "$work/sim.out"
+echo "== status";                         "$pamctl" status
+echo "== home, arm";                      "$pamctl" home; "$pamctl" arm
+echo "== joint mode: go to (10°, 6.5°)";  "$pamctl" set joint --alpha-deg 10,6.5 --stiffness-nm-per-rad 80,40
+echo "== watch 5 s";                      "$pamctl" watch --seconds 5
+echo "== record 2 s at 1 kHz";            "$pamctl" record "$work/run.csv" --duration 2 --stats --quiet
+echo "== disarm";                         "$pamctl" disarm
+"$pamctl" status | grep -E '^(state|sample)'

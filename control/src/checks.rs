@@ -301,6 +301,12 @@ pub fn command_timeout_ramps_to_safe_state() -> CheckResult {
         779.0,
         2.0,
     )?;
+    // the ramp's end is the safe state itself: every loop at 4 mA, not the 5.3 mA that
+    // the I/P law gives for its 0.1 bar floor
+    holds(
+        "ends at the safe current (4 mA on every channel)",
+        out.current_ma.iter().all(|&i| i == 4.0),
+    )?;
     holds("latched", c.state() == State::Faulted)
 }
 

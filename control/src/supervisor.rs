@@ -504,8 +504,12 @@ impl Controller {
             }
             let cmd = ip.current_for(p);
             output_limited |= (p - p_in).abs() > 1e-6 || cmd.saturated;
+            // At the converter's floor (idle, a finished timeout ramp, a 0.1 bar command) the
+            // output is the safe state itself, 4 mA: the same 0.1 bar at the converter as the
+            // 5.3 mA its law gives, and the current an open or unpowered loop would also give.
+            let at_floor = p <= vent;
             out[c] = if cut { vent } else { p };
-            current[c] = if cut {
+            current[c] = if cut || at_floor {
                 ip.current_min_ma
             } else {
                 cmd.current_ma

@@ -1,39 +1,173 @@
-//! Every board choice of the NUCLEO-G474RE build, in one place.
+//! Every board choice of the NUCLEO-G474RE build, in one place: pins, peripherals, clocks,
+//! the analogue front ends the drivers assume and the register blocks reached directly.
+//! Porting to another STM32 means rewriting this file (and nothing else, as long as the
+//! new chip has the same kinds of peripheral).
 //!
-//! | Function                         | Peripheral       | Pins (alternate function)     | Nucleo connector |
-//! |----------------------------------|------------------|-------------------------------|------------------|
-//! | Joint 1 encoder (A/B quadrature) | TIM2, 32-bit     | PA0 CH1 (AF1), PA1 CH2 (AF1)  | Arduino A0, A1   |
-//! | Joint 2 encoder (A/B quadrature) | TIM5, 32-bit     | PB2 CH1 (AF2), PC12 CH2 (AF1) | morpho           |
-//! | Load cell X / Z (eq. 2.1 volts)  | ADC1             | PC0 IN6, PC1 IN7              | Arduino A5, A4   |
-//! | 4–20 mA channels 1–4 (I/P conv.) | TIM3 PWM CH1–CH4 | PC6, PC7, PC8, PC9 (AF2)      | morpho           |
-//! | USB FS device                    | USB              | PA12 DP, PA11 DM              | morpho           |
-//! | Heartbeat LED (LD2)              | GPIO             | PA5                           | Arduino D13      |
-//! | embassy-time driver              | TIM15            | none                          | —                |
+//! | Function                         | Peripheral        | Pins (alternate function)     | Nucleo connector |
+//! |----------------------------------|-------------------|-------------------------------|------------------|
+//! | Joint 1 encoder (A/B quadrature) | TIM2, 32-bit      | PA0 CH1 (AF1), PA1 CH2 (AF1)  | Arduino A0, A1   |
+//! | Joint 2 encoder (A/B quadrature) | TIM5, 32-bit      | PB2 CH1 (AF2), PC12 CH2 (AF1) | morpho           |
+//! | Load cell X (eq. 2.1 volts)      | ADC1 (master)     | PC0 = ADC12_IN6               | Arduino A5       |
+//! | Load cell Z                      | ADC2 (slave)      | PC1 = ADC12_IN7               | Arduino A4       |
+//! | 4–20 mA channels 1–4 (I/P conv.) | TIM3 PWM CH1–CH4  | PC6, PC7, PC8, PC9 (AF2)      | morpho           |
+//! | XTR111 error flags, ch. 1–4      | GPIO in, pull-up  | PB12, PB13, PB14, PB15        | morpho           |
+//! | USB FS device                    | USB               | PA12 DP, PA11 DM              | morpho           |
+//! | Heartbeat LED (LD2)              | GPIO              | PA5                           | Arduino D13      |
+//! | embassy-time driver              | TIM15             | none                          | —                |
+//! | Control-loop executor            | UART4 IRQ vector  | none (UART4 unused)           | —                |
+//! | Loop watchdog                    | IWDG (LSI clock)  | none                          | —                |
 //!
 //! (Connector positions: check UM2505, the NUCLEO-G474RE user manual, before wiring.)
 //!
-//! * Both encoders sit on the two 32-bit timers, so the joint counts never wrap in practice.
-//! * The four channels are PWM outputs of one timer (same period, updated together); each
-//!   feeds an RC filter and a voltage-to-current (4–20 mA) stage on the interface board.
-//!   Channel *n* here is channel *n* of `RobotModel::channel_pressures_bar` (the model's
-//!   `channel_of_muscle` maps muscles to channels). The on-chip DACs cannot serve: only
-//!   three DAC outputs reach pins (PA4, PA5, PA6) and PA5 is LD2.
-//! * The time driver (Cargo feature `time-driver-tim15`) uses TIM15, which no pin here needs.
+//! * Both encoders sit on the two 32-bit timers; the driver reads the low 16 bits and
+//!   extends them in software, so a 16-bit timer would do as well on another chip.
+//! * The load cell's two channels are converted by two ADCs in dual injected-simultaneous
+//!   mode (ADC1 master, ADC2 slave), so both are sampled at the same instant. PC0 and PC1
+//!   reach both ADC1 and ADC2 (`ADC12_IN6/7`), which is why the pair is on them.
+//! * The four outputs are PWM channels of one timer (same period, updated together);
+//!   each feeds a 2nd-order RC filter and an XTR111 voltage-to-current stage
+//!   (`docs/output-stage.md`). Channel *n* is channel *n* of
+//!   `RobotModel::channel_pressures_bar`. The on-chip DACs cannot serve: only three DAC
+//!   outputs reach pins (PA4, PA5, PA6) and PA5 is LD2.
 //! * PA2/PA3 stay free for the ST-LINK virtual COM port (USART2); PA13/PA14 are SWD.
-//! * USB needs the 48 MHz clock (HSI48 + CRS) configured in `main` once the USB class is
-//!   added.
 //!
-//! Nothing here drives hardware yet: the drivers are built on these peripherals in issue 4.
 //! The `pin_map_is_valid` function below makes the compiler check every pin against the
-//! chip's alternate-function table (stm32-metapac), so a wrong pin fails the build.
+//! chip's alternate-function tables (stm32-metapac), so a wrong pin fails the build.
 
-// The peripherals are claimed now and used by the drivers of issue 4.
-#![allow(dead_code)]
-
+use embassy_stm32::gpio::Pull;
+use embassy_stm32::interrupt::Priority;
+use embassy_stm32::pac;
 use embassy_stm32::peripherals::{
-    ADC1, PA0, PA1, PA11, PA12, PA5, PB2, PC0, PC1, PC12, PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
+    ADC1, ADC2, IWDG, PA0, PA1, PA11, PA12, PA5, PB12, PB13, PB14, PB15, PB2, PC0, PC1, PC12, PC6,
+    PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
 };
+use embassy_stm32::time::Hertz;
 use embassy_stm32::{Peri, Peripherals};
+use pam_firmware_logic::adc_scale::AdcFrontEnd;
+
+// ---------------------------------------------------------------------------------------
+// Clocks
+
+/// Core clock; also the clock of the timers (APB prescalers at 1) and of the ADC kernel.
+pub const SYSCLK_HZ: u32 = 170_000_000;
+
+/// 170 MHz from the 16 MHz HSI: 16 / 4 × 85 / 2, Range 1 boost mode (needed above 150 MHz).
+/// ADC1/2 run from SYSCLK (the HAL divides it by 4: 42.5 MHz ≤ 60 MHz). USB takes HSI48,
+/// trimmed by the CRS from the host's start-of-frame packets.
+pub fn clock_config() -> embassy_stm32::Config {
+    use embassy_stm32::rcc::*;
+    let mut config = embassy_stm32::Config::default();
+    config.rcc.hsi = true;
+    config.rcc.pll = Some(Pll {
+        source: PllSource::HSI,
+        prediv: PllPreDiv::DIV4,
+        mul: PllMul::MUL85,
+        divp: None,
+        divq: None,
+        divr: Some(PllRDiv::DIV2),
+    });
+    config.rcc.sys = Sysclk::PLL1_R;
+    config.rcc.boost = true;
+    config.rcc.mux.adc12sel = mux::Adcsel::SYS;
+    config.rcc.hsi48 = Some(Hsi48Config {
+        sync_from_usb: true,
+    });
+    config.rcc.mux.clk48sel = mux::Clk48sel::HSI48;
+    config
+}
+
+// ---------------------------------------------------------------------------------------
+// Control loop and watchdog
+
+/// The control loop runs on an interrupt executor on this otherwise unused vector.
+pub const CONTROL_IRQ: embassy_stm32::interrupt::Interrupt = embassy_stm32::interrupt::UART4;
+/// Above the thread-mode executor and the USB interrupt (default priority 0 would be the
+/// highest; embassy's drivers leave theirs at the reset value, so the ones we use are
+/// lowered in `main`).
+pub const CONTROL_PRIORITY: Priority = Priority::P2;
+/// Priority of the peripheral interrupts the low-priority tasks use (USB).
+pub const LINK_PRIORITY: Priority = Priority::P6;
+
+/// IWDG timeout: five periods at the slowest allowed loop rate (10 ms), fifty at 1 ms. The
+/// LSI (32 kHz nominal) may be off by ±10 %, which only moves the limit by 5 ms.
+pub const WATCHDOG_TIMEOUT_US: u32 = 50_000;
+
+// ---------------------------------------------------------------------------------------
+// Encoders (counts per revolution and direction are rig calibration: `pam-device`)
+
+/// Encoder outputs are often open collector: the internal pull-ups (≈40 kΩ) do no harm to
+/// push-pull outputs either.
+pub const ENCODER_PULL: Pull = Pull::Up;
+
+// ---------------------------------------------------------------------------------------
+// Load cell front end
+
+/// 12-bit conversions.
+pub const ADC_FULL_SCALE_COUNTS: u16 = 4095;
+/// ADC input channel of the X and Z signals (DS12288 pin table: PC0 = ADC12_IN6,
+/// PC1 = ADC12_IN7); `pin_map_is_valid` checks that both pins are ADC1 and ADC2 inputs.
+pub const LOAD_CELL_X_ADC_CHANNEL: u8 = 6;
+pub const LOAD_CELL_Z_ADC_CHANNEL: u8 = 7;
+/// 47.5 ADC clocks of sampling (1.12 µs at 42.5 MHz): the front end's op-amp drives the
+/// sample capacitor easily; conversion total 47.5 + 12.5 = 60 clocks = 1.41 µs.
+pub const LOAD_CELL_SAMPLE_TIME: pac::adc::vals::SampleTime =
+    pac::adc::vals::SampleTime::CYCLES47_5;
+/// The amplifier's ±10 V outputs (the NI 9215's input range) reach the ADC through a
+/// level shifter: V_adc = mid + gain × V_amp, with the nominal values of its resistors
+/// (100 k / 30.1 k / 43.2 k, `docs/output-stage.md`, input front end). The reference is
+/// the Nucleo's VDDA = VREF+ = 3.3 V. Codes within 8 of either rail are saturation.
+pub const LOAD_CELL_FRONT_END: AdcFrontEnd = AdcFrontEnd {
+    vref_v: 3.3,
+    full_scale_counts: ADC_FULL_SCALE_COUNTS,
+    gain: 0.1507,
+    mid_v: 1.652,
+    rail_margin_counts: 8,
+};
+/// Master and slave of the simultaneous pair and their common block.
+pub const LOAD_CELL_ADC_MASTER: pac::adc::Adc = pac::ADC1;
+pub const LOAD_CELL_ADC_SLAVE: pac::adc::Adc = pac::ADC2;
+pub const LOAD_CELL_ADC_COMMON: pac::adccommon::AdcCommon = pac::ADC12_COMMON;
+
+// ---------------------------------------------------------------------------------------
+// 4–20 mA outputs
+
+/// PWM frequency of the four outputs: 170 MHz / 20 kHz = 8500 counts per period
+/// (2.8 µA per count at the stage's 24.2 mA full scale).
+pub const OUTPUT_PWM_HZ: Hertz = Hertz(20_000);
+/// Loop current at 100 % duty with the nominal parts of `docs/output-stage.md`:
+/// 10 × 3.000 V / 1.24 kΩ (XTR111 gain 10, PWM high level from a 3.000 V reference).
+pub const OUTPUT_FULL_SCALE_MA: f32 = 10.0 * 3.000 / 1.24;
+/// The stage's nominal mA → duty law (0 mA at 0 %, full scale at 100 %).
+pub fn output_nominal_law() -> pam_firmware_logic::current_loop::ChannelLaw {
+    pam_firmware_logic::current_loop::ChannelLaw::proportional(OUTPUT_FULL_SCALE_MA)
+}
+/// The XTR111's EF pins are open drain, low on an output error (open loop, no compliance).
+pub const OUTPUT_ERROR_FLAG_PULL: Pull = Pull::Up;
+/// An error flag must be seen this many consecutive periods before it is a fault: the
+/// flag may glitch while the filter settles after a step.
+pub const OUTPUT_ERROR_DEBOUNCE_PERIODS: u16 = 10;
+/// The output timer, written directly by the panic handler.
+pub const OUTPUT_TIMER_REGS: pac::timer::TimGp16 = pac::TIM3;
+
+// ---------------------------------------------------------------------------------------
+// Peripheral ownership
+
+/// Timer types, so that the rest of the firmware can name its drivers' types.
+pub type Encoder1Timer = TIM2;
+pub type Encoder2Timer = TIM5;
+pub type OutputTimer = TIM3;
+pub type LoadCellAdcMaster = ADC1;
+pub type LoadCellAdcSlave = ADC2;
+pub type UsbPeripheral = USB;
+
+embassy_stm32::bind_interrupts!(
+    /// The USB peripheral's interrupt (low priority: `LINK_PRIORITY`).
+    pub struct UsbIrqs {
+        USB_LP => embassy_stm32::usb::InterruptHandler<USB>;
+    }
+);
+/// The vector bound above, for setting its priority.
+pub const USB_IRQ: embassy_stm32::interrupt::Interrupt = embassy_stm32::interrupt::USB_LP;
 
 /// Quadrature encoder of joint 1.
 pub struct Encoder1 {
@@ -49,20 +183,26 @@ pub struct Encoder2 {
     pub ch_b: Peri<'static, PC12>,
 }
 
-/// The two analogue channels of the load cell amplifier (sensor frame X and Z).
+/// The two analogue channels of the load cell amplifier (sensor frame X and Z), one per
+/// ADC of the simultaneous pair.
 pub struct LoadCell {
-    pub adc: Peri<'static, ADC1>,
+    pub adc_master: Peri<'static, ADC1>,
+    pub adc_slave: Peri<'static, ADC2>,
     pub x: Peri<'static, PC0>,
     pub z: Peri<'static, PC1>,
 }
 
-/// The four 4–20 mA current-loop outputs to the I/P converters.
+/// The four 4–20 mA current-loop outputs to the I/P converters and their error flags.
 pub struct CurrentOutputs {
     pub timer: Peri<'static, TIM3>,
     pub ch1: Peri<'static, PC6>,
     pub ch2: Peri<'static, PC7>,
     pub ch3: Peri<'static, PC8>,
     pub ch4: Peri<'static, PC9>,
+    pub error_flag1: Peri<'static, PB12>,
+    pub error_flag2: Peri<'static, PB13>,
+    pub error_flag3: Peri<'static, PB14>,
+    pub error_flag4: Peri<'static, PB15>,
 }
 
 /// USB full-speed device (host link).
@@ -80,6 +220,7 @@ pub struct Board {
     pub load_cell: LoadCell,
     pub outputs: CurrentOutputs,
     pub usb: Usb,
+    pub watchdog: Peri<'static, IWDG>,
 }
 
 impl Board {
@@ -97,7 +238,8 @@ impl Board {
                 ch_b: p.PC12,
             },
             load_cell: LoadCell {
-                adc: p.ADC1,
+                adc_master: p.ADC1,
+                adc_slave: p.ADC2,
                 x: p.PC0,
                 z: p.PC1,
             },
@@ -107,18 +249,24 @@ impl Board {
                 ch2: p.PC7,
                 ch3: p.PC8,
                 ch4: p.PC9,
+                error_flag1: p.PB12,
+                error_flag2: p.PB13,
+                error_flag3: p.PB14,
+                error_flag4: p.PB15,
             },
             usb: Usb {
                 usb: p.USB,
                 dp: p.PA12,
                 dm: p.PA11,
             },
+            watchdog: p.IWDG,
         }
     }
 }
 
 /// Never called: it only has to type-check. Each line asks the HAL's pin traits whether
 /// the pin can carry that signal of that peripheral.
+#[allow(dead_code)]
 fn pin_map_is_valid() {
     use embassy_stm32::adc::{self, AdcChannel};
     use embassy_stm32::timer::{
@@ -141,7 +289,7 @@ fn pin_map_is_valid() {
     timer_pin::<TIM5, Ch2, PC12>();
 
     adc_pin::<ADC1, Peri<'static, PC0>>();
-    adc_pin::<ADC1, Peri<'static, PC1>>();
+    adc_pin::<ADC2, Peri<'static, PC1>>();
 
     timer_pin::<TIM3, Ch1, PC6>();
     timer_pin::<TIM3, Ch2, PC7>();

@@ -1,18 +1,32 @@
 //! PAM rehabilitation robot firmware for the NUCLEO-G474RE (STM32G474RE, Cortex-M4F).
 //!
 //! Two executors, after embassy's `multiprio` example:
-//! * a high-priority interrupt executor (on the otherwise unused UART4 vector) runs the
-//!   1 kHz control loop, so it preempts everything else;
-//! * the thread-mode executor runs the low-priority work (for now: the LD2 heartbeat).
+//! * a high-priority interrupt executor (`board::CONTROL_IRQ`) runs the control loop
+//!   ([`control`]), so the link and logging can never delay it;
+//! * the thread-mode executor runs the low-priority work: the USB link ([`link`]), the
+//!   heartbeat LED and a once-per-second status log.
 //!
-//! The pin map and every other board choice is in [`board`].
+//! The hardware-independent work (sensor front end, controller, supervisor, request
+//! handling) is `pam_device::Device`; this crate only wires it to the peripherals.
+//!
+//! Boot order puts the outputs in the safe state first: until the timer is configured the
+//! hardware holds 0 mA (vent); the first driver set up is the output stage, at 4 mA (vent).
+//! Every board choice is in [`board`]; each driver is a module of its own.
 
 #![no_std]
 #![no_main]
 
 mod board;
+mod control;
+mod current_output;
+mod encoder;
+mod link;
+mod load_cell_adc;
+mod loop_timing;
+mod panic;
+mod watchdog;
 
-use core::hint::black_box;
+use core::sync::atomic::Ordering;
 
 use cortex_m_rt::entry;
 use defmt::{info, unwrap, warn};
@@ -20,92 +34,53 @@ use defmt_rtt as _;
 use embassy_executor::{Executor, InterruptExecutor};
 use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::interrupt;
-use embassy_stm32::interrupt::{InterruptExt, Priority};
-use embassy_stm32::Config;
-use embassy_time::{Duration, Instant, Ticker, Timer};
-use pam_model::RobotModel;
-use panic_probe as _;
+use embassy_stm32::interrupt::InterruptExt;
+use embassy_stm32::usb::Driver;
+use embassy_time::Timer;
+use embassy_usb::class::cdc_acm::{CdcAcmClass, State};
+use pam_control::{Faults, SafetyConfig};
+use pam_device::{Device, DeviceOptions};
+use pam_model::RobotParams;
+use pam_protocol::Version;
 use static_cell::StaticCell;
 
 use crate::board::Board;
-
-/// Control period (1 kHz).
-const CONTROL_PERIOD: Duration = Duration::from_millis(1);
-/// Log the control state every this many periods (1 s).
-const LOG_EVERY: u32 = 1000;
-/// Neutral pose: both joint angles zero (handle at the user-frame origin).
-const NEUTRAL_ALPHA_RAD: [f32; 2] = [0.0, 0.0];
-/// A safe, soft joint stiffness: just above the lowest attainable at the neutral pose
-/// (Table 4.1 row 1: K_low = 60.8 and 26.6 N·m/rad).
-const SAFE_STIFFNESS_NM_PER_RAD: [f32; 2] = [65.0, 30.0];
+use crate::control::{ControlHardware, FAULT_EVENTS_DROPPED, TELEMETRY_DROPPED};
+use crate::current_output::{CurrentLoopOutputs, CHANNELS};
+use crate::encoder::QuadratureEncoder;
+use crate::loop_timing::CycleMeter;
+use crate::watchdog::{LoopWatchdog, ResetCause};
 
 static CONTROL_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
 static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
+
+/// Buffers of the USB stack (descriptors, control transfers, CDC-ACM state).
+static USB_CONFIG_DESCRIPTOR: StaticCell<[u8; 256]> = StaticCell::new();
+static USB_BOS_DESCRIPTOR: StaticCell<[u8; 256]> = StaticCell::new();
+static USB_CONTROL_BUF: StaticCell<[u8; 64]> = StaticCell::new();
+static USB_CDC_STATE: StaticCell<State> = StaticCell::new();
 
 #[interrupt]
 unsafe fn UART4() {
     unsafe { CONTROL_EXECUTOR.on_interrupt() }
 }
 
-/// The 1 kHz control loop. For now it evaluates the model at the neutral pose with zero
-/// torque and logs the channel currents once per second.
-#[embassy_executor::task]
-async fn control_loop() {
-    let model = RobotModel::<f32>::thesis();
-    let ip = model.params.ip;
+/// The crate version, for the protocol's handshake.
+const FIRMWARE_VERSION: Version = Version {
+    major: parse_u16(env!("CARGO_PKG_VERSION_MAJOR")),
+    minor: parse_u16(env!("CARGO_PKG_VERSION_MINOR")),
+    patch: parse_u16(env!("CARGO_PKG_VERSION_PATCH")),
+};
 
-    let mut ticker = Ticker::every(CONTROL_PERIOD);
-    let mut tick: u32 = 0;
-    let mut max_eval_us: u64 = 0;
-    let mut overruns: u32 = 0;
-
-    loop {
-        let start = Instant::now();
-
-        // TODO(issue 4): read the two joint encoders (board::Encoder1/Encoder2, TIM2/TIM5
-        // in encoder mode) and convert counts to joint angles. Until then: neutral pose.
-        let alpha_rad = black_box(NEUTRAL_ALPHA_RAD);
-        // TODO(issue 4): read the load cell (board::LoadCell, ADC1 on PC0/PC1), convert
-        // with model.params.load_cell.forces_n and turn the force request into joint
-        // torques. Until then: zero torque.
-        let torque_nm = black_box([0.0f32; 2]);
-
-        let joints = model.inverse(alpha_rad, torque_nm, SAFE_STIFFNESS_NM_PER_RAD);
-        let channel_bar =
-            model.channel_pressures_bar([joints[0].pressure_bar, joints[1].pressure_bar]);
-        let commands = channel_bar.map(|p| ip.current_for(p));
-
-        // TODO(issue 4): write commands[n].current_ma to 4–20 mA channel n+1
-        // (board::CurrentOutputs, TIM3 PWM CH1–CH4 on PC6–PC9).
-        let commands = black_box(commands);
-
-        let eval_us = start.elapsed().as_micros();
-        max_eval_us = max_eval_us.max(eval_us);
-        if eval_us >= CONTROL_PERIOD.as_micros() {
-            overruns += 1;
-        }
-
-        if tick.is_multiple_of(LOG_EVERY) {
-            info!(
-                "control t={}s: P={} bar, I={} mA, limited=[{},{}], saturated={}, eval max {} us, overruns {}",
-                tick / LOG_EVERY,
-                channel_bar,
-                commands.map(|c| c.current_ma),
-                joints[0].limited.0,
-                joints[1].limited.0,
-                commands.map(|c| c.saturated),
-                max_eval_us,
-                overruns,
-            );
-            if !(joints[0].limited.is_none() && joints[1].limited.is_none()) {
-                warn!("inverse model limited the neutral-pose request");
-            }
-            max_eval_us = 0;
-        }
-        tick = tick.wrapping_add(1);
-
-        ticker.next().await;
+const fn parse_u16(digits: &str) -> u16 {
+    let bytes = digits.as_bytes();
+    let mut value: u16 = 0;
+    let mut i = 0;
+    while i < bytes.len() {
+        value = value * 10 + (bytes[i] - b'0') as u16;
+        i += 1;
     }
+    value
 }
 
 /// Low-priority heartbeat on LD2: 1 Hz blink while the thread-mode executor is alive.
@@ -117,35 +92,121 @@ async fn heartbeat(mut led: Output<'static>) {
     }
 }
 
+/// Once per second: loop timing (the shared summary) and drop counters over defmt.
+#[embassy_executor::task]
+async fn status_log() {
+    loop {
+        Timer::after_secs(1).await;
+        let t = loop_timing::snapshot();
+        let state = control::with_device(|d| (d.controller().state(), d.controller().faults().0));
+        info!(
+            "loop: {} cycles, exec {} ns (max {}), jitter max {} ns, overruns {}; telemetry dropped {}, fault events dropped {}; state {}",
+            t.cycles,
+            loop_timing::ns(t.exec_last_cycles),
+            loop_timing::ns(t.exec_max_cycles),
+            loop_timing::ns(t.jitter_max_cycles),
+            t.overruns,
+            TELEMETRY_DROPPED.load(Ordering::Relaxed),
+            FAULT_EVENTS_DROPPED.load(Ordering::Relaxed),
+            state.map(|(s, f)| (s as u8, f)),
+        );
+    }
+}
+
 #[entry]
 fn main() -> ! {
-    let mut config = Config::default();
-    {
-        // 170 MHz from the 16 MHz HSI: 16 / 4 * 85 / 2 (the G4's maximum, boost mode).
-        use embassy_stm32::rcc::*;
-        config.rcc.hsi = true;
-        config.rcc.pll = Some(Pll {
-            source: PllSource::HSI,
-            prediv: PllPreDiv::DIV4,
-            mul: PllMul::MUL85,
-            divp: None,
-            divq: None,
-            divr: Some(PllRDiv::DIV2),
-        });
-        config.rcc.sys = Sysclk::PLL1_R;
-    }
-    let board = Board::new(embassy_stm32::init(config));
-    info!("pam-firmware: STM32G474RE at 170 MHz");
+    // Before anything can reset again: why did the last reset happen?
+    let reset_cause = ResetCause::take();
+    let board = Board::new(embassy_stm32::init(board::clock_config()));
 
-    // High priority: the control loop, preempting the thread-mode executor.
-    interrupt::UART4.set_priority(Priority::P6);
-    let spawner = CONTROL_EXECUTOR.start(interrupt::UART4);
-    spawner.spawn(unwrap!(control_loop()));
+    // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
+    let outputs = CurrentLoopOutputs::new(board.outputs, [board::output_nominal_law(); CHANNELS]);
+    info!(
+        "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}",
+        env!("CARGO_PKG_VERSION"),
+        reset_cause
+    );
+
+    let encoder1 = QuadratureEncoder::new(
+        board.encoder1.timer,
+        board.encoder1.ch_a,
+        board.encoder1.ch_b,
+    );
+    let encoder2 = QuadratureEncoder::new(
+        board.encoder2.timer,
+        board.encoder2.ch_a,
+        board.encoder2.ch_b,
+    );
+    let load_cell = load_cell_adc::LoadCellAdc::new(board.load_cell);
+
+    // Thesis parameters until the host sends the rig's (no persistent storage yet).
+    let mut device = Device::new(
+        RobotParams::thesis(),
+        SafetyConfig::default_1khz(),
+        DeviceOptions {
+            firmware_version: FIRMWARE_VERSION,
+            // the encoder driver delivers 64-bit extended counts, passed on as u32
+            encoder_counter_bits: 32,
+        },
+    );
+    if reset_cause.is_watchdog() {
+        warn!("the last reset was a watchdog reset: latched WATCHDOG_RESET");
+        device.raise(Faults::WATCHDOG_RESET);
+    }
+    let period_us = device.period_us();
+    control::install_device(device);
+
+    let mut core = unwrap!(cortex_m::Peripherals::take());
+    let meter = CycleMeter::new(
+        &mut core.DCB,
+        &mut core.DWT,
+        control::period_cycles(period_us),
+    );
+
+    // USB link (started in thread mode below; its interrupt below the control loop's).
+    let driver = Driver::new(board.usb.usb, board::UsbIrqs, board.usb.dp, board.usb.dm);
+    board::USB_IRQ.set_priority(board::LINK_PRIORITY);
+    let mut usb_config = embassy_usb::Config::new(link::USB_VID, link::USB_PID);
+    usb_config.manufacturer = Some("PAM rehabilitation robot");
+    usb_config.product = Some("pam-firmware (NUCLEO-G474RE)");
+    usb_config.max_power = 100;
+    let mut builder = embassy_usb::Builder::new(
+        driver,
+        usb_config,
+        USB_CONFIG_DESCRIPTOR.init([0; 256]),
+        USB_BOS_DESCRIPTOR.init([0; 256]),
+        &mut [], // no Microsoft OS descriptors
+        USB_CONTROL_BUF.init([0; 64]),
+    );
+    let class = CdcAcmClass::new(
+        &mut builder,
+        USB_CDC_STATE.init(State::new()),
+        link::USB_PACKET_BYTES as u16,
+    );
+    let usb = builder.build();
+
+    // Last before the loop starts: from here only the control task keeps the MCU alive.
+    let watchdog = LoopWatchdog::start(board.watchdog);
+    let hardware = ControlHardware {
+        encoder1,
+        encoder2,
+        load_cell,
+        outputs,
+        watchdog,
+        meter,
+    };
+
+    board::CONTROL_IRQ.set_priority(board::CONTROL_PRIORITY);
+    let spawner = CONTROL_EXECUTOR.start(board::CONTROL_IRQ);
+    spawner.spawn(unwrap!(control::control_task(hardware)));
 
     // Thread mode: everything else.
     let led = Output::new(board.led, Level::Low, Speed::Low);
     let executor = THREAD_EXECUTOR.init(Executor::new());
     executor.run(|spawner| {
+        spawner.spawn(unwrap!(link::usb_task(usb)));
+        spawner.spawn(unwrap!(link::link_task(class)));
         spawner.spawn(unwrap!(heartbeat(led)));
+        spawner.spawn(unwrap!(status_log()));
     })
 }

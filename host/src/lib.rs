@@ -3,6 +3,7 @@
 
 pub mod cmd;
 pub mod link;
+pub mod sim;
 
 use clap::{Args, Parser, Subcommand};
 
@@ -57,6 +58,12 @@ pub enum Command {
     Config(cmd::config::ConfigCommand),
     /// Record telemetry to a log-format-v1 CSV file.
     Record(cmd::record::RecordArgs),
+    /// The thesis protocols on the connected device, one log per trial.
+    Experiment(cmd::experiment::ExperimentArgs),
+    /// Live view of the telemetry with small plots (`--once` / non-terminal: plain text).
+    Watch(cmd::watch::WatchArgs),
+    /// The device emulator: pam-device against the digital twin, in real time, on TCP/pty.
+    Sim(cmd::sim::SimArgs),
 }
 
 pub fn run(cli: Cli) -> Result<(), String> {
@@ -74,5 +81,8 @@ pub fn run(cli: Cli) -> Result<(), String> {
         Command::Set(s) => cmd::set::run(s, link, out),
         Command::Config(c) => cmd::config::run(c, link, out),
         Command::Record(r) => cmd::record::run(r, link, out),
+        Command::Sim(s) => cmd::sim::run(s, out),
+        Command::Watch(w) => cmd::watch::run(w, link, out),
+        Command::Experiment(e) => cmd::experiment::run(e, link, out),
     }
 }

@@ -1,14 +1,17 @@
 pub mod arm;
 pub mod config;
 pub mod disarm;
+pub mod experiment;
 pub mod fault;
 pub mod home;
 pub mod model;
 pub mod ports;
 pub mod record;
 pub mod set;
+pub mod sim;
 pub mod status;
 pub mod tare;
+pub mod watch;
 
 use crate::link::{transport::no_device_message, Client};
 use crate::LinkArgs;

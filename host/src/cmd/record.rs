@@ -19,7 +19,8 @@ use std::time::{Duration, Instant};
 pub struct RecordArgs {
     /// Output CSV (log format v1).
     pub file: PathBuf,
-    /// Seconds to record; without it, until Ctrl-C.
+    /// Seconds to record, on the device's clock (so 10 s at 1 kHz is 10 000 samples
+    /// whatever the host's scheduling); without it, until Ctrl-C.
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,
     /// Telemetry every N control periods (1 = every period).
@@ -31,6 +32,10 @@ pub struct RecordArgs {
     /// No progress line.
     #[arg(long)]
     pub quiet: bool,
+    /// At the end, print the link throughput (bytes/s received, frame size, margin to
+    /// USB full-speed CDC).
+    #[arg(long)]
+    pub stats: bool,
 }
 
 /// Columns written, in order: the required ones, the force target when the recording
@@ -136,6 +141,8 @@ impl Clock {
 
 pub struct Summary {
     pub samples: u64,
+    /// Bytes received on the link while recording.
+    pub bytes: u64,
     pub dropped: u64,
     pub skipped_out_of_order: u64,
     pub seconds: f64,
@@ -211,6 +218,9 @@ pub fn record(
     let mut last_t = f64::NEG_INFINITY;
     let mut skipped = 0u64;
     let start = Instant::now();
+    let bytes_at_start = client.bytes_received();
+    // the device clock ends a timed recording; this guards against a device that stalls
+    let wall_limit = args.duration.map(|d| d + 2.0 + 0.5 * d);
     let mut last_beat = Instant::now();
     let mut last_progress = Instant::now();
     let mut result = Ok(());
@@ -218,8 +228,15 @@ pub fn record(
         if stop.load(Ordering::SeqCst) {
             break;
         }
-        if args.duration.is_some_and(|d| start.elapsed().as_secs_f64() >= d) {
-            break;
+        if let Some(limit) = wall_limit {
+            if start.elapsed().as_secs_f64() >= limit {
+                result = Err(format!(
+                    "the device's clock did not reach {} s within {limit:.1} s of host time: \
+                     the telemetry stalled; the file holds every sample received",
+                    args.duration.unwrap_or(0.0)
+                ));
+                break;
+            }
         }
         // keep the device's command timeout fed while it streams
         if last_beat.elapsed() >= Duration::from_millis(25) {
@@ -233,6 +250,9 @@ pub fn record(
             Ok(Some(t)) => {
                 drops.record(t.seq);
                 let t_s = clock.seconds(t.time_us);
+                if args.duration.is_some_and(|d| t_s >= d - 1e-9) {
+                    break;
+                }
                 if t_s <= last_t {
                     skipped += 1; // the format needs strictly increasing time
                     continue;
@@ -269,8 +289,11 @@ pub fn record(
     }
     // drain what already arrived: Ctrl-C loses nothing received
     while let Ok(Some(t)) = client.next_telemetry(Duration::ZERO) {
-        drops.record(t.seq);
         let t_s = clock.seconds(t.time_us);
+        if args.duration.is_some_and(|d| t_s >= d - 1e-9) {
+            break;
+        }
+        drops.record(t.seq);
         if t_s > last_t {
             last_t = t_s;
             if writer.write_row(&row(&t, t_s, with_force_ref)).is_err() {
@@ -288,6 +311,7 @@ pub fn record(
     result?;
     Ok(Summary {
         samples,
+        bytes: client.bytes_received() - bytes_at_start,
         dropped: drops.dropped,
         skipped_out_of_order: skipped,
         seconds: start.elapsed().as_secs_f64(),
@@ -317,5 +341,29 @@ pub fn run(args: RecordArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(),
             String::new()
         }
     )
-    .map_err(|e| e.to_string())
+    .map_err(|e| e.to_string())?;
+    if args.stats {
+        writeln!(out, "{}", throughput(&s)).map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// USB full-speed CDC-ACM's practical sustained rate (bulk: 19 × 64 B per 1 ms frame at
+/// most, 1.216 MB/s; stacks typically sustain about 1 MB/s).
+pub const USB_FS_CDC_PRACTICAL_BYTES_PER_S: f64 = 1.0e6;
+
+/// The link throughput line of `record --stats`.
+pub fn throughput(s: &Summary) -> String {
+    let rate = s.bytes as f64 / s.seconds.max(1e-9);
+    format!(
+        "link: {} bytes in {:.2} s = {:.0} bytes/s ({:.1} bytes per sample, {:.0} samples/s); \
+         {:.1} % of USB full-speed CDC's ~1 MB/s, a margin of {:.1}x",
+        s.bytes,
+        s.seconds,
+        rate,
+        s.bytes as f64 / (s.samples.max(1) as f64),
+        s.samples as f64 / s.seconds.max(1e-9),
+        100.0 * rate / USB_FS_CDC_PRACTICAL_BYTES_PER_S,
+        USB_FS_CDC_PRACTICAL_BYTES_PER_S / rate.max(1e-9),
+    )
 }

@@ -131,6 +131,8 @@ struct Shared {
     /// The request id a caller is waiting for ([`NOT_WAITING`] if none): other replies
     /// (heartbeats', late ones) are dropped by the reader instead of piling up.
     awaited: AtomicU32,
+    /// Every byte read from the link (throughput statistics).
+    bytes_received: AtomicU64,
 }
 
 const NOT_WAITING: u32 = u32::MAX;
@@ -187,6 +189,7 @@ impl Client {
             forward_telemetry: AtomicBool::new(false),
             corrupted: AtomicU64::new(0),
             awaited: AtomicU32::new(NOT_WAITING),
+            bytes_received: AtomicU64::new(0),
         });
         let reader = {
             let shared = shared.clone();
@@ -341,6 +344,11 @@ impl Client {
         self.faults.try_iter().collect()
     }
 
+    /// Bytes received from the device so far (frames, delimiters and any garbage).
+    pub fn bytes_received(&self) -> u64 {
+        self.shared.bytes_received.load(Ordering::Relaxed)
+    }
+
     /// Frames from the device rejected as corrupted so far.
     pub fn corrupted_frames(&self) -> u64 {
         self.shared.corrupted.load(Ordering::Relaxed)
@@ -379,6 +387,7 @@ fn read_loop(
             }
             Err(_) => return,
         };
+        shared.bytes_received.fetch_add(n as u64, Ordering::Relaxed);
         for &b in &buf[..n] {
             match decoder.push(b) {
                 None => {}

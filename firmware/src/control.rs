@@ -1,0 +1,152 @@
+//! The control task: sensors in → `pam_device::Device::step` (front end, controller,
+//! supervisor, output trim) → outputs out, once per period, on the high-priority interrupt
+//! executor. It is the only feeder of the watchdog, the only writer of the outputs, and it
+//! never waits on anything but its ticker (the ADC wait is a bounded poll of ≈1.4 µs).
+//!
+//! Sharing: the device lives in a critical-section mutex so that the link task (thread
+//! mode) can apply host requests between two steps. The link's critical sections are one
+//! request long; the step's is one step long, which is what the DWT execution time reports.
+//! Telemetry and fault events leave through channels with `try_send`: when the link lags
+//! (or no host is connected) samples are dropped and counted, the loop never blocks.
+
+use core::cell::RefCell;
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::blocking_mutex::Mutex;
+use embassy_sync::channel::Channel;
+use embassy_time::{Duration, Instant, Ticker};
+use pam_control::Faults;
+use pam_device::{Device, RawSensors, StepTiming};
+use pam_protocol::{FaultEvent, Telemetry};
+
+use crate::board;
+use crate::current_output::{CurrentLoopOutputs, CHANNELS, LOOP_MIN_MA};
+use crate::encoder::QuadratureEncoder;
+use crate::load_cell_adc::LoadCellAdc;
+use crate::loop_timing::{self, CycleMeter};
+use crate::watchdog::LoopWatchdog;
+
+/// The device service, shared with the link task. `None` only before `main` installs it.
+static DEVICE: Mutex<CriticalSectionRawMutex, RefCell<Option<Device>>> =
+    Mutex::new(RefCell::new(None));
+
+/// Installs the device (once, in `main`, before the tasks start).
+pub fn install_device(device: Device) {
+    DEVICE.lock(|cell| cell.replace(Some(device)));
+}
+
+/// Runs `f` on the device inside a critical section. `None` if no device is installed (or,
+/// impossible with interrupts masked, if it were already borrowed): never panics.
+pub fn with_device<R>(f: impl FnOnce(&mut Device) -> R) -> Option<R> {
+    DEVICE.lock(|cell| {
+        let mut guard = cell.try_borrow_mut().ok()?;
+        guard.as_mut().map(f)
+    })
+}
+
+pub const TELEMETRY_DEPTH: usize = 16;
+/// Filled by the control task at the loop rate (or the telemetry divider's), drained by
+/// the link.
+pub static TELEMETRY: Channel<CriticalSectionRawMutex, Telemetry, TELEMETRY_DEPTH> = Channel::new();
+/// New latched faults, for the link to report as events.
+pub static FAULT_EVENTS: Channel<CriticalSectionRawMutex, FaultEvent, 4> = Channel::new();
+/// Telemetry samples and fault events the control task could not queue.
+pub static TELEMETRY_DROPPED: AtomicU32 = AtomicU32::new(0);
+pub static FAULT_EVENTS_DROPPED: AtomicU32 = AtomicU32::new(0);
+
+/// The peripherals the control loop owns.
+pub struct ControlHardware {
+    pub encoder1: QuadratureEncoder<'static, board::Encoder1Timer>,
+    pub encoder2: QuadratureEncoder<'static, board::Encoder2Timer>,
+    pub load_cell: LoadCellAdc,
+    pub outputs: CurrentLoopOutputs,
+    pub watchdog: LoopWatchdog,
+    pub meter: CycleMeter,
+}
+
+/// The device's period kept inside the 1–10 ms the firmware supports (the device's own
+/// validation already refuses anything else).
+fn bounded_period_us(period_us: u32) -> u32 {
+    period_us.clamp(1_000, 10_000)
+}
+
+pub fn period_cycles(period_us: u32) -> u32 {
+    period_us * (board::SYSCLK_HZ / 1_000_000)
+}
+
+fn saturating_us(cycles: u32) -> u16 {
+    (loop_timing::ns(cycles) / 1_000).min(u32::from(u16::MAX)) as u16
+}
+
+#[embassy_executor::task]
+pub async fn control_task(mut hw: ControlHardware) {
+    let mut period_us = bounded_period_us(with_device(|d| d.period_us()).unwrap_or(1_000));
+    hw.meter.set_period(period_cycles(period_us));
+    let mut ticker = Ticker::every(Duration::from_micros(u64::from(period_us)));
+    let mut last_exec_cycles: u32 = 0;
+
+    loop {
+        let jitter_cycles = hw.meter.cycle_start();
+
+        // The extended counts, truncated: the device extends them again modulo 2^32, which
+        // is exact for any motion below 2^31 counts per period.
+        let encoder_counts =
+            [hw.encoder1.read_counts(), hw.encoder2.read_counts()].map(|count| count as u32);
+        let adc = hw.load_cell.read();
+        let open_loop = hw.outputs.poll_open_loop();
+        let (loadcell_volts, saturated) = match adc {
+            Ok(sample) => (sample.volts, sample.saturated),
+            // No reading this period: NaN makes the supervisor latch NON_FINITE.
+            Err(_) => ([f32::NAN; 2], false),
+        };
+        let raw = RawSensors {
+            encoder_counts,
+            loadcell_volts,
+        };
+        let timing = StepTiming {
+            time_us: Instant::now().as_micros() as u32,
+            loop_exec_us: saturating_us(last_exec_cycles),
+            loop_jitter_us: saturating_us(jitter_cycles),
+        };
+
+        let stepped = with_device(|device| {
+            if saturated {
+                device.raise(Faults::LOADCELL_SATURATED);
+            }
+            if open_loop.iter().any(|&open| open) {
+                device.raise(Faults::OUTPUT_OPEN_LOOP);
+            }
+            (device.step(raw, timing), device.period_us())
+        });
+
+        match &stepped {
+            Some((result, _)) => hw.outputs.write_ma(result.current_ma),
+            // No device (cannot happen once main has run): hold the safe state.
+            None => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
+        };
+        hw.watchdog.feed();
+        last_exec_cycles = hw.meter.cycle_end().exec_last_cycles;
+
+        if let Some((result, wanted_period_us)) = stepped {
+            if let Some(sample) = result.telemetry {
+                if TELEMETRY.try_send(sample).is_err() {
+                    TELEMETRY_DROPPED.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            if let Some(event) = result.fault_event {
+                if FAULT_EVENTS.try_send(event).is_err() {
+                    FAULT_EVENTS_DROPPED.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            let wanted = bounded_period_us(wanted_period_us);
+            if wanted != period_us {
+                period_us = wanted;
+                hw.meter.set_period(period_cycles(period_us));
+                ticker = Ticker::every(Duration::from_micros(u64::from(period_us)));
+            }
+        }
+
+        ticker.next().await;
+    }
+}

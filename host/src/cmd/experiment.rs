@@ -1,0 +1,445 @@
+//! `pamctl experiment static|dynamic|step`: the thesis protocols run on the connected device,
+//! each trial recorded into its own log-format-v1 file in `--out`.
+//!
+//! - static (§4.2): joint mode at a Table 4.1 point with K_low or K_high, zero torque; the
+//!   operator holds the handle at the nine points of the 8 cm square (centre, corners, edge
+//!   midpoints), announced one by one (move, then hold).
+//! - dynamic (§4.2): the same set-up; the operator moves the handle smoothly over the square
+//!   for the trial's duration (90 s).
+//! - step (§5.2): at each of the nine poses, joint mode brings the arm there, the handle is
+//!   blocked, then force mode steps the reference 0 → 27.3 → −27.3 → 0 N in 9.1 N steps along
+//!   X, then along Y.
+//!
+//! The stiffnesses and poses are the twin's (`pam_twin::experiments`), computed from the
+//! robot parameters the device reports, and the files carry the same metadata keys as the
+//! twin's logs, so the identification tools read both alike. On the emulator,
+//! `pamctl sim --handle operator` plays the operator (dynamic), `--handle blocked` blocks the
+//! handle in force mode (step), `--handle held` holds it at the joint target (static).
+
+use super::record::{columns, row, Clock};
+use crate::link::{Client, DropCounter};
+use crate::LinkArgs;
+use clap::{Args, Subcommand, ValueEnum};
+use pam_control::{Mode, State};
+use pam_log::LogWriter;
+use pam_model::{RobotModel, Vec2};
+use pam_protocol::{Config, ConfigSection, ReplyData, RequestBody};
+use pam_twin::experiments::{
+    static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel, STEP_POSES_DEG,
+    TABLE_4_1_POINTS_DEG,
+};
+use std::io::{BufRead, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+#[derive(Args, Debug)]
+pub struct ExperimentArgs {
+    #[command(subcommand)]
+    pub kind: ExperimentKind,
+    /// Directory for the logs (created if missing).
+    #[arg(long, global = true, default_value = "experiments", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Seconds in joint mode before recording, for the arm to settle.
+    #[arg(long, global = true, default_value_t = 3.0, value_name = "SECONDS")]
+    pub settle_s: f64,
+    /// Do not wait for Enter at the operator prompts (prompts are still printed).
+    #[arg(long, global = true)]
+    pub yes: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Level {
+    Low,
+    High,
+    Both,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum ExperimentKind {
+    /// §4.2 static trials: the handle held at the nine points of the 8 cm square.
+    Static {
+        /// Table 4.1 point (1–5); default: all five.
+        #[arg(long)]
+        point: Option<usize>,
+        #[arg(long, value_enum, default_value_t = Level::Both)]
+        stiffness: Level,
+        /// Hold time at each of the nine points, s.
+        #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+        hold_s: f64,
+        /// Time to move between points, s.
+        #[arg(long, default_value_t = 1.5, value_name = "SECONDS")]
+        move_s: f64,
+    },
+    /// §4.2 dynamic trials: the operator moves the handle over the square.
+    Dynamic {
+        /// Table 4.1 point (1–5); default: all five.
+        #[arg(long)]
+        point: Option<usize>,
+        #[arg(long, value_enum, default_value_t = Level::Both)]
+        stiffness: Level,
+        /// Recording time of each trial, s.
+        #[arg(long, default_value_t = 90.0, value_name = "SECONDS")]
+        duration_s: f64,
+    },
+    /// §5.2 force-step test with the handle blocked at the nine poses.
+    Step {
+        /// Pose index 0–8 into the nine poses (repeatable); default: all nine.
+        #[arg(long = "pose")]
+        poses: Vec<usize>,
+        /// Hold time of each force level, s.
+        #[arg(long, default_value_t = 1.5, value_name = "SECONDS")]
+        hold_s: f64,
+        /// Correct the force command with the gain plane (eq. 5.2).
+        #[arg(long)]
+        feed_forward: bool,
+    },
+}
+
+/// One connected session: keeps the link alive and turns telemetry into log rows.
+struct Session<'a> {
+    client: &'a Client,
+    stop: &'a AtomicBool,
+    progress: &'a mut dyn Write,
+    yes: bool,
+    last_beat: Instant,
+    /// The latest joint angles received.
+    alpha_rad: Option<Vec2<f64>>,
+}
+
+/// One trial's log being written.
+struct Trial {
+    writer: LogWriter<std::io::BufWriter<std::fs::File>>,
+    path: PathBuf,
+    with_force_ref: bool,
+    clock: Clock,
+    last_t: f64,
+    drops: DropCounter,
+}
+
+impl Session<'_> {
+    fn request(&self, body: RequestBody) -> Result<(), String> {
+        self.client.command(body).map_err(|e| e.to_string())
+    }
+
+    fn set_mode(&self, mode: Mode) -> Result<(), String> {
+        self.request(RequestBody::SetMode(mode))
+    }
+
+    /// Runs the link for `seconds` of host time, writing rows into `trial` if given.
+    /// Ends early (error) on Ctrl-C or a device fault.
+    fn run_for(&mut self, seconds: f64, mut trial: Option<&mut Trial>, label: &str) -> Result<(), String> {
+        let start = Instant::now();
+        let mut last_progress = Instant::now() - Duration::from_secs(1);
+        while start.elapsed().as_secs_f64() < seconds {
+            if self.stop.load(Ordering::SeqCst) {
+                return Err("interrupted (Ctrl-C)".into());
+            }
+            if self.last_beat.elapsed() >= Duration::from_millis(25) {
+                self.client.heartbeat().map_err(|e| e.to_string())?;
+                self.last_beat = Instant::now();
+            }
+            while let Some(t) = self.client.next_telemetry(Duration::from_millis(5)).map_err(|e| e.to_string())? {
+                if t.state == State::Faulted {
+                    return Err(format!(
+                        "the device faulted ({}); the robot is in its safe state",
+                        super::fault_names(t.faults)
+                    ));
+                }
+                self.alpha_rad = Some([t.alpha_rad[0] as f64, t.alpha_rad[1] as f64]);
+                if let Some(tr) = trial.as_deref_mut() {
+                    tr.drops.record(t.seq);
+                    let t_s = tr.clock.seconds(t.time_us);
+                    if t_s > tr.last_t {
+                        tr.last_t = t_s;
+                        tr.writer
+                            .write_row(&row(&t, t_s, tr.with_force_ref))
+                            .map_err(|e| format!("cannot write {}: {e}", tr.path.display()))?;
+                    }
+                }
+                if self.last_beat.elapsed() >= Duration::from_millis(25) {
+                    break;
+                }
+            }
+            if last_progress.elapsed() >= Duration::from_millis(500) {
+                last_progress = Instant::now();
+                let rows = trial.as_deref().map(|t| (t.writer.rows(), t.drops.dropped));
+                let _ = write!(
+                    self.progress,
+                    "\r{label}: {:.1} / {:.1} s{}   ",
+                    start.elapsed().as_secs_f64(),
+                    seconds,
+                    rows.map(|(r, d)| format!(", {r} samples, {d} dropped")).unwrap_or_default()
+                );
+                let _ = self.progress.flush();
+            }
+        }
+        let _ = writeln!(self.progress);
+        Ok(())
+    }
+
+    /// Brings the arm to `alpha` in joint mode with a smooth (cosine) ramp of the target from
+    /// where it is, then lets it settle: a step of the target would swing the lightly
+    /// damped arm past its range.
+    fn move_to(&mut self, alpha: Vec2<f64>, k: Vec2<f64>, settle_s: f64, label: &str) -> Result<(), String> {
+        if self.alpha_rad.is_none() {
+            self.run_for(0.05, None, label)?;
+        }
+        let from = self.alpha_rad.ok_or("no telemetry from the device")?;
+        let ramp_s = MOVE_S_PER_RAD * (alpha[0] - from[0]).abs().max((alpha[1] - from[1]).abs());
+        let steps = (ramp_s / 0.02).ceil().max(1.0) as usize;
+        for i in 1..=steps {
+            let w = 0.5 - 0.5 * (std::f64::consts::PI * i as f64 / steps as f64).cos();
+            let a = [from[0] + w * (alpha[0] - from[0]), from[1] + w * (alpha[1] - from[1])];
+            self.set_mode(joint_mode(a, k))?;
+            self.run_for(ramp_s / steps as f64, None, label)?;
+        }
+        self.run_for(settle_s, None, label)
+    }
+
+    /// Tells the operator what to do; waits for Enter unless `--yes` or no terminal (the
+    /// link stays alive meanwhile).
+    fn prompt(&mut self, message: &str) -> Result<(), String> {
+        let _ = writeln!(self.progress, ">>> {message}");
+        if self.yes || !std::io::stdin().is_terminal() {
+            return Ok(());
+        }
+        let _ = writeln!(self.progress, "    press Enter when ready");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let mut line = String::new();
+            let _ = std::io::stdin().lock().read_line(&mut line);
+            let _ = tx.send(());
+        });
+        while rx.try_recv().is_err() {
+            self.run_for(0.05, None, "waiting for the operator")?;
+        }
+        Ok(())
+    }
+}
+
+/// Joint-target ramp speed for [`Session::move_to`]: 10 s per radian (≈ 5.7°/s).
+const MOVE_S_PER_RAD: f64 = 10.0;
+
+fn device_model(client: &Client) -> Result<RobotModel<f64>, String> {
+    match client.request(RequestBody::GetConfig(ConfigSection::Robot)).map_err(|e| e.to_string())? {
+        ReplyData::Config(Config::Robot(p)) => Ok(RobotModel::new(p.cast())),
+        _ => Err("the device answered config get robot with the wrong kind of reply".into()),
+    }
+}
+
+fn levels(l: Level) -> Vec<StiffnessLevel> {
+    match l {
+        Level::Low => vec![StiffnessLevel::Low],
+        Level::High => vec![StiffnessLevel::High],
+        Level::Both => vec![StiffnessLevel::Low, StiffnessLevel::High],
+    }
+}
+
+fn level_name(l: StiffnessLevel) -> &'static str {
+    match l {
+        StiffnessLevel::Low => "low",
+        StiffnessLevel::High => "high",
+    }
+}
+
+fn points(point: Option<usize>) -> Result<Vec<usize>, String> {
+    match point {
+        Some(p) if (1..=5).contains(&p) => Ok(vec![p]),
+        Some(p) => Err(format!("--point {p}: the Table 4.1 points are 1–5")),
+        None => Ok((1..=5).collect()),
+    }
+}
+
+fn positive(name: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{name} {v}: give a positive number of seconds"))
+    }
+}
+
+fn open_trial(
+    client: &Client,
+    dir: &Path,
+    name: &str,
+    with_force_ref: bool,
+    meta: &[(&str, String)],
+) -> Result<Trial, String> {
+    let path = dir.join(name);
+    let info = client.info();
+    let mut all: Vec<(&str, String)> = meta.to_vec();
+    all.extend([
+        ("source", "pamctl experiment".to_string()),
+        ("firmware", format!("{}.{}.{}", info.firmware_version.major, info.firmware_version.minor, info.firmware_version.patch)),
+        ("params_hash", format!("{:08x}", info.params_hash)),
+        ("sample_period_s", format!("{}", info.period_us as f64 * 1e-6)),
+    ]);
+    let meta_ref: Vec<(&str, &str)> = all.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let writer = LogWriter::create(&path, &columns(with_force_ref), &meta_ref)
+        .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+    Ok(Trial { writer, path, with_force_ref, clock: Clock::default(), last_t: f64::NEG_INFINITY, drops: DropCounter::default() })
+}
+
+fn close_trial(trial: Trial, out: &mut dyn Write) -> Result<PathBuf, String> {
+    let (rows, dropped, path) = (trial.writer.rows(), trial.drops.dropped, trial.path.clone());
+    trial.writer.finish().map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    writeln!(out, "wrote {} ({rows} samples, {dropped} dropped on the link)", path.display()).map_err(|e| e.to_string())?;
+    Ok(path)
+}
+
+fn joint_mode(alpha: Vec2<f64>, k: Vec2<f64>) -> Mode {
+    Mode::Joint {
+        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+    }
+}
+
+/// Arms the device if needed (it must be homed and free of faults).
+fn arm(s: &mut Session) -> Result<(), String> {
+    match s.client.request(RequestBody::GetStatus).map_err(|e| e.to_string())? {
+        ReplyData::Status(st) if st.state == State::Armed => Ok(()),
+        ReplyData::Status(st) if st.state == State::Faulted => Err(format!(
+            "the device is faulted ({}): `pamctl disarm`, `pamctl fault clear`, then try again",
+            super::fault_names(st.faults)
+        )),
+        _ => s.request(RequestBody::Arm),
+    }
+}
+
+/// Runs the experiment; returns the files written.
+pub fn experiment(
+    client: &Client,
+    args: &ExperimentArgs,
+    stop: &AtomicBool,
+    out: &mut dyn Write,
+    progress: &mut dyn Write,
+) -> Result<Vec<PathBuf>, String> {
+    positive("--settle-s", args.settle_s)?;
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    let model = device_model(client)?;
+    if let ReplyData::Status(st) = client.request(RequestBody::GetStatus).map_err(|e| e.to_string())? {
+        if st.telemetry_divider != 1 {
+            client.command(RequestBody::SetTelemetry { divider: 1 }).map_err(|e| e.to_string())?;
+        }
+    }
+    client.start_telemetry();
+    let mut s = Session { client, stop, progress, yes: args.yes, last_beat: Instant::now(), alpha_rad: None };
+    let mut files = Vec::new();
+    let result = run_trials(&mut s, &model, args, out, &mut files);
+    // whatever happened: back to safe outputs
+    let _ = client.command(RequestBody::Disarm);
+    result.map(|_| files)
+}
+
+fn run_trials(
+    s: &mut Session,
+    model: &RobotModel<f64>,
+    args: &ExperimentArgs,
+    out: &mut dyn Write,
+    files: &mut Vec<PathBuf>,
+) -> Result<(), String> {
+    match &args.kind {
+        ExperimentKind::Static { point, stiffness, hold_s, move_s } => {
+            positive("--hold-s", *hold_s)?;
+            positive("--move-s", *move_s)?;
+            for p in points(*point)? {
+                for level in levels(*stiffness) {
+                    let alpha = TABLE_4_1_POINTS_DEG[p - 1].map(f64::to_radians);
+                    let k = trial_stiffness(model, alpha, level);
+                    let centre = model.kinematics.forward_user(alpha);
+                    let label = format!("static point {p} K_{}", level_name(level));
+                    s.prompt(&format!("{label}: hold the handle lightly; the arm goes to point {p}"))?;
+                    arm(s)?;
+                    s.move_to(alpha, k, args.settle_s, &format!("{label}: going to the point"))?;
+                    let mut trial = open_trial(s.client, &args.out, &format!("static_p{p}_{}.csv", level_name(level)), false, &meta_trial("static", p, level, k, centre))?;
+                    for (i, target) in static_points(centre, 0.04).iter().enumerate() {
+                        let d = [(target[0] - centre[0]) * 1e3, (target[1] - centre[1]) * 1e3];
+                        let _ = writeln!(s.progress, ">>> point {}/9: move the handle to ({:+.0}, {:+.0}) mm from the centre, then hold it still", i + 1, d[0], d[1]);
+                        s.run_for(*move_s, Some(&mut trial), &format!("{label}: moving to {}/9", i + 1))?;
+                        s.run_for(*hold_s, Some(&mut trial), &format!("{label}: holding {}/9", i + 1))?;
+                    }
+                    files.push(close_trial(trial, out)?);
+                    s.set_mode(Mode::Idle)?;
+                }
+            }
+        }
+        ExperimentKind::Dynamic { point, stiffness, duration_s } => {
+            positive("--duration-s", *duration_s)?;
+            for p in points(*point)? {
+                for level in levels(*stiffness) {
+                    let alpha = TABLE_4_1_POINTS_DEG[p - 1].map(f64::to_radians);
+                    let k = trial_stiffness(model, alpha, level);
+                    let centre = model.kinematics.forward_user(alpha);
+                    let label = format!("dynamic point {p} K_{}", level_name(level));
+                    arm(s)?;
+                    s.move_to(alpha, k, args.settle_s, &format!("{label}: going to the point"))?;
+                    s.prompt(&format!(
+                        "{label}: move the handle smoothly, slow and fast, over the 8 cm square around the arm's rest point for {duration_s:.0} s"
+                    ))?;
+                    let mut trial = open_trial(s.client, &args.out, &format!("dynamic_p{p}_{}.csv", level_name(level)), false, &meta_trial("dynamic", p, level, k, centre))?;
+                    s.run_for(*duration_s, Some(&mut trial), &format!("{label}: recording"))?;
+                    files.push(close_trial(trial, out)?);
+                    let _ = writeln!(s.progress, ">>> {label}: done, let go of the handle");
+                    s.set_mode(Mode::Idle)?;
+                }
+            }
+        }
+        ExperimentKind::Step { poses, hold_s, feed_forward } => {
+            positive("--hold-s", *hold_s)?;
+            let poses: Vec<usize> = if poses.is_empty() { (0..9).collect() } else { poses.clone() };
+            if let Some(bad) = poses.iter().find(|&&i| i > 8) {
+                return Err(format!("--pose {bad}: the nine poses are 0–8"));
+            }
+            for i in poses {
+                let pose_deg = STEP_POSES_DEG[i];
+                let alpha = pose_deg.map(f64::to_radians);
+                let k = step_test_stiffness(model, alpha);
+                let stiffness = [k[0] as f32, k[1] as f32];
+                let label = format!("step pose {i} ({:+}°, {:+}°)", pose_deg[0], pose_deg[1]);
+                arm(s)?;
+                s.move_to(alpha, k, args.settle_s, &format!("{label}: going to the pose"))?;
+                s.prompt(&format!("{label}: block the handle where it is"))?;
+                s.set_mode(Mode::Force { force_n: [0.0; 2], stiffness_nm_per_rad: stiffness, feed_forward: *feed_forward })?;
+                s.run_for(1.0, None, &format!("{label}: zero force"))?;
+                let meta = vec![
+                    ("experiment", "force_step".to_string()),
+                    ("pose_deg", format!("{} {}", pose_deg[0], pose_deg[1])),
+                    ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
+                    ("feed_forward", feed_forward.to_string()),
+                ];
+                let mut trial = open_trial(s.client, &args.out, &format!("step_pose{i}.csv"), true, &meta)?;
+                for axis in 0..2 {
+                    for level in step_levels() {
+                        let mut f = [0.0f32; 2];
+                        f[axis] = level as f32;
+                        s.set_mode(Mode::Force { force_n: f, stiffness_nm_per_rad: stiffness, feed_forward: *feed_forward })?;
+                        s.run_for(*hold_s, Some(&mut trial), &format!("{label}: F{} = {level:+.1} N", ["x", "y"][axis]))?;
+                    }
+                }
+                files.push(close_trial(trial, out)?);
+                s.set_mode(Mode::Idle)?;
+                let _ = writeln!(s.progress, ">>> {label}: done, unblock the handle");
+            }
+        }
+    }
+    Ok(())
+}
+
+fn meta_trial(kind: &str, point: usize, level: StiffnessLevel, k: Vec2<f64>, centre: Vec2<f64>) -> Vec<(&'static str, String)> {
+    vec![
+        ("experiment", kind.to_string()),
+        ("point", point.to_string()),
+        ("stiffness", level_name(level).to_string()),
+        ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
+        ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
+    ]
+}
+
+pub fn run(args: ExperimentArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+    let client = super::connect(link)?;
+    let stop = super::interrupted();
+    let files = experiment(&client, &args, &stop, out, &mut std::io::stderr())?;
+    writeln!(out, "{} log(s) in {}", files.len(), args.out.display()).map_err(|e| e.to_string())
+}

@@ -1,0 +1,96 @@
+//! `pamctl sim`: the device emulator (see [`crate::sim`]) on TCP and a pseudo-terminal.
+
+use crate::sim::{Emulator, HandleMode, SimConfig};
+use clap::Args;
+use pam_twin::EffectSet;
+use std::io::Write;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+#[derive(Args, Debug)]
+pub struct SimArgs {
+    /// TCP address to serve (port 0: a free port, printed as `listening on tcp://HOST:PORT`).
+    #[arg(long, default_value = "127.0.0.1:7878", value_name = "HOST:PORT")]
+    pub listen: String,
+    /// Also serve on a pseudo-terminal (Linux), printed as `pty: /dev/pts/N`.
+    #[arg(long)]
+    pub pty: bool,
+    /// A twin effect, `id` or `id:param=value,...` (repeatable; `pamctl sim --list-effects`).
+    #[arg(long = "with", value_name = "EFFECT")]
+    pub with: Vec<String>,
+    /// What holds the handle.
+    #[arg(long, value_enum, default_value_t = HandleMode::Free)]
+    pub handle: HandleMode,
+    /// Seed of the twin's noise, effects and operator path.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// The device's command timeout, s (firmware default 0.1; at most 1).
+    #[arg(long, value_name = "SECONDS")]
+    pub command_timeout_s: Option<f32>,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long, value_name = "SECONDS")]
+    pub seconds: Option<f64>,
+    /// List the twin's effects and their parameters, then exit.
+    #[arg(long)]
+    pub list_effects: bool,
+}
+
+pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
+    let io = |e: std::io::Error| e.to_string();
+    if args.list_effects {
+        for e in pam_twin::effects::catalog() {
+            writeln!(out, "{}", pam_twin::effects::describe(e.as_ref())).map_err(io)?;
+        }
+        return Ok(());
+    }
+    if let Some(s) = args.seconds {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(format!("--seconds {s}: give a positive number of seconds"));
+        }
+    }
+    let effects = EffectSet::parse_list(&args.with).map_err(|e| format!("--with: {e}"))?;
+    let mut config = SimConfig { effects, handle: args.handle, seed: args.seed, ..SimConfig::default() };
+    if let Some(t) = args.command_timeout_s {
+        config.command_timeout_s = t;
+    }
+    let stop = super::interrupted();
+    let mut emulator = Emulator::start(config.clone())?;
+    let address = emulator.listen_tcp(&args.listen)?;
+    writeln!(out, "listening on tcp://{address}").map_err(io)?;
+    if args.pty {
+        #[cfg(target_os = "linux")]
+        {
+            let path = emulator.open_pty()?;
+            writeln!(out, "pty: {path}").map_err(io)?;
+        }
+        #[cfg(not(target_os = "linux"))]
+        return Err("--pty: pseudo-terminals are only supported on Linux".into());
+    }
+    let effects = config.effects.specs();
+    writeln!(
+        out,
+        "emulating the robot: 1 kHz device loop, handle {:?}, effects: {}, command timeout {} s; Ctrl-C stops",
+        config.handle,
+        if effects.is_empty() { "none".to_string() } else { effects.join(" ") },
+        config.command_timeout_s
+    )
+    .map_err(io)?;
+    out.flush().map_err(io)?;
+    let started = Instant::now();
+    let mut last_report = Instant::now();
+    let mut late_reported = 0;
+    while !stop.load(Ordering::SeqCst) && args.seconds.is_none_or(|s| started.elapsed().as_secs_f64() < s) {
+        std::thread::sleep(Duration::from_millis(20));
+        // tell about late periods as they happen, at most every 10 s
+        let late = emulator.stats.late.load(Ordering::Relaxed);
+        if late > late_reported && last_report.elapsed() >= Duration::from_secs(10) {
+            eprintln!("sim: {} late periods so far (caught up): {}", late, emulator.stats.summary());
+            late_reported = late;
+            last_report = Instant::now();
+        }
+    }
+    let summary = emulator.stats.summary();
+    emulator.stop();
+    eprintln!("sim stopped: {summary}");
+    Ok(())
+}

@@ -1,0 +1,674 @@
+//! Scripted versions of the thesis protocols, run with the real controller
+//! (`pam_control::Controller`, f32) in the loop, written in log format v1.
+//!
+//! - [`dynamic_trial`]: §4.2 — joint mode at a Table 4.1 point, zero torque, K_low or K_high;
+//!   an operator moves the handle for 90 s along a smooth random path (multi-sine, 0.1–2 Hz,
+//!   ±4 cm: the 8 cm square of Fig. 4.2b), seeded.
+//! - [`static_trial`]: §4.2 — the same set-up, the handle held 5 s at each of 9 points (centre,
+//!   corners and edge midpoints of the 8 cm square).
+//! - [`force_step_test`]: §5.2 — handle blocked at one of the nine poses, force mode, steps of
+//!   9.1 N from 0 to 27.3 N then down to −27.3 N, along X then Y; the stiffness is the highest
+//!   of the minimum stiffnesses that deliver ±27.3 N along either axis.
+//!
+//! The loop: at each period the controller reads the previous sample, its currents are held
+//! by the twin over the period, and one log row is written per period with the sample and
+//! the currents computed from it.
+
+use std::fmt;
+
+use pam_control::{Controller, Mode, SafetyConfig, Sensors, State};
+use pam_log::{col, Log};
+use pam_model::{RobotModel, RobotParams, Vec2};
+
+use crate::plant::{HandleCondition, Measurement, Twin, TwinConfig};
+use crate::rng::Rng;
+
+/// Joint angles of the five points of interest (Table 4.1), degrees.
+pub const TABLE_4_1_POINTS_DEG: [[f64; 2]; 5] = [
+    [0.0, 0.0],
+    [-16.0, 20.5],
+    [16.5, -26.0],
+    [10.0, 6.5],
+    [-13.5, -11.5],
+];
+
+/// The nine poses of the force-step test (§5.2), degrees.
+pub const STEP_POSES_DEG: [[f64; 2]; 9] = [
+    [0.0, 0.0],
+    [0.0, 15.0],
+    [0.0, -15.0],
+    [15.0, 0.0],
+    [15.0, 15.0],
+    [15.0, -15.0],
+    [-15.0, 0.0],
+    [-15.0, 15.0],
+    [-15.0, -15.0],
+];
+
+/// Force-step size and largest reference (§5.2).
+pub const STEP_N: f64 = 9.1;
+pub const STEP_MAX_N: f64 = 27.3;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StiffnessLevel {
+    /// K_low = K_min (Table 4.1).
+    Low,
+    /// K_high = K_max − 0.2 (K_max − K_min).
+    High,
+}
+
+/// What every experiment shares.
+#[derive(Clone, Debug)]
+pub struct ExperimentConfig {
+    /// The plant (true parameters, effects, sensors, seed).
+    pub twin: TwinConfig,
+    /// What the controller believes (defaults to the plant's parameters).
+    pub controller_params: RobotParams<f64>,
+    /// Loop and logging period: 1 ms by default; the thesis sampled at 50 ms.
+    pub period_s: f64,
+    /// Settling time before logging starts (the thesis logged "after steady state").
+    pub settle_s: f64,
+    /// Operator path amplitude (peak, per axis) for dynamic trials.
+    pub path_amplitude_m: f64,
+    pub path_band_hz: (f64, f64),
+    /// Gain-plane feed-forward in force mode. Off by default: the thesis's step gains
+    /// (Table 5.2, Fig. 5.4–5.5) were measured with the uncorrected command, and §5.4 then
+    /// proposes the correction from them.
+    pub feed_forward: bool,
+    /// Hold time of each force level.
+    pub step_hold_s: f64,
+}
+
+impl ExperimentConfig {
+    pub fn new(twin: TwinConfig) -> Self {
+        ExperimentConfig {
+            controller_params: twin.params,
+            twin,
+            period_s: 0.001,
+            settle_s: 3.0,
+            path_amplitude_m: 0.04,
+            path_band_hz: (0.1, 2.0),
+            feed_forward: false,
+            step_hold_s: 1.5,
+        }
+    }
+    pub fn thesis() -> Self {
+        Self::new(TwinConfig::thesis())
+    }
+}
+
+#[derive(Debug)]
+pub struct ExperimentError {
+    pub message: String,
+    /// What was logged up to the failure.
+    pub partial_log: Option<Log>,
+}
+
+impl fmt::Display for ExperimentError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for ExperimentError {}
+
+fn err(message: impl Into<String>) -> ExperimentError {
+    ExperimentError {
+        message: message.into(),
+        partial_log: None,
+    }
+}
+
+fn deg2rad(a: [f64; 2]) -> Vec2<f64> {
+    [a[0].to_radians(), a[1].to_radians()]
+}
+
+/// Joint stiffness of a Table 4.1 trial at `alpha_rad` (from the model's capability).
+pub fn trial_stiffness(
+    model: &RobotModel<f64>,
+    alpha_rad: Vec2<f64>,
+    level: StiffnessLevel,
+) -> Vec2<f64> {
+    let mut k = [0.0; 2];
+    for j in 0..2 {
+        let (lo, hi) = model.capability(j, alpha_rad[j]).trial_stiffness_levels();
+        k[j] = match level {
+            StiffnessLevel::Low => lo,
+            StiffnessLevel::High => hi,
+        };
+    }
+    k
+}
+
+/// §5.2: per joint, the minimum stiffness at the torques of ±27.3 N along X and along Y; the
+/// highest of those.
+pub fn step_test_stiffness(model: &RobotModel<f64>, alpha_rad: Vec2<f64>) -> Vec2<f64> {
+    let mut k = [0.0f64; 2];
+    let forces = [
+        [STEP_MAX_N, 0.0],
+        [-STEP_MAX_N, 0.0],
+        [0.0, STEP_MAX_N],
+        [0.0, -STEP_MAX_N],
+    ];
+    for f in forces {
+        let tau = model.kinematics.joint_torques(alpha_rad, f);
+        for j in 0..2 {
+            let cap = model.capability(j, alpha_rad[j]);
+            let k_min = match cap.stiffness_range(tau[j]) {
+                Some((lo, _)) => lo,
+                None => cap.k_max.stiffness_nm_per_rad,
+            };
+            k[j] = k[j].max(k_min);
+        }
+    }
+    k
+}
+
+/// A smooth random operator path: per axis a sum of sines log-spaced over the band with
+/// random phases and amplitudes ∝ 1/√f (slow motions are larger), scaled to the peak
+/// amplitude, faded in and out over 2 s.
+#[derive(Clone, Debug)]
+pub struct OperatorPath {
+    pub centre_user_m: Vec2<f64>,
+    /// (frequency rad/s, amplitude m, phase rad) per axis.
+    components: [Vec<(f64, f64, f64)>; 2],
+    duration_s: f64,
+    fade_s: f64,
+}
+
+impl OperatorPath {
+    pub fn new(
+        centre_user_m: Vec2<f64>,
+        amplitude_m: f64,
+        band_hz: (f64, f64),
+        duration_s: f64,
+        seed: u64,
+    ) -> Self {
+        let mut rng = Rng::derive(seed, "operator_path");
+        let n = 12;
+        let (f_lo, f_hi) = (band_hz.0.max(1e-3), band_hz.1.max(band_hz.0.max(1e-3)));
+        let mut components: [Vec<(f64, f64, f64)>; 2] = [Vec::new(), Vec::new()];
+        for axis in 0..2 {
+            for k in 0..n {
+                // log-spaced, jittered so the two axes differ
+                let u = (k as f64 + rng.uniform()) / n as f64;
+                let f = f_lo * (f_hi / f_lo).powf(u);
+                let a = 1.0 / f.sqrt();
+                components[axis].push((
+                    std::f64::consts::TAU * f,
+                    a,
+                    std::f64::consts::TAU * rng.uniform(),
+                ));
+            }
+        }
+        let mut path = OperatorPath {
+            centre_user_m,
+            components,
+            duration_s,
+            fade_s: 2.0f64.min(duration_s / 4.0),
+        };
+        // scale each axis so its peak over the trial is the amplitude
+        for axis in 0..2 {
+            let mut peak: f64 = 0.0;
+            let steps = (duration_s / 0.005).ceil() as usize;
+            for i in 0..=steps {
+                peak = peak.max(path.raw(axis, i as f64 * 0.005).0.abs());
+            }
+            if peak > 0.0 {
+                for c in path.components[axis].iter_mut() {
+                    c.1 *= amplitude_m / peak;
+                }
+            }
+        }
+        path
+    }
+
+    fn raw(&self, axis: usize, t: f64) -> (f64, f64) {
+        let mut x = 0.0;
+        let mut v = 0.0;
+        for &(w, a, ph) in &self.components[axis] {
+            let (s, c) = (w * t + ph).sin_cos();
+            x += a * s;
+            v += a * w * c;
+        }
+        (x, v)
+    }
+
+    /// Raised-cosine fade in/out and its derivative.
+    fn window(&self, t: f64) -> (f64, f64) {
+        let f = self.fade_s;
+        let pi = std::f64::consts::PI;
+        if t <= 0.0 || t >= self.duration_s {
+            (0.0, 0.0)
+        } else if t < f {
+            (
+                0.5 - 0.5 * (pi * t / f).cos(),
+                0.5 * pi / f * (pi * t / f).sin(),
+            )
+        } else if t > self.duration_s - f {
+            let u = self.duration_s - t;
+            (
+                0.5 - 0.5 * (pi * u / f).cos(),
+                -0.5 * pi / f * (pi * u / f).sin(),
+            )
+        } else {
+            (1.0, 0.0)
+        }
+    }
+
+    /// Target position and velocity at time `t` from the start of the motion.
+    pub fn at(&self, t: f64) -> (Vec2<f64>, Vec2<f64>) {
+        let (w, dw) = self.window(t);
+        let mut p = self.centre_user_m;
+        let mut v = [0.0; 2];
+        for axis in 0..2 {
+            let (x, dx) = self.raw(axis, t);
+            p[axis] += w * x;
+            v[axis] = w * dx + dw * x;
+        }
+        (p, v)
+    }
+}
+
+/// The controller, the twin and the log, stepping together.
+struct Rig {
+    twin: Twin,
+    ctl: Controller,
+    period_s: f64,
+    last: Measurement,
+    log: Log,
+    with_ref: bool,
+    with_hand_ref: bool,
+    seq: u64,
+    t0: Option<f64>,
+}
+
+fn columns(with_ref: bool, with_hand_ref: bool) -> Vec<&'static str> {
+    let mut c = vec![
+        col::T_S,
+        col::ALPHA1_RAD,
+        col::ALPHA2_RAD,
+        col::FX_N,
+        col::FY_N,
+        col::I1_MA,
+        col::I2_MA,
+        col::I3_MA,
+        col::I4_MA,
+    ];
+    if with_ref {
+        c.extend([col::FX_REF_N, col::FY_REF_N]);
+    }
+    c.extend(col::PRESSURES_BAR);
+    c.extend(col::PRESSURES_CMD_BAR);
+    if with_hand_ref {
+        c.extend(["hand_x_ref_m", "hand_y_ref_m"]);
+    }
+    c.extend([col::SEQ, col::STATE, col::FAULTS]);
+    c
+}
+
+impl Rig {
+    fn new(
+        cfg: &ExperimentConfig,
+        alpha_start_rad: Vec2<f64>,
+        with_ref: bool,
+        with_hand_ref: bool,
+    ) -> Result<Self, ExperimentError> {
+        if !(cfg.period_s.is_finite() && cfg.period_s > 0.0 && cfg.period_s <= 0.1) {
+            return Err(err(format!(
+                "period {} s is outside (0, 0.1] s",
+                cfg.period_s
+            )));
+        }
+        cfg.twin
+            .params
+            .validate()
+            .map_err(|e| err(format!("plant parameters: {e:?}")))?;
+        cfg.controller_params
+            .validate()
+            .map_err(|e| err(format!("controller parameters: {e:?}")))?;
+        let mut twin_cfg = cfg.twin.clone();
+        twin_cfg.initial_alpha_rad = alpha_start_rad;
+        let mut twin = Twin::new(twin_cfg);
+        let model32 = RobotModel::<f32>::new(cfg.controller_params.cast());
+        // The supervisor's own limits, at this loop period. `SafetyConfig::validate` accepts
+        // 1–10 ms (the firmware's range); the thesis's 50 ms loop is simulated on purpose, so
+        // the config is built directly.
+        let mut safety = SafetyConfig::default_1khz();
+        safety.period_s = cfg.period_s as f32;
+        let ctl = Controller::new(model32, safety);
+        let last = twin.step(
+            1e-9,
+            [cfg.twin.params.ip.current_min_ma; 4],
+            &HandleCondition::Free,
+        );
+        let log = Log::new(&columns(with_ref, with_hand_ref));
+        Ok(Rig {
+            twin,
+            ctl,
+            period_s: cfg.period_s,
+            last,
+            log,
+            with_ref,
+            with_hand_ref,
+            seq: 0,
+            t0: None,
+        })
+    }
+
+    fn arm(&mut self, mode: Mode) -> Result<(), ExperimentError> {
+        self.ctl
+            .arm()
+            .map_err(|e| err(format!("controller refused to arm: {e:?}")))?;
+        self.set_mode(mode)
+    }
+
+    fn set_mode(&mut self, mode: Mode) -> Result<(), ExperimentError> {
+        self.ctl
+            .set_mode(mode)
+            .map_err(|e| err(format!("controller refused mode {mode:?}: {e:?}")))
+    }
+
+    /// One period. `handle_at(offset_s)` says what holds the handle at `offset_s` into the
+    /// period: the hand is updated every millisecond even when the loop runs at 50 ms (a real
+    /// hand moves continuously). `record` adds a log row.
+    fn period(
+        &mut self,
+        handle_at: impl Fn(f64) -> HandleCondition,
+        force_ref: Option<Vec2<f64>>,
+        hand_ref: Option<Vec2<f64>>,
+        record: bool,
+    ) -> Result<(), ExperimentError> {
+        let m = self.last;
+        let sensors = Sensors {
+            alpha_rad: [m.alpha_rad[0] as f32, m.alpha_rad[1] as f32],
+            force_sensor_n: [m.force_sensor_n[0] as f32, m.force_sensor_n[1] as f32],
+        };
+        self.ctl.heartbeat();
+        let out = self.ctl.step(&sensors);
+        if out.state == State::Faulted {
+            return Err(ExperimentError {
+                message: format!(
+                    "controller faulted at t = {:.3} s: faults 0x{:04x}",
+                    m.t_s, out.faults.0
+                ),
+                partial_log: Some(self.log.clone()),
+            });
+        }
+        let currents = out.current_ma.map(|c| c as f64);
+        if record {
+            let t0 = *self.t0.get_or_insert(m.t_s);
+            let mut row = vec![
+                m.t_s - t0,
+                m.alpha_rad[0],
+                m.alpha_rad[1],
+                m.force_user_n[0],
+                m.force_user_n[1],
+            ];
+            row.extend(currents);
+            if self.with_ref {
+                let r = force_ref.unwrap_or([0.0; 2]);
+                row.extend(r);
+            }
+            row.extend(m.pressure_bar);
+            row.extend(out.pressure_bar.map(|p| p as f64));
+            if self.with_hand_ref {
+                row.extend(hand_ref.unwrap_or([f64::NAN; 2]));
+            }
+            let state = match out.state {
+                State::Disarmed => 0.0,
+                State::Armed => 1.0,
+                State::Faulted => 2.0,
+            };
+            row.extend([self.seq as f64, state, out.faults.0 as f64]);
+            self.log.push_row(&row);
+            self.seq += 1;
+        }
+        let sub = (self.period_s / 0.001).round().max(1.0) as usize;
+        let h = self.period_s / sub as f64;
+        for k in 0..sub {
+            self.last = self.twin.step(h, currents, &handle_at(k as f64 * h));
+        }
+        Ok(())
+    }
+
+    fn periods(&self, seconds: f64) -> usize {
+        (seconds / self.period_s).round().max(0.0) as usize
+    }
+
+    fn finish(mut self, cfg: &ExperimentConfig, experiment: &str, extra: &[(&str, String)]) -> Log {
+        self.log.set_meta("experiment", experiment);
+        for (k, v) in extra {
+            self.log.set_meta(k, v);
+        }
+        self.log.set_meta("sample_period_s", self.period_s);
+        self.log.set_meta("seed", cfg.twin.seed);
+        self.log
+            .set_meta("effects", cfg.twin.effects.specs().join(" "));
+        self.log.set_meta("source", "pam-twin");
+        self.log
+    }
+}
+
+fn point_alpha(point: usize) -> Result<Vec2<f64>, ExperimentError> {
+    if !(1..=5).contains(&point) {
+        return Err(err(format!(
+            "point {point} is not one of the five Table 4.1 points (1–5)"
+        )));
+    }
+    Ok(deg2rad(TABLE_4_1_POINTS_DEG[point - 1]))
+}
+
+fn level_name(level: StiffnessLevel) -> &'static str {
+    match level {
+        StiffnessLevel::Low => "low",
+        StiffnessLevel::High => "high",
+    }
+}
+
+/// §4.2 dynamic trial at a Table 4.1 point (1–5).
+pub fn dynamic_trial(
+    cfg: &ExperimentConfig,
+    point: usize,
+    level: StiffnessLevel,
+    duration_s: f64,
+) -> Result<Log, ExperimentError> {
+    let alpha = point_alpha(point)?;
+    if !(duration_s.is_finite() && duration_s > 0.0) {
+        return Err(err(format!("duration {duration_s} s must be positive")));
+    }
+    let model = RobotModel::new(cfg.controller_params);
+    let k = trial_stiffness(&model, alpha, level);
+    let mut rig = Rig::new(cfg, alpha, false, true)?;
+    let centre = rig.twin.model().kinematics.forward_user(alpha);
+    rig.arm(Mode::Joint {
+        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+    })?;
+    let hold = HandleCondition::held_at(centre);
+    for _ in 0..rig.periods(cfg.settle_s) {
+        rig.period(|_| hold, None, None, false)?;
+    }
+    let path = OperatorPath::new(
+        centre,
+        cfg.path_amplitude_m,
+        cfg.path_band_hz,
+        duration_s,
+        cfg.twin.seed,
+    );
+    let n = rig.periods(duration_s);
+    for i in 0..n {
+        let t = i as f64 * cfg.period_s;
+        let hand = |off: f64| {
+            let (p, v) = path.at(t + off);
+            HandleCondition::moved(p, v)
+        };
+        rig.period(hand, None, Some(path.at(t).0), true)?;
+    }
+    Ok(rig.finish(
+        cfg,
+        "dynamic",
+        &[
+            ("point", point.to_string()),
+            ("stiffness", level_name(level).into()),
+            ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
+            ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
+        ],
+    ))
+}
+
+/// The nine hold points of a static trial around `centre`: centre, then the square's corners
+/// and edge midpoints (8 cm square, Fig. 4.2b).
+pub fn static_points(centre: Vec2<f64>, half_side_m: f64) -> [Vec2<f64>; 9] {
+    let h = half_side_m;
+    let d = [
+        [0.0, 0.0],
+        [h, 0.0],
+        [h, h],
+        [0.0, h],
+        [-h, h],
+        [-h, 0.0],
+        [-h, -h],
+        [0.0, -h],
+        [h, -h],
+    ];
+    d.map(|o| [centre[0] + o[0], centre[1] + o[1]])
+}
+
+/// §4.2 static trial: 5 s at each of the nine points, 1.5 s smooth moves between them.
+pub fn static_trial(
+    cfg: &ExperimentConfig,
+    point: usize,
+    level: StiffnessLevel,
+) -> Result<Log, ExperimentError> {
+    let alpha = point_alpha(point)?;
+    let model = RobotModel::new(cfg.controller_params);
+    let k = trial_stiffness(&model, alpha, level);
+    let mut rig = Rig::new(cfg, alpha, false, true)?;
+    let centre = rig.twin.model().kinematics.forward_user(alpha);
+    rig.arm(Mode::Joint {
+        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+    })?;
+    let hold = HandleCondition::held_at(centre);
+    for _ in 0..rig.periods(cfg.settle_s) {
+        rig.period(|_| hold, None, None, false)?;
+    }
+    let points = static_points(centre, 0.04);
+    let (move_s, hold_s) = (1.5, 5.0);
+    let mut from = centre;
+    for &to in &points {
+        // minimum-jerk-like cosine move
+        let n_move = rig.periods(move_s);
+        let along = |t: f64| {
+            let s = (t / move_s).clamp(0.0, 1.0);
+            let w = 0.5 - 0.5 * (std::f64::consts::PI * s).cos();
+            let dw = if t < move_s {
+                0.5 * std::f64::consts::PI * (std::f64::consts::PI * s).sin() / move_s
+            } else {
+                0.0
+            };
+            let p = [
+                from[0] + w * (to[0] - from[0]),
+                from[1] + w * (to[1] - from[1]),
+            ];
+            (p, [dw * (to[0] - from[0]), dw * (to[1] - from[1])])
+        };
+        for i in 0..n_move {
+            let t = i as f64 * cfg.period_s;
+            rig.period(
+                |off| {
+                    let (p, v) = along(t + off);
+                    HandleCondition::moved(p, v)
+                },
+                None,
+                Some(along(t).0),
+                true,
+            )?;
+        }
+        for _ in 0..rig.periods(hold_s) {
+            rig.period(|_| HandleCondition::held_at(to), None, Some(to), true)?;
+        }
+        from = to;
+    }
+    Ok(rig.finish(
+        cfg,
+        "static",
+        &[
+            ("point", point.to_string()),
+            ("stiffness", level_name(level).into()),
+            ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
+            ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
+        ],
+    ))
+}
+
+/// The force reference sequence of §5.2 along one axis: 0 → 27.3 in three steps, then down
+/// to −27.3 in six, then back to 0 in three.
+pub fn step_levels() -> Vec<f64> {
+    let mut v = vec![0.0];
+    for k in 1..=3 {
+        v.push(k as f64 * STEP_N);
+    }
+    for k in (-3..=2).rev() {
+        v.push(k as f64 * STEP_N);
+    }
+    for k in -2..=0 {
+        v.push(k as f64 * STEP_N);
+    }
+    v
+}
+
+/// §5.2 force-step test at `pose_deg` (blocked handle): the X sequence then the Y sequence,
+/// one log with `fx_ref_n`, `fy_ref_n`.
+pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log, ExperimentError> {
+    let alpha = deg2rad(pose_deg);
+    let model = RobotModel::new(cfg.controller_params);
+    for j in 0..2 {
+        let jp = &cfg.controller_params.joints[j];
+        if !(alpha[j] >= jp.alpha_min_rad && alpha[j] <= jp.alpha_max_rad) {
+            return Err(err(format!(
+                "pose {pose_deg:?}° is outside joint {}'s range",
+                j + 1
+            )));
+        }
+    }
+    let k = step_test_stiffness(&model, alpha);
+    let mut rig = Rig::new(cfg, alpha, true, false)?;
+    let stiffness = [k[0] as f32, k[1] as f32];
+    let ff = cfg.feed_forward;
+    rig.arm(Mode::Force {
+        force_n: [0.0; 2],
+        stiffness_nm_per_rad: stiffness,
+        feed_forward: ff,
+    })?;
+    let blocked = HandleCondition::Blocked;
+    for _ in 0..rig.periods(cfg.settle_s) {
+        rig.period(|_| blocked, Some([0.0; 2]), None, false)?;
+    }
+    for axis in 0..2 {
+        for level in step_levels() {
+            let mut f = [0.0f64; 2];
+            f[axis] = level;
+            rig.set_mode(Mode::Force {
+                force_n: [f[0] as f32, f[1] as f32],
+                stiffness_nm_per_rad: stiffness,
+                feed_forward: ff,
+            })?;
+            for _ in 0..rig.periods(cfg.step_hold_s) {
+                rig.period(|_| blocked, Some(f), None, true)?;
+            }
+        }
+    }
+    Ok(rig.finish(
+        cfg,
+        "force_step",
+        &[
+            ("pose_deg", format!("{} {}", pose_deg[0], pose_deg[1])),
+            ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
+            ("feed_forward", ff.to_string()),
+        ],
+    ))
+}

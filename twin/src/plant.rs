@@ -1,0 +1,633 @@
+//! The plant: four I/P converters, four compressible muscles on two pulleys, two rigid
+//! segments, the handle and its surroundings, the sensors.
+
+use pam_model::cartesian::{coriolis_torques, joint_inertia};
+use pam_model::kinematics::Kinematics;
+use pam_model::{Mat2, RobotModel, RobotParams, Vec2};
+
+use crate::effects::{Ctx, EffectSet, HandleForces, MuscleView, RawSensors};
+use crate::pneumatics::{MuscleVolume, PneumaticConfig};
+use crate::rng::Rng;
+
+/// What holds the handle during one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HandleCondition {
+    /// Nothing touches the handle (only the effects' environment forces act).
+    Free,
+    /// Mechanically blocked where it is (force-step tests, §5.2): the arm does not move and
+    /// the force on the blocks follows from statics, f = J⁻ᵀ τ.
+    Blocked,
+    /// A hand holds the handle through a stiff impedance toward a target: held still (zero
+    /// target velocity) in static trials, moved along a path in dynamic trials. The
+    /// interaction force comes out of the physics.
+    Hand(HandSpring),
+    /// Joint 1 locked at its present angle (chapter 3 validation set-up); joint 2 free, or
+    /// driven by a hand.
+    Joint1Locked(Option<HandSpring>),
+}
+
+/// A hand that imposes a motion: F_hand = K (x_target − x) + B (v_target − v), user frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HandSpring {
+    pub target_user_m: Vec2<f64>,
+    pub target_velocity_user_m_s: Vec2<f64>,
+    pub stiffness_n_per_m: f64,
+    pub damping_n_s_per_m: f64,
+}
+
+impl HandSpring {
+    /// Default hand: 5000 N/m, 100 N·s/m — stiff against the robot's 100–600 N/m, so the
+    /// path is followed within a few mm (a firm grip; human arm stiffness is 300–1000 N/m,
+    /// the operator co-contracts to impose a path).
+    pub const STIFFNESS_N_PER_M: f64 = 5000.0;
+    pub const DAMPING_N_S_PER_M: f64 = 100.0;
+
+    pub fn at(target_user_m: Vec2<f64>, target_velocity_user_m_s: Vec2<f64>) -> Self {
+        HandSpring {
+            target_user_m,
+            target_velocity_user_m_s,
+            stiffness_n_per_m: Self::STIFFNESS_N_PER_M,
+            damping_n_s_per_m: Self::DAMPING_N_S_PER_M,
+        }
+    }
+}
+
+impl HandleCondition {
+    /// Held still at a point of the user frame.
+    pub fn held_at(point_user_m: Vec2<f64>) -> Self {
+        HandleCondition::Hand(HandSpring::at(point_user_m, [0.0; 2]))
+    }
+    /// Moved by an operator: the path's position and velocity at this instant.
+    pub fn moved(position_user_m: Vec2<f64>, velocity_user_m_s: Vec2<f64>) -> Self {
+        HandleCondition::Hand(HandSpring::at(position_user_m, velocity_user_m_s))
+    }
+}
+
+/// The rig's sensors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorConfig {
+    /// Encoder counts per revolution (after quadrature), per joint. The thesis does not give
+    /// the encoders' resolution; 10 000 (a 2500-line encoder) is an estimate.
+    pub encoder_counts_per_rev: [u32; 2],
+    /// Load-cell noise, standard deviation in N per sensor channel (estimate).
+    pub loadcell_noise_n: [f64; 2],
+    /// ADC resolution and input span (±span) of the load-cell channels (estimate).
+    pub adc_bits: u32,
+    pub adc_span_v: f64,
+}
+
+impl Default for SensorConfig {
+    fn default() -> Self {
+        SensorConfig {
+            encoder_counts_per_rev: [10_000; 2],
+            loadcell_noise_n: [0.15, 0.15],
+            adc_bits: 16,
+            adc_span_v: 10.0,
+        }
+    }
+}
+
+impl SensorConfig {
+    /// Perfect sensors (no quantization, no noise): for tests of the physics.
+    pub fn ideal() -> Self {
+        SensorConfig {
+            encoder_counts_per_rev: [0; 2],
+            loadcell_noise_n: [0.0; 2],
+            adc_bits: 0,
+            adc_span_v: 10.0,
+        }
+    }
+}
+
+/// Mechanical details of the arm beyond the model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MechanicsConfig {
+    /// Viscous friction of each joint's bearings (small; estimate).
+    pub joint_damping_nm_s_per_rad: [f64; 2],
+    /// Hard stops this far beyond the joint range (the supervisor faults at 0.05 rad).
+    pub hard_stop_margin_rad: f64,
+    pub hard_stop_stiffness_nm_per_rad: f64,
+    pub hard_stop_damping_nm_s_per_rad: f64,
+    /// Passive stiffness in parallel with each muscle pair, rest at the neutral pose
+    /// (α = 0). The default is calibrated from the thesis's identified stiffness
+    /// ([`crate::rig`]); zero gives the thesis's model alone.
+    pub parallel_stiffness_nm_per_rad: [f64; 2],
+}
+
+impl MechanicsConfig {
+    /// The thesis's model alone: no parallel stiffness.
+    pub fn thesis_model() -> Self {
+        MechanicsConfig {
+            parallel_stiffness_nm_per_rad: [0.0; 2],
+            ..Self::default()
+        }
+    }
+}
+
+impl Default for MechanicsConfig {
+    fn default() -> Self {
+        MechanicsConfig {
+            parallel_stiffness_nm_per_rad: crate::rig::parallel_stiffness_from_thesis(
+                &RobotParams::thesis(),
+            ),
+            joint_damping_nm_s_per_rad: [0.05, 0.05],
+            hard_stop_margin_rad: 0.06,
+            hard_stop_stiffness_nm_per_rad: 3000.0,
+            hard_stop_damping_nm_s_per_rad: 30.0,
+        }
+    }
+}
+
+/// Everything that defines a twin.
+#[derive(Clone, Debug)]
+pub struct TwinConfig {
+    /// The plant's true parameters (the controller may believe others).
+    pub params: RobotParams<f64>,
+    pub effects: EffectSet,
+    pub sensors: SensorConfig,
+    pub pneumatics: PneumaticConfig,
+    pub mechanics: MechanicsConfig,
+    pub seed: u64,
+    pub initial_alpha_rad: Vec2<f64>,
+    /// Initial muscle pressures (channel order); `None`: vented (the converters' 0.1 bar floor).
+    pub initial_pressure_bar: Option<[f64; 4]>,
+    /// Longest integration step; `step(dt)` subdivides.
+    pub max_substep_s: f64,
+}
+
+impl TwinConfig {
+    pub fn new(params: RobotParams<f64>) -> Self {
+        TwinConfig {
+            params,
+            effects: EffectSet::none(),
+            sensors: SensorConfig::default(),
+            pneumatics: PneumaticConfig::default(),
+            mechanics: MechanicsConfig::default(),
+            seed: 0,
+            initial_alpha_rad: [0.0; 2],
+            initial_pressure_bar: None,
+            max_substep_s: 0.001,
+        }
+    }
+    pub fn thesis() -> Self {
+        Self::new(RobotParams::thesis())
+    }
+}
+
+/// One sample of the sensors, raw and converted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Measurement {
+    pub t_s: f64,
+    /// Encoder counts from the neutral pose.
+    pub encoder_counts: [i64; 2],
+    /// Load-cell channel voltages (sensor X, Z) after the ADC.
+    pub loadcell_v: [f64; 2],
+    /// α from the counts.
+    pub alpha_rad: Vec2<f64>,
+    /// Load-cell force in its own frame (eq. 2.1).
+    pub force_sensor_n: Vec2<f64>,
+    /// The same rotated to the user frame at the measured pose (eq. 2.6–2.7): the force the
+    /// robot exerts on whatever holds the handle.
+    pub force_user_n: Vec2<f64>,
+    /// Muscle pressures, channel order (the rig has no pressure sensors; the twin reports the
+    /// true ones for the logs).
+    pub pressure_bar: [f64; 4],
+}
+
+/// The true state of the plant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrueState {
+    pub t_s: f64,
+    pub alpha_rad: Vec2<f64>,
+    pub alpha_dot_rad_s: Vec2<f64>,
+    /// Muscle gauge pressure, channel order.
+    pub pressure_bar: [f64; 4],
+    /// Pressure each converter is regulating to (after the command-stage effects).
+    pub pressure_set_bar: [f64; 4],
+    /// Converter flow state (bar/s in the reference volume).
+    pub regulator_flow_bar_s: [f64; 4],
+    /// Cable forces, channel order (≥ 0).
+    pub muscle_force_n: [f64; 4],
+    pub joint_torque_nm: Vec2<f64>,
+    pub handle_user_m: Vec2<f64>,
+    pub handle_velocity_user_m_s: Vec2<f64>,
+    /// Force the robot exerts on whatever holds the handle (hand + environment, or the blocks).
+    pub force_on_holder_user_n: Vec2<f64>,
+}
+
+pub struct Twin {
+    model: RobotModel<f64>,
+    cfg: TwinConfig,
+    effects: EffectSet,
+    volumes: [MuscleVolume; 2],
+    /// Reference volume of each channel: the volume at the neutral pose (Table 5.2's set-up).
+    volume_ref_m3: [f64; 4],
+    /// (joint, model muscle index) of each channel.
+    channel_owner: [(usize, usize); 4],
+    state: TrueState,
+    rng: Rng,
+}
+
+impl Twin {
+    pub fn new(cfg: TwinConfig) -> Self {
+        let model = RobotModel::new(cfg.params);
+        let mut channel_owner = [(0usize, 0usize); 4];
+        for j in 0..2 {
+            for m in 0..2 {
+                channel_owner[(cfg.params.joints[j].channel_of_muscle[m] & 3) as usize] = (j, m);
+            }
+        }
+        let volumes = [
+            MuscleVolume::new(&cfg.pneumatics, cfg.params.joints[0].muscle_rest_length_m),
+            MuscleVolume::new(&cfg.pneumatics, cfg.params.joints[1].muscle_rest_length_m),
+        ];
+        let mut volume_ref_m3 = [0.0; 4];
+        for c in 0..4 {
+            let (j, _) = channel_owner[c];
+            volume_ref_m3[c] = volumes[j].at(model.joints[j].epsilon0).0;
+        }
+        let mut effects = cfg.effects.clone();
+        effects.reset(cfg.seed);
+        let p0 = cfg
+            .initial_pressure_bar
+            .unwrap_or([cfg.params.ip.output_min_bar; 4]);
+        let alpha = cfg.initial_alpha_rad;
+        let mut twin = Twin {
+            rng: Rng::derive(cfg.seed, "sensors"),
+            model,
+            effects,
+            volumes,
+            volume_ref_m3,
+            channel_owner,
+            state: TrueState {
+                t_s: 0.0,
+                alpha_rad: alpha,
+                alpha_dot_rad_s: [0.0; 2],
+                pressure_bar: p0,
+                pressure_set_bar: p0,
+                regulator_flow_bar_s: [0.0; 4],
+                muscle_force_n: [0.0; 4],
+                joint_torque_nm: [0.0; 2],
+                handle_user_m: [0.0; 2],
+                handle_velocity_user_m_s: [0.0; 2],
+                force_on_holder_user_n: [0.0; 2],
+            },
+            cfg,
+        };
+        twin.state.handle_user_m = twin.model.kinematics.forward_user(alpha);
+        twin
+    }
+
+    pub fn state(&self) -> &TrueState {
+        &self.state
+    }
+    pub fn model(&self) -> &RobotModel<f64> {
+        &self.model
+    }
+    pub fn config(&self) -> &TwinConfig {
+        &self.cfg
+    }
+    pub fn effects(&self) -> &EffectSet {
+        &self.effects
+    }
+
+    /// Puts the arm at rest at `alpha_rad` (e.g. before a blocked test at a pose).
+    pub fn place(&mut self, alpha_rad: Vec2<f64>) {
+        self.state.alpha_rad = alpha_rad;
+        self.state.alpha_dot_rad_s = [0.0; 2];
+        self.state.handle_user_m = self.model.kinematics.forward_user(alpha_rad);
+        self.state.handle_velocity_user_m_s = [0.0; 2];
+    }
+
+    /// Advances the plant by `dt_s` with the four loop currents held, and samples the sensors
+    /// at the end. Subdivides into steps of at most `max_substep_s`.
+    pub fn step(
+        &mut self,
+        dt_s: f64,
+        currents_ma: [f64; 4],
+        handle: &HandleCondition,
+    ) -> Measurement {
+        let dt = if dt_s.is_finite() && dt_s > 0.0 {
+            dt_s
+        } else {
+            0.0
+        };
+        let n = (dt / self.cfg.max_substep_s.max(1e-6)).ceil().max(1.0) as usize;
+        let h = dt / n as f64;
+        for k in 0..n {
+            // a moving hand's target advances with its velocity inside the step, so a long
+            // loop period does not turn the operator's path into a staircase
+            let elapsed = k as f64 * h;
+            let advance = |s: &HandSpring| HandSpring {
+                target_user_m: [
+                    s.target_user_m[0] + s.target_velocity_user_m_s[0] * elapsed,
+                    s.target_user_m[1] + s.target_velocity_user_m_s[1] * elapsed,
+                ],
+                ..*s
+            };
+            let here = match handle {
+                HandleCondition::Hand(s) => HandleCondition::Hand(advance(s)),
+                HandleCondition::Joint1Locked(Some(s)) => {
+                    HandleCondition::Joint1Locked(Some(advance(s)))
+                }
+                other => *other,
+            };
+            self.substep(h, &currents_ma, &here);
+        }
+        self.sample()
+    }
+
+    fn ctx(&self, h: f64, blocked: bool) -> Ctx<'_> {
+        Ctx {
+            t_s: self.state.t_s,
+            dt_s: h,
+            alpha_rad: self.state.alpha_rad,
+            alpha_dot_rad_s: self.state.alpha_dot_rad_s,
+            handle_user_m: self.state.handle_user_m,
+            handle_velocity_user_m_s: self.state.handle_velocity_user_m_s,
+            blocked,
+            last_joint_torque_nm: self.state.joint_torque_nm,
+            params: &self.cfg.params,
+        }
+    }
+
+    fn substep(&mut self, h: f64, currents_ma: &[f64; 4], handle: &HandleCondition) {
+        let blocked = matches!(handle, HandleCondition::Blocked);
+        let joint1_locked = matches!(handle, HandleCondition::Joint1Locked(_));
+        if blocked {
+            self.state.alpha_dot_rad_s = [0.0; 2];
+        }
+        if joint1_locked {
+            self.state.alpha_dot_rad_s[0] = 0.0;
+        }
+        // Effects see a snapshot of the state; they are taken out of `self` while they run.
+        let mut effects = std::mem::take(&mut self.effects);
+        let ip = self.cfg.params.ip;
+        let pn = self.cfg.pneumatics;
+
+        // 1. converter set points (eq. 2.2 with its 0.1–5 bar output range)
+        let mut p_set = [0.0; 4];
+        for c in 0..4 {
+            let i = if currents_ma[c].is_finite() {
+                currents_ma[c]
+            } else {
+                ip.current_min_ma
+            };
+            p_set[c] = ip.pressure_bar(i);
+        }
+        {
+            let ctx = self.ctx(h, blocked);
+            for e in effects.all_mut() {
+                e.pressure_command(&ctx, &mut p_set);
+            }
+        }
+
+        // 2. where the muscles are: angle seen through the cables, ε, ε̇, volume
+        let mut alpha_muscle = self.state.alpha_rad;
+        {
+            let ctx = self.ctx(h, blocked);
+            for e in effects.all_mut() {
+                e.transmission(&ctx, &mut alpha_muscle);
+            }
+        }
+        let mut eps = [0.0; 4];
+        let mut eps_rate = [0.0; 4];
+        for c in 0..4 {
+            let (j, m) = self.channel_owner[c];
+            let jc = &self.model.joints[j];
+            let e = jc.epsilons(alpha_muscle[j]);
+            eps[c] = e[m];
+            // ε1 = ε0 − (R/l0)α, ε2 = ε0 + (R/l0)α
+            let sign = if m == 0 { -1.0 } else { 1.0 };
+            eps_rate[c] = sign * jc.epsilon_per_rad * self.state.alpha_dot_rad_s[j];
+        }
+
+        // 3. converters and air (see `pneumatics`)
+        let wn = ip.natural_freq_rad_s;
+        let zeta = ip.damping_ratio;
+        let mut flow = self.state.regulator_flow_bar_s;
+        for c in 0..4 {
+            let p = self.state.pressure_bar[c];
+            flow[c] += h * (wn * wn * (p_set[c] - p) - 2.0 * zeta * wn * flow[c]);
+        }
+        {
+            let ctx = self.ctx(h, blocked);
+            for e in effects.all_mut() {
+                e.regulator_flow(&ctx, &mut flow);
+            }
+        }
+        let mut pressure = self.state.pressure_bar;
+        for c in 0..4 {
+            let (j, _) = self.channel_owner[c];
+            let (v, dv_deps) = self.volumes[j].at(eps[c]);
+            let v_dot = dv_deps * eps_rate[c];
+            let p = pressure[c];
+            let p_dot = flow[c] * self.volume_ref_m3[c] / v
+                - pn.polytropic_index * (p + pn.atmosphere_bar) * v_dot / v;
+            pressure[c] = (p + h * p_dot).clamp(0.0, pn.supply_bar);
+        }
+
+        // 4. forces: pressure in the force law, polynomial (eq. 3.1), a cable cannot push
+        let mut p_force = pressure;
+        {
+            let ctx = self.ctx(h, blocked);
+            for e in effects.all_mut() {
+                e.muscle_pressure(&ctx, &mut p_force);
+            }
+        }
+        let mut force = [0.0; 4];
+        {
+            let ctx = self.ctx(h, blocked);
+            for c in 0..4 {
+                let (j, _) = self.channel_owner[c];
+                let mut f = self.cfg.params.muscle.force_n(eps[c], p_force[c]).max(0.0);
+                let view = MuscleView {
+                    channel: c,
+                    joint: j,
+                    epsilon: eps[c],
+                    epsilon_rate_per_s: eps_rate[c],
+                    pressure_bar: p_force[c],
+                };
+                for e in effects.all_mut() {
+                    e.muscle_force(&ctx, &view, &mut f);
+                }
+                force[c] = f.max(0.0);
+            }
+        }
+        // τ = R (F2 − F1) (eq. 3.2)
+        let mut torque = [0.0; 2];
+        for j in 0..2 {
+            let map = self.cfg.params.joints[j].channel_of_muscle;
+            let r = self.cfg.params.joints[j].pulley_radius_m;
+            torque[j] = r * (force[(map[1] & 3) as usize] - force[(map[0] & 3) as usize])
+                - self.cfg.mechanics.parallel_stiffness_nm_per_rad[j] * self.state.alpha_rad[j];
+        }
+        {
+            let ctx = self.ctx(h, blocked);
+            for e in effects.all_mut() {
+                e.joint_torque(&ctx, &mut torque);
+            }
+        }
+
+        // 5. the handle and the arm
+        let kin = &self.model.kinematics;
+        let trig = kin.trig(self.state.alpha_rad);
+        let jac = kin.jacobian_at(&trig);
+        let mut env = HandleForces::default();
+        if !blocked {
+            let ctx = self.ctx(h, blocked);
+            for e in effects.all_mut() {
+                e.handle_force(&ctx, &mut env);
+            }
+        }
+        self.effects = effects;
+
+        let force_on_holder = if blocked {
+            // statics: τ = Jᵀ f  ⇒  f = J⁻ᵀ τ
+            match jac.transpose().inverse() {
+                Some(jt_inv) => jt_inv.mul_vec(torque),
+                None => [0.0; 2],
+            }
+        } else {
+            let x = self.state.handle_user_m;
+            let v = self.state.handle_velocity_user_m_s;
+            let hand = match handle {
+                HandleCondition::Hand(s) | HandleCondition::Joint1Locked(Some(s)) => [
+                    s.stiffness_n_per_m * (s.target_user_m[0] - x[0])
+                        + s.damping_n_s_per_m * (s.target_velocity_user_m_s[0] - v[0]),
+                    s.stiffness_n_per_m * (s.target_user_m[1] - x[1])
+                        + s.damping_n_s_per_m * (s.target_velocity_user_m_s[1] - v[1]),
+                ],
+                _ => [0.0; 2],
+            };
+            let (a, hs) = (env.arm_side_user_n, env.handle_side_user_n);
+            let external = [hand[0] + hs[0] + a[0], hand[1] + hs[1] + a[1]];
+            self.integrate_arm(h, &jac, torque, external, joint1_locked);
+            // the load cell sits between the arm and the handle: it carries what acts beyond it
+            [-(hand[0] + hs[0]), -(hand[1] + hs[1])]
+        };
+
+        self.state.pressure_bar = pressure;
+        self.state.pressure_set_bar = p_set;
+        self.state.regulator_flow_bar_s = flow;
+        self.state.muscle_force_n = force;
+        self.state.joint_torque_nm = torque;
+        self.state.force_on_holder_user_n = force_on_holder;
+        self.state.t_s += h;
+        self.state.handle_user_m = self.model.kinematics.forward_user(self.state.alpha_rad);
+        let jac_new = self.model.kinematics.jacobian(self.state.alpha_rad);
+        self.state.handle_velocity_user_m_s = jac_new.mul_vec(self.state.alpha_dot_rad_s);
+    }
+
+    /// I(θ2) α̈ + C(θ, θ̇) = τ + Jᵀ F_ext − b α̇ + τ_stops (eq. 4.14–4.17), semi-implicit Euler.
+    fn integrate_arm(
+        &mut self,
+        h: f64,
+        jac: &Mat2<f64>,
+        torque: Vec2<f64>,
+        external_user_n: Vec2<f64>,
+        joint1_locked: bool,
+    ) {
+        let p = &self.cfg.params;
+        let mech = &self.cfg.mechanics;
+        let theta = self.model.kinematics.theta(self.state.alpha_rad);
+        let w = self.state.alpha_dot_rad_s;
+        let inertia = joint_inertia(p, theta[1]);
+        let coriolis = coriolis_torques(p, theta[1], w);
+        let ext = jac.transpose().mul_vec(external_user_n);
+        let mut rhs = [0.0; 2];
+        for j in 0..2 {
+            let a = self.state.alpha_rad[j];
+            let lo = p.joints[j].alpha_min_rad - mech.hard_stop_margin_rad;
+            let hi = p.joints[j].alpha_max_rad + mech.hard_stop_margin_rad;
+            let stop = if a > hi {
+                -mech.hard_stop_stiffness_nm_per_rad * (a - hi)
+                    - mech.hard_stop_damping_nm_s_per_rad * w[j].max(0.0)
+            } else if a < lo {
+                mech.hard_stop_stiffness_nm_per_rad * (lo - a)
+                    - mech.hard_stop_damping_nm_s_per_rad * w[j].min(0.0)
+            } else {
+                0.0
+            };
+            rhs[j] =
+                torque[j] + ext[j] - coriolis[j] - mech.joint_damping_nm_s_per_rad[j] * w[j] + stop;
+        }
+        let acc = if joint1_locked {
+            [0.0, rhs[1] / inertia.0[1][1]]
+        } else {
+            match inertia.inverse() {
+                Some(inv) => inv.mul_vec(rhs),
+                None => [0.0; 2],
+            }
+        };
+        for j in 0..2 {
+            self.state.alpha_dot_rad_s[j] += h * acc[j];
+            if joint1_locked && j == 0 {
+                self.state.alpha_dot_rad_s[0] = 0.0;
+            }
+            self.state.alpha_rad[j] += h * self.state.alpha_dot_rad_s[j];
+        }
+    }
+
+    /// Reads the sensors at the present instant.
+    fn sample(&mut self) -> Measurement {
+        let s = &self.cfg.sensors;
+        let lc = self.cfg.params.load_cell;
+        let alpha = self.state.alpha_rad;
+        let f_sensor = self
+            .model
+            .kinematics
+            .user_to_sensor(alpha, self.state.force_on_holder_user_n);
+        let mut raw = RawSensors {
+            loadcell_v: [
+                f_sensor[0] / lc.gain_n_per_v[0]
+                    + lc.offset_v[0]
+                    + s.loadcell_noise_n[0] * self.rng.normal() / lc.gain_n_per_v[0],
+                f_sensor[1] / lc.gain_n_per_v[1]
+                    + lc.offset_v[1]
+                    + s.loadcell_noise_n[1] * self.rng.normal() / lc.gain_n_per_v[1],
+            ],
+            encoder_alpha_rad: alpha,
+        };
+        let mut effects = std::mem::take(&mut self.effects);
+        {
+            let ctx = self.ctx(0.0, false);
+            for e in effects.all_mut() {
+                e.sensor(&ctx, &mut raw);
+            }
+        }
+        self.effects = effects;
+        // ADC: clip to the span, quantize
+        let mut volts = raw.loadcell_v;
+        if s.adc_bits > 0 {
+            let lsb = 2.0 * s.adc_span_v / (1u64 << s.adc_bits.min(52)) as f64;
+            for v in volts.iter_mut() {
+                *v = (v.clamp(-s.adc_span_v, s.adc_span_v) / lsb).round() * lsb;
+            }
+        }
+        let mut counts = [0i64; 2];
+        let mut alpha_meas = raw.encoder_alpha_rad;
+        for j in 0..2 {
+            let cpr = s.encoder_counts_per_rev[j];
+            if cpr > 0 {
+                let per_rad = cpr as f64 / std::f64::consts::TAU;
+                counts[j] = (raw.encoder_alpha_rad[j] * per_rad).round() as i64;
+                alpha_meas[j] = counts[j] as f64 / per_rad;
+            } else {
+                counts[j] = (raw.encoder_alpha_rad[j] * 1e9).round() as i64;
+            }
+        }
+        let force_sensor_n = lc.forces_n(volts);
+        let force_user_n =
+            Kinematics::sensor_to_user_at(&self.model.kinematics.trig(alpha_meas), force_sensor_n);
+        Measurement {
+            t_s: self.state.t_s,
+            encoder_counts: counts,
+            loadcell_v: volts,
+            alpha_rad: alpha_meas,
+            force_sensor_n,
+            force_user_n,
+            pressure_bar: self.state.pressure_bar,
+        }
+    }
+}
