@@ -6,33 +6,7 @@ use pam_model::kinematics::Kinematics;
 
 pub use pam_model::checks::{Check, CheckResult, Failure};
 
-fn holds(what: &'static str, ok: bool) -> CheckResult {
-    if ok {
-        Ok(())
-    } else {
-        Err(Failure {
-            what,
-            got: 0.0,
-            expected: 1.0,
-            tolerance: 0.0,
-            index: 0,
-        })
-    }
-}
-
-fn near(what: &'static str, got: f32, expected: f32, tol: f32) -> CheckResult {
-    if (got - expected).abs() <= tol {
-        Ok(())
-    } else {
-        Err(Failure {
-            what,
-            got: got as f64,
-            expected: expected as f64,
-            tolerance: tol as f64,
-            index: 0,
-        })
-    }
-}
+use pam_model::checks::{holds_that as holds, near_f32 as near};
 
 const OPTIONS: DeviceOptions = DeviceOptions {
     firmware_version: Version {

@@ -29,6 +29,16 @@ pub struct Failure {
 
 pub type CheckResult = Result<(), Failure>;
 
+/// `Ok` when `ok`, else a failure named `what` (for yes/no facts).
+pub fn holds_that(what: &'static str, ok: bool) -> CheckResult {
+    holds(what, 0, ok)
+}
+
+/// `Ok` when `got` is finite and within `tolerance` of `expected`.
+pub fn near_f32(what: &'static str, got: f32, expected: f32, tolerance: f32) -> CheckResult {
+    close(what, 0, got as f64, expected as f64, tolerance as f64)
+}
+
 #[derive(Clone, Copy)]
 pub struct Check {
     pub name: &'static str,

@@ -111,7 +111,9 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), St
     let mut clamped = false;
     for _ in 0..5 {
         if let Ok(Some(t)) = client.next_telemetry(Duration::from_millis(20)) {
-            clamped |= t.limited != 0;
+            // the model's clamping only: the slew limit (LIMITED_OUTPUT) is the normal way
+            // to a new target
+            clamped |= t.limited & !pam_protocol::LIMITED_OUTPUT != 0;
         }
     }
     if clamped {
