@@ -961,6 +961,9 @@ pub fn diagnose_with(
         })
         .collect();
     let mut warnings = base.warnings.clone();
+    if lp.p.resampled {
+        warnings.push("the log's sampling is uneven (dropped frames?): it was resampled to its median period".into());
+    }
     if lp.p.len() < 200 {
         warnings.push(format!(
             "only {} samples: the held-out 20 % is short",

@@ -57,6 +57,9 @@ pub struct Prepared {
     pub current_ma: Option<[Vec<f64>; 4]>,
     /// First sample of the held-out part (the last 20 %).
     pub split: usize,
+    /// The log's sampling was uneven (dropped frames, jitter) and it was resampled to its
+    /// median period by linear interpolation.
+    pub resampled: bool,
 }
 
 impl Trial {
@@ -145,6 +148,11 @@ impl Trial {
         filt: FilterSettings,
     ) -> Result<Prepared, String> {
         self.validate()?;
+        if let Some(uniform) = self.resampled_if_uneven() {
+            let mut p = uniform.prepare(model, filt)?;
+            p.resampled = true;
+            return Ok(p);
+        }
         let n = self.len();
         let dt = (self.t_s[n - 1] - self.t_s[0]) / (n - 1) as f64;
         let fs = 1.0 / dt;
@@ -193,8 +201,59 @@ impl Trial {
             alpha0_rad,
             current_ma: self.current_ma.clone(),
             split: (n * 4) / 5,
+            resampled: false,
         })
     }
+}
+
+impl Trial {
+    /// A copy on a uniform grid at the median period when some period differs from it by
+    /// more than 25 % (the derivatives assume even sampling); `None` when already even.
+    pub fn resampled_if_uneven(&self) -> Option<Trial> {
+        let n = self.len();
+        let mut d: Vec<f64> = self.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(|a, b| a.total_cmp(b));
+        let med = d[d.len() / 2];
+        if d[0] >= 0.75 * med && d[d.len() - 1] <= 1.25 * med {
+            return None;
+        }
+        let t0 = self.t_s[0];
+        let m = ((self.t_s[n - 1] - t0) / med + 1e-6).floor() as usize + 1;
+        let grid: Vec<f64> = (0..m).map(|k| t0 + k as f64 * med).collect();
+        let interp = |v: &[f64]| -> Vec<f64> {
+            let mut j = 0;
+            grid.iter()
+                .map(|&t| {
+                    while j + 2 < n && self.t_s[j + 1] < t {
+                        j += 1;
+                    }
+                    let (ta, tb) = (self.t_s[j], self.t_s[j + 1]);
+                    let f = ((t - ta) / (tb - ta)).clamp(0.0, 1.0);
+                    v[j] + f * (v[j + 1] - v[j])
+                })
+                .collect()
+        };
+        Some(Trial {
+            t_s: grid.clone(),
+            alpha_rad: [interp(&self.alpha_rad[0]), interp(&self.alpha_rad[1])],
+            force_n: [interp(&self.force_n[0]), interp(&self.force_n[1])],
+            // references and currents are piecewise constant: hold the last value
+            force_ref_n: self.force_ref_n.as_ref().map(|r| [hold(&self.t_s, &r[0], &grid), hold(&self.t_s, &r[1], &grid)]),
+            current_ma: self.current_ma.as_ref().map(|c| [0, 1, 2, 3].map(|k| hold(&self.t_s, &c[k], &grid))),
+        })
+    }
+}
+
+fn hold(t: &[f64], v: &[f64], grid: &[f64]) -> Vec<f64> {
+    let mut j = 0;
+    grid.iter()
+        .map(|&g| {
+            while j + 1 < t.len() && t[j + 1] <= g + 1e-12 {
+                j += 1;
+            }
+            v[j]
+        })
+        .collect()
 }
 
 impl Prepared {
@@ -250,4 +309,39 @@ pub fn std_dev(s: &[f64]) -> f64 {
 
 pub fn rms(s: &[f64]) -> f64 {
     (s.iter().map(|v| v * v).sum::<f64>() / s.len().max(1) as f64).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uneven_sampling_is_resampled_and_even_sampling_is_not() {
+        let mut t: Vec<f64> = (0..200).map(|i| i as f64 * 0.01).collect();
+        let even = Trial {
+            t_s: t.clone(),
+            alpha_rad: [t.iter().map(|x| 0.01 * x).collect(), vec![0.0; 200]],
+            force_n: [t.clone(), vec![0.0; 200]],
+            force_ref_n: None,
+            current_ma: None,
+        };
+        assert!(even.resampled_if_uneven().is_none());
+        // three dropped frames
+        t.drain(50..53);
+        let uneven = Trial {
+            alpha_rad: [t.iter().map(|x| 0.01 * x).collect(), vec![0.0; t.len()]],
+            force_n: [t.clone(), vec![0.0; t.len()]],
+            t_s: t,
+            force_ref_n: None,
+            current_ma: None,
+        };
+        let r = uneven.resampled_if_uneven().expect("uneven");
+        assert_eq!(r.len(), 200);
+        // linear signals come back exactly
+        for (i, f) in r.force_n[0].iter().enumerate() {
+            assert!((f - i as f64 * 0.01).abs() < 1e-9);
+        }
+        let model = RobotModel::<f64>::thesis();
+        assert!(uneven.prepare(&model, FilterSettings::default()).unwrap().resampled);
+    }
 }
