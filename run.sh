@@ -30,8 +30,6 @@ echo "== status";                         "$pamctl" status
 echo "== home, arm";                      "$pamctl" home; "$pamctl" arm
 echo "== joint mode: go to (10°, 6.5°), Table 4.1 point 4"
 "$pamctl" set joint --alpha-deg 10,6.5 --stiffness-nm-per-rad 95,40
-echo "   (open loop, as on the rig: the twin's rig is stiffer than the thesis model the device"
-echo "    runs (twin/README.md), so the arm settles short of the target — the model loop's job)"
 echo "== watch 5 s";                      "$pamctl" watch --seconds 5
 echo "== record 2 s at 1 kHz";            "$pamctl" record "$work/run.csv" --duration 2 --stats --quiet
 echo "== disarm";                         "$pamctl" disarm

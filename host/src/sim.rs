@@ -28,7 +28,9 @@ use pam_twin::{EffectSet, HandleCondition, Measurement, Twin, TwinConfig};
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpListener;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{channel, sync_channel, Receiver, Sender, SyncSender, TryRecvError, TrySendError};
+use std::sync::mpsc::{
+    channel, sync_channel, Receiver, Sender, SyncSender, TryRecvError, TrySendError,
+};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -60,6 +62,9 @@ pub struct SimConfig {
     /// The device's command timeout (the firmware's default is 0.1 s; separate pamctl
     /// invocations in a script need up to 1 s between them).
     pub command_timeout_s: f32,
+    /// The twin's rig: the thesis's model (default) or the rig with the stiffness the
+    /// thesis identified (`pam_twin::rig`).
+    pub identified_rig: bool,
 }
 
 impl Default for SimConfig {
@@ -69,6 +74,7 @@ impl Default for SimConfig {
             handle: HandleMode::Free,
             seed: 0,
             command_timeout_s: SafetyConfig::default_1khz().command_timeout_s,
+            identified_rig: false,
         }
     }
 }
@@ -176,13 +182,18 @@ impl Emulator {
 
     /// Serves TCP on `address` (port 0: any free port); returns the bound address.
     pub fn listen_tcp(&mut self, address: &str) -> Result<std::net::SocketAddr, String> {
-        let listener = TcpListener::bind(address)
-            .map_err(|e| format!("cannot listen on {address}: {e} (is another emulator using the port?)"))?;
+        let listener = TcpListener::bind(address).map_err(|e| {
+            format!("cannot listen on {address}: {e} (is another emulator using the port?)")
+        })?;
         let local = listener.local_addr().map_err(|e| e.to_string())?;
         listener
             .set_nonblocking(true)
             .map_err(|e| format!("cannot listen on {address}: {e}"))?;
-        let (events, stop, next_conn) = (self.events.clone(), self.stop.clone(), self.next_conn.clone());
+        let (events, stop, next_conn) = (
+            self.events.clone(),
+            self.stop.clone(),
+            self.next_conn.clone(),
+        );
         let t = std::thread::Builder::new()
             .name("pam-sim-accept".into())
             .spawn(move || {
@@ -212,7 +223,8 @@ impl Emulator {
     #[cfg(target_os = "linux")]
     pub fn open_pty(&mut self) -> Result<String, String> {
         use nix::sys::termios;
-        let pty = nix::pty::openpty(None, None).map_err(|e| format!("cannot open a pseudo-terminal: {e}"))?;
+        let pty = nix::pty::openpty(None, None)
+            .map_err(|e| format!("cannot open a pseudo-terminal: {e}"))?;
         let path = nix::unistd::ttyname(&pty.slave)
             .map_err(|e| format!("cannot name the pseudo-terminal: {e}"))?
             .display()
@@ -227,7 +239,13 @@ impl Emulator {
         // between two clients
         let slave = pty.slave;
         let conn = self.next_conn.fetch_add(1, Ordering::SeqCst);
-        attach(conn, Box::new(master), Box::new(writer), &self.events, &self.stop);
+        attach(
+            conn,
+            Box::new(master),
+            Box::new(writer),
+            &self.events,
+            &self.stop,
+        );
         std::mem::forget(slave);
         Ok(path)
     }
@@ -271,11 +289,21 @@ fn attach(
             match reader.read(&mut buf) {
                 Ok(0) => break,
                 Ok(n) => {
-                    if ev.send(Event::Bytes { conn, bytes: buf[..n].to_vec() }).is_err() {
+                    if ev
+                        .send(Event::Bytes {
+                            conn,
+                            bytes: buf[..n].to_vec(),
+                        })
+                        .is_err()
+                    {
                         break;
                     }
                 }
-                Err(e) if matches!(e.kind(), ErrorKind::Interrupted | ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        ErrorKind::Interrupted | ErrorKind::WouldBlock | ErrorKind::TimedOut
+                    ) => {}
                 Err(_) => break,
             }
         }
@@ -284,7 +312,11 @@ fn attach(
     std::thread::spawn(move || {
         // ends when the real-time loop drops the sender (connection closed or stop)
         while let Ok(bytes) = queue.recv() {
-            if writer.write_all(&bytes).and_then(|_| writer.flush()).is_err() {
+            if writer
+                .write_all(&bytes)
+                .and_then(|_| writer.flush())
+                .is_err()
+            {
                 break;
             }
         }
@@ -309,39 +341,71 @@ struct Plant {
 
 impl Plant {
     fn new(config: &SimConfig) -> Result<Plant, String> {
-        let mut twin_cfg = TwinConfig::thesis();
+        let mut twin_cfg = if config.identified_rig {
+            TwinConfig::identified_rig()
+        } else {
+            TwinConfig::thesis()
+        };
         twin_cfg.effects = config.effects.clone();
         twin_cfg.seed = config.seed;
         let counts_per_rev = twin_cfg.sensors.encoder_counts_per_rev;
         let mut twin = Twin::new(twin_cfg);
         let mut safety = SafetyConfig::default_1khz();
         safety.command_timeout_s = config.command_timeout_s;
-        safety
-            .validate()
-            .map_err(|_| format!("command timeout {} s is outside the device's range (0–1 s]", config.command_timeout_s))?;
+        safety.validate().map_err(|_| {
+            format!(
+                "command timeout {} s is outside the device's range (0–1 s]",
+                config.command_timeout_s
+            )
+        })?;
         let mut device = Device::new(
             RobotParams::thesis(),
             safety,
-            DeviceOptions { firmware_version: emulator_version(), encoder_counter_bits: ENCODER_COUNTER_BITS },
+            DeviceOptions {
+                firmware_version: emulator_version(),
+                encoder_counter_bits: ENCODER_COUNTER_BITS,
+            },
         );
         // the rig's calibration: the twin's encoder resolution
         let mut cal: Calibration = device.calibration();
         for (enc, counts) in cal.encoder.iter_mut().zip(counts_per_rev) {
-            *enc = EncoderCalibration { counts_per_rev: counts.max(1), sign: 1 };
+            *enc = EncoderCalibration {
+                counts_per_rev: counts.max(1),
+                sign: 1,
+            };
         }
-        let reply = device.handle(&Request { id: 0, body: RequestBody::SetConfig(Config::Calibration(cal)) });
-        reply.result.map_err(|e| format!("the device refused the emulator's calibration: {e:?}"))?;
+        let reply = device.handle(&Request {
+            id: 0,
+            body: RequestBody::SetConfig(Config::Calibration(cal)),
+        });
+        reply
+            .result
+            .map_err(|e| format!("the device refused the emulator's calibration: {e:?}"))?;
         let last = twin.step(1e-6, [4.0; 4], &HandleCondition::Free);
         let model = *twin.model();
         let path = (config.handle == HandleMode::Operator)
             .then(|| OperatorPath::new([0.0; 2], 0.04, (0.1, 2.0), OPERATOR_PATH_S, config.seed));
         let hold_point = twin.state().handle_user_m;
         let last_mode = (device.controller().state(), device.controller().mode());
-        Ok(Plant { device, twin, last, handle_mode: config.handle, model, path, hold_point, since_s: 0.0, last_mode, t_s: 0.0 })
+        Ok(Plant {
+            device,
+            twin,
+            last,
+            handle_mode: config.handle,
+            model,
+            path,
+            hold_point,
+            since_s: 0.0,
+            last_mode,
+            t_s: 0.0,
+        })
     }
 
     fn raw_sensors(&self) -> RawSensors {
-        let counts = self.last.encoder_counts.map(|c| (c + ENCODER_POWER_ON_COUNTS) as u32);
+        let counts = self
+            .last
+            .encoder_counts
+            .map(|c| (c + ENCODER_POWER_ON_COUNTS) as u32);
         RawSensors {
             encoder_counts: counts,
             loadcell_volts: self.last.loadcell_v.map(|v| v as f32),
@@ -430,12 +494,18 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
             stats.late.fetch_add(1, Ordering::Relaxed);
         }
         let jitter_us = behind.as_micros().min(u16::MAX as u128) as u16;
-        stats.max_jitter_us.fetch_max(jitter_us as u64, Ordering::Relaxed);
+        stats
+            .max_jitter_us
+            .fetch_max(jitter_us as u64, Ordering::Relaxed);
 
         // 1. requests
         loop {
             match events.try_recv() {
-                Ok(Event::Opened { conn, out }) => conns.push(Connection { id: conn, out, decoder: FrameDecoder::new() }),
+                Ok(Event::Opened { conn, out }) => conns.push(Connection {
+                    id: conn,
+                    out,
+                    decoder: FrameDecoder::new(),
+                }),
                 Ok(Event::Closed { conn }) => {
                     conns.retain(|c| c.id != conn);
                     if streaming == Some(conn) {
@@ -443,7 +513,9 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
                     }
                 }
                 Ok(Event::Bytes { conn, bytes }) => {
-                    let Some(c) = conns.iter_mut().find(|c| c.id == conn) else { continue };
+                    let Some(c) = conns.iter_mut().find(|c| c.id == conn) else {
+                        continue;
+                    };
                     if streaming.is_none_or(|s| s < conn) {
                         streaming = Some(conn);
                     }
@@ -467,11 +539,17 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
         let raw = plant.raw_sensors();
         let result = plant.device.step(
             raw,
-            StepTiming { time_us: device_time_us as u32, loop_exec_us: last_exec_us, loop_jitter_us: jitter_us },
+            StepTiming {
+                time_us: device_time_us as u32,
+                loop_exec_us: last_exec_us,
+                loop_jitter_us: jitter_us,
+            },
         );
         let handle = plant.handle_condition();
         let period_s = period_us as f64 * 1e-6;
-        plant.last = plant.twin.step(period_s, result.current_ma.map(|c| c as f64), &handle);
+        plant.last = plant
+            .twin
+            .step(period_s, result.current_ma.map(|c| c as f64), &handle);
         plant.t_s += period_s;
         device_time_us += period_us;
 
@@ -489,7 +567,9 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
             }
         }
         for (conn, bytes) in replies.drain(..) {
-            let Some(c) = conns.iter().find(|c| c.id == conn) else { continue };
+            let Some(c) = conns.iter().find(|c| c.id == conn) else {
+                continue;
+            };
             let n = bytes.len() as u64;
             match c.out.try_send(bytes) {
                 Ok(()) => {
@@ -504,8 +584,12 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
 
         let exec_us = began.elapsed().as_micros().min(u16::MAX as u128) as u16;
         last_exec_us = exec_us;
-        stats.exec_us_total.fetch_add(exec_us as u64, Ordering::Relaxed);
-        stats.max_exec_us.fetch_max(exec_us as u64, Ordering::Relaxed);
+        stats
+            .exec_us_total
+            .fetch_add(exec_us as u64, Ordering::Relaxed);
+        stats
+            .max_exec_us
+            .fetch_max(exec_us as u64, Ordering::Relaxed);
         stats.periods.fetch_add(1, Ordering::Relaxed);
         deadline += period;
     }

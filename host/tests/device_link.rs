@@ -3,8 +3,8 @@
 
 mod support;
 
-use pamctl::link::{Client, DropCounter};
 use pam_protocol::{ErrorCode, ReplyData, RequestBody};
+use pamctl::link::{Client, DropCounter};
 use std::process::{Command, Output};
 use std::time::Duration;
 use support::{Options, TestDevice};
@@ -51,7 +51,10 @@ fn status_of_a_fresh_device() {
     assert!(out.contains("state: disarmed"), "{out}");
     assert!(out.contains("mode: idle"), "{out}");
     assert!(out.contains("faults: none"), "{out}");
-    assert!(out.contains("homed: no (put the arm at the neutral pose"), "{out}");
+    assert!(
+        out.contains("homed: no (put the arm at the neutral pose"),
+        "{out}"
+    );
     assert!(out.contains("loop: 1000 µs period"), "{out}");
     assert!(out.contains("sample: α +0.000°"), "{out}");
 }
@@ -65,7 +68,10 @@ fn no_device_given_says_how_to_give_one() {
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("no device given") && err.contains("tcp://127.0.0.1:PORT"), "{err}");
+    assert!(
+        err.contains("no device given") && err.contains("tcp://127.0.0.1:PORT"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -77,11 +83,17 @@ fn nothing_listening_and_bad_addresses_are_clear_errors() {
         .unwrap()
         .port();
     let err = fails(&format!("tcp://127.0.0.1:{port}"), &["status"]);
-    assert!(err.contains("cannot connect") && err.contains("emulator running"), "{err}");
+    assert!(
+        err.contains("cannot connect") && err.contains("emulator running"),
+        "{err}"
+    );
     let err = fails("tcp://localhost", &["status"]);
     assert!(err.contains("tcp://HOST:PORT"), "{err}");
     let err = fails("/dev/does-not-exist-pam", &["status"]);
-    assert!(err.contains("cannot open serial port /dev/does-not-exist-pam"), "{err}");
+    assert!(
+        err.contains("cannot open serial port /dev/does-not-exist-pam"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -91,28 +103,72 @@ fn protocol_version_mismatch_is_explained() {
         ..Options::default()
     });
     let err = fails(&d.address, &["status"]);
-    assert!(err.contains("protocol version mismatch") && err.contains("pamctl speaks version 1"), "{err}");
+    assert!(
+        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 1"),
+        "{err}"
+    );
 }
 
 #[test]
 fn arm_needs_home_and_each_mode_is_set() {
     let d = TestDevice::start(Options::default());
     let err = fails(&d.address, &["arm"]);
-    assert!(err.contains("not homed") && err.contains("pamctl home"), "{err}");
+    assert!(
+        err.contains("not homed") && err.contains("pamctl home"),
+        "{err}"
+    );
     ok(&d.address, &["tare"]);
     ok(&d.address, &["home"]);
     ok(&d.address, &["arm"]);
-    let out = ok(&d.address, &["set", "pressures", "1,2,3,2.5", "--hold", "0.2"]);
-    assert!(out.contains("mode set: pressures 1.00, 2.00, 3.00, 2.50 bar"), "{out}");
+    let out = ok(
+        &d.address,
+        &["set", "pressures", "1,2,3,2.5", "--hold", "0.2"],
+    );
+    assert!(
+        out.contains("mode set: pressures 1.00, 2.00, 3.00, 2.50 bar"),
+        "{out}"
+    );
     let out = ok(&d.address, &["status"]);
-    assert!(out.contains("state: armed") && out.contains("mode: pressures"), "{out}");
-    let out = ok(&d.address, &["set", "joint", "--alpha-deg", "5,-3", "--torque-nm", "2,1", "--hold", "0.1"]);
+    assert!(
+        out.contains("state: armed") && out.contains("mode: pressures"),
+        "{out}"
+    );
+    let out = ok(
+        &d.address,
+        &[
+            "set",
+            "joint",
+            "--alpha-deg",
+            "5,-3",
+            "--torque-nm",
+            "2,1",
+            "--hold",
+            "0.1",
+        ],
+    );
     assert!(out.contains("mode set: joint α +5.00°, -3.00°"), "{out}");
-    let out = ok(&d.address, &["set", "force", "--force-n", "9.1,-4", "--feed-forward", "--hold", "0.1"]);
+    let out = ok(
+        &d.address,
+        &[
+            "set",
+            "force",
+            "--force-n",
+            "9.1,-4",
+            "--feed-forward",
+            "--hold",
+            "0.1",
+        ],
+    );
     assert!(out.contains("gain-plane feed-forward on"), "{out}");
     // a stiffness the joint cannot reach is clamped, and pamctl says so
-    let out = ok(&d.address, &["set", "joint", "--stiffness-nm-per-rad", "400,400"]);
-    assert!(out.contains("warning: the target is beyond what the robot can do"), "{out}");
+    let out = ok(
+        &d.address,
+        &["set", "joint", "--stiffness-nm-per-rad", "400,400"],
+    );
+    assert!(
+        out.contains("warning: the target is beyond what the robot can do"),
+        "{out}"
+    );
     // tare and home are refused while armed
     assert!(fails(&d.address, &["home"]).contains("WrongState"));
     ok(&d.address, &["set", "idle"]);
@@ -126,9 +182,15 @@ fn out_of_range_target_is_refused_and_nothing_changes() {
     let d = TestDevice::start(Options::default());
     ok(&d.address, &["set", "pressures", "1,1,1,1"]);
     let err = fails(&d.address, &["set", "pressures", "1,2,9,1"]);
-    assert!(err.contains("OutOfRange") && err.contains("nothing was changed"), "{err}");
+    assert!(
+        err.contains("OutOfRange") && err.contains("nothing was changed"),
+        "{err}"
+    );
     let out = ok(&d.address, &["status"]);
-    assert!(out.contains("mode: pressures 1.00, 1.00, 1.00, 1.00 bar"), "{out}");
+    assert!(
+        out.contains("mode: pressures 1.00, 1.00, 1.00, 1.00 bar"),
+        "{out}"
+    );
     // the host only checks the shape of the input
     let err = fails(&d.address, &["set", "pressures", "1,2"]);
     assert!(err.contains("takes 4 comma-separated values"), "{err}");
@@ -141,38 +203,75 @@ fn silence_times_out_into_a_fault_that_clears_on_command() {
     ok(&d.address, &["arm"]);
     std::thread::sleep(Duration::from_millis(2000)); // the test device's timeout is 1 s
     let out = ok(&d.address, &["status"]);
-    assert!(out.contains("state: FAULTED") && out.contains("faults: command timeout"), "{out}");
+    assert!(
+        out.contains("state: FAULTED") && out.contains("faults: command timeout"),
+        "{out}"
+    );
     let err = fails(&d.address, &["arm"]);
     assert!(err.contains("WrongState"), "{err}");
     let out = ok(&d.address, &["fault", "clear"]);
     assert!(out.contains("faults cleared"), "{out}");
     let out = ok(&d.address, &["status"]);
-    assert!(out.contains("state: disarmed") && out.contains("faults: none"), "{out}");
+    assert!(
+        out.contains("state: disarmed") && out.contains("faults: none"),
+        "{out}"
+    );
 }
 
 #[test]
 fn config_get_set_save_load() {
     let d = TestDevice::start(Options::default());
     let out = ok(&d.address, &["config", "get", "limits"]);
-    assert!(out.contains("[limits]") && out.contains("command_timeout_s = 1.0"), "{out}");
+    assert!(
+        out.contains("[limits]") && out.contains("command_timeout_s = 1.0"),
+        "{out}"
+    );
     assert!(!out.contains("[robot]"));
     let saved = tmp("saved.toml");
     ok(&d.address, &["config", "save", saved.to_str().unwrap()]);
     let text = std::fs::read_to_string(&saved).unwrap();
-    assert!(text.contains("[robot.ip]") && text.contains("[calibration.load_cell]") && text.contains("[limits]"), "{text}");
+    assert!(
+        text.contains("[robot.ip]")
+            && text.contains("[calibration.load_cell]")
+            && text.contains("[limits]"),
+        "{text}"
+    );
     let robot_at = text.find("[robot").unwrap();
-    assert!(robot_at < text.find("[calibration").unwrap() && text.find("[calibration").unwrap() < text.find("[limits]").unwrap());
+    assert!(
+        robot_at < text.find("[calibration").unwrap()
+            && text.find("[calibration").unwrap() < text.find("[limits]").unwrap()
+    );
     assert!(text.contains("gain_bar_per_ma = 0.32667"), "{text}");
 
-    let out = ok(&d.address, &["config", "set", "limits.command_timeout_s=0.5", "robot.joints.0.pulley_radius_m=0.071"]);
-    assert!(out.contains("[robot] applied") && out.contains("[limits] applied"), "{out}");
-    assert!(!out.contains("[calibration]"), "untouched sections are not sent: {out}");
+    let out = ok(
+        &d.address,
+        &[
+            "config",
+            "set",
+            "limits.command_timeout_s=0.5",
+            "robot.joints.0.pulley_radius_m=0.071",
+        ],
+    );
+    assert!(
+        out.contains("[robot] applied") && out.contains("[limits] applied"),
+        "{out}"
+    );
+    assert!(
+        !out.contains("[calibration]"),
+        "untouched sections are not sent: {out}"
+    );
     let out = ok(&d.address, &["config", "get", "all"]);
-    assert!(out.contains("command_timeout_s = 0.5") && out.contains("pulley_radius_m = 0.071"), "{out}");
+    assert!(
+        out.contains("command_timeout_s = 0.5") && out.contains("pulley_radius_m = 0.071"),
+        "{out}"
+    );
 
     // the device refuses, nothing changes
     let err = fails(&d.address, &["config", "set", "limits.period_s=0.02"]);
-    assert!(err.contains("[limits]") && err.contains("OutOfRange"), "{err}");
+    assert!(
+        err.contains("[limits]") && err.contains("OutOfRange"),
+        "{err}"
+    );
     let err = fails(&d.address, &["config", "set", "robot.pressure.max_bar=7"]);
     assert!(err.contains("OutOfRange"), "{err}");
     let out = ok(&d.address, &["config", "get", "limits"]);
@@ -188,7 +287,10 @@ fn config_get_set_save_load() {
     let bad = tmp("bad.toml");
     std::fs::write(&bad, "[limits]\ncommand_timeout_s = \"soon\"\n").unwrap();
     let err = fails(&d.address, &["config", "load", bad.to_str().unwrap()]);
-    assert!(err.contains("bad.toml") && err.contains("command_timeout_s"), "{err}");
+    assert!(
+        err.contains("bad.toml") && err.contains("command_timeout_s"),
+        "{err}"
+    );
 }
 
 fn seq_gaps(log: &pam_log::Log) -> usize {
@@ -200,17 +302,35 @@ fn seq_gaps(log: &pam_log::Log) -> usize {
 fn record_for_a_duration_writes_a_valid_log_without_gaps() {
     let d = TestDevice::start(Options::default());
     let file = tmp("rec.csv");
-    let out = ok(&d.address, &["record", file.to_str().unwrap(), "--duration", "1", "--meta", "experiment=static", "--quiet"]);
+    let out = ok(
+        &d.address,
+        &[
+            "record",
+            file.to_str().unwrap(),
+            "--duration",
+            "1",
+            "--meta",
+            "experiment=static",
+            "--quiet",
+        ],
+    );
     assert!(out.contains("0 dropped"), "{out}");
     let log = pam_log::read_path(&file).expect("valid log v1");
-    assert!((700..=1100).contains(&log.len()), "{} rows in 1 s", log.len());
+    assert!(
+        (700..=1100).contains(&log.len()),
+        "{} rows in 1 s",
+        log.len()
+    );
     assert_eq!(seq_gaps(&log), 0);
     assert_eq!(log.meta("experiment"), Some("static"));
     assert_eq!(log.meta("sample_period_s"), Some("0.001"));
     let t = log.column("t_s").unwrap();
     assert!((t[1] - t[0] - 0.001).abs() < 1e-9);
     assert!(log.column("i1_ma").unwrap().iter().all(|&i| i == 4.0));
-    assert!(log.column("fx_ref_n").is_none(), "no force target, no reference columns");
+    assert!(
+        log.column("fx_ref_n").is_none(),
+        "no force target, no reference columns"
+    );
 }
 
 #[test]
@@ -218,7 +338,18 @@ fn record_in_force_mode_has_the_force_reference() {
     let d = TestDevice::start(Options::default());
     ok(&d.address, &["set", "force", "--force-n", "5,-2"]);
     let file = tmp("force.csv");
-    ok(&d.address, &["record", file.to_str().unwrap(), "--duration", "0.3", "--divider", "2", "--quiet"]);
+    ok(
+        &d.address,
+        &[
+            "record",
+            file.to_str().unwrap(),
+            "--duration",
+            "0.3",
+            "--divider",
+            "2",
+            "--quiet",
+        ],
+    );
     let log = pam_log::read_path(&file).unwrap();
     assert!(log.column("fx_ref_n").unwrap().iter().all(|&f| f == 5.0));
     assert_eq!(log.meta("sample_period_s"), Some("0.002"));
@@ -239,7 +370,10 @@ fn ctrl_c_ends_a_recording_with_a_valid_file() {
     // interrupt once the recording is under way, past its first progress tick (0.5 s)
     let started = std::time::Instant::now();
     while std::fs::read_to_string(&file).map_or(0, |t| t.lines().count()) < 700 {
-        assert!(started.elapsed() < Duration::from_secs(20), "recording never started");
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "recording never started"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     let status = Command::new("kill")
@@ -251,10 +385,16 @@ fn ctrl_c_ends_a_recording_with_a_valid_file() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{stderr}");
-    assert!(stderr.contains("samples/s") && stderr.contains("dropped"), "progress line: {stderr} / stdout {stdout}");
+    assert!(
+        stderr.contains("samples/s") && stderr.contains("dropped"),
+        "progress line: {stderr} / stdout {stdout}"
+    );
     let log = pam_log::read_path(&file).expect("valid after Ctrl-C");
     assert!(log.len() > 100, "{} rows", log.len());
-    assert!(stdout.contains(&format!("recorded {} samples", log.len())), "{stdout}");
+    assert!(
+        stdout.contains(&format!("recorded {} samples", log.len())),
+        "{stdout}"
+    );
     assert_eq!(seq_gaps(&log), 0);
 }
 
@@ -273,7 +413,11 @@ fn corrupted_telemetry_is_rejected_and_counted_as_dropped() {
         }
     }
     assert!(drops.dropped >= 6, "{drops:?}");
-    assert!(drops.dropped <= client.corrupted_frames(), "{drops:?} vs {}", client.corrupted_frames());
+    assert!(
+        drops.dropped <= client.corrupted_frames(),
+        "{drops:?} vs {}",
+        client.corrupted_frames()
+    );
 }
 
 #[test]
@@ -289,11 +433,25 @@ fn garbage_on_the_link_gets_a_malformed_reply_and_the_link_recovers() {
         .request(RequestBody::SetTelemetry { divider: 2 })
         .and_then(|_| client.request(RequestBody::Arm))
         .unwrap_err();
-    assert!(matches!(e, pamctl::link::ClientError::Refused { code: ErrorCode::NotHomed, .. }));
+    assert!(matches!(
+        e,
+        pamctl::link::ClientError::Refused {
+            code: ErrorCode::NotHomed,
+            ..
+        }
+    ));
 }
 
 #[test]
 fn ports_lists_or_says_none() {
-    let out = Command::new(env!("CARGO_BIN_EXE_pamctl")).arg("ports").output().unwrap();
-    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(env!("CARGO_BIN_EXE_pamctl"))
+        .arg("ports")
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

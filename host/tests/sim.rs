@@ -18,7 +18,11 @@ fn exclusive() -> std::sync::MutexGuard<'static, ()> {
 }
 
 fn start(handle: HandleMode) -> (Emulator, String) {
-    let config = SimConfig { handle, command_timeout_s: 1.0, ..SimConfig::default() };
+    let config = SimConfig {
+        handle,
+        command_timeout_s: 1.0,
+        ..SimConfig::default()
+    };
     let mut e = Emulator::start(config).expect("emulator");
     let addr = e.listen_tcp("127.0.0.1:0").expect("listen");
     (e, format!("tcp://{addr}"))
@@ -50,10 +54,17 @@ fn unequal_pressures_turn_the_twin_and_the_encoders_see_it() {
     c.command(RequestBody::Home).unwrap();
     c.command(RequestBody::Arm).unwrap();
     let still = run(&c, 0.2);
-    assert!(still.alpha_rad.iter().all(|a| a.abs() < 1e-3), "{:?}", still.alpha_rad);
+    assert!(
+        still.alpha_rad.iter().all(|a| a.abs() < 1e-3),
+        "{:?}",
+        still.alpha_rad
+    );
     // joint 1's pair (channels 0, 1): one muscle at 3 bar, the other vented. The free arm
     // swings (the twin's arm is lightly damped): look at the largest excursion.
-    c.command(RequestBody::SetMode(Mode::Pressures { pressure_bar: [3.0, 0.1, 1.5, 1.5] })).unwrap();
+    c.command(RequestBody::SetMode(Mode::Pressures {
+        pressure_bar: [3.0, 0.1, 1.5, 1.5],
+    }))
+    .unwrap();
     c.start_telemetry();
     let start = Instant::now();
     let mut largest: f32 = 0.0;
@@ -75,23 +86,37 @@ fn a_new_connection_takes_the_stream_over_and_the_old_one_still_gets_replies() {
     let (_emu, address) = start(HandleMode::Free);
     let first = connect(&address);
     first.start_telemetry();
-    assert!(first.next_telemetry(Duration::from_millis(500)).unwrap().is_some());
+    assert!(first
+        .next_telemetry(Duration::from_millis(500))
+        .unwrap()
+        .is_some());
     let second = connect(&address);
     second.start_telemetry();
-    assert!(second.next_telemetry(Duration::from_millis(500)).unwrap().is_some());
+    assert!(second
+        .next_telemetry(Duration::from_millis(500))
+        .unwrap()
+        .is_some());
     // the old client still talks to the device
-    assert!(matches!(first.request(RequestBody::GetStatus), Ok(ReplyData::Status(_))));
+    assert!(matches!(
+        first.request(RequestBody::GetStatus),
+        Ok(ReplyData::Status(_))
+    ));
     drop(second);
     // a dropped connection does not stop the device: a third one works
     let third = connect(&address);
-    assert!(matches!(third.request(RequestBody::GetStatus), Ok(ReplyData::Status(s)) if s.state == State::Disarmed));
+    assert!(
+        matches!(third.request(RequestBody::GetStatus), Ok(ReplyData::Status(s)) if s.state == State::Disarmed)
+    );
     // garbage from a raw socket does not hurt either
     use std::io::Write;
     let mut raw = std::net::TcpStream::connect(address.trim_start_matches("tcp://")).unwrap();
     raw.write_all(&[0xFF; 2000]).unwrap();
     drop(raw);
     let fourth = connect(&address);
-    assert!(matches!(fourth.request(RequestBody::GetStatus), Ok(ReplyData::Status(_))));
+    assert!(matches!(
+        fourth.request(RequestBody::GetStatus),
+        Ok(ReplyData::Status(_))
+    ));
 }
 
 #[test]
@@ -101,11 +126,23 @@ fn blocked_handle_in_force_mode_measures_the_commanded_force() {
     let c = connect(&address);
     c.command(RequestBody::Home).unwrap();
     c.command(RequestBody::Arm).unwrap();
-    c.command(RequestBody::SetMode(Mode::Force { force_n: [0.0, -8.0], stiffness_nm_per_rad: [60.0, 27.0], feed_forward: false }))
-        .unwrap();
+    c.command(RequestBody::SetMode(Mode::Force {
+        force_n: [0.0, -8.0],
+        stiffness_nm_per_rad: [60.0, 27.0],
+        feed_forward: false,
+    }))
+    .unwrap();
     let t = run(&c, 0.8);
-    assert!((t.force_user_n[1] + 8.0).abs() < 2.0 && t.force_user_n[0].abs() < 2.0, "{:?}", t.force_user_n);
-    assert!(t.alpha_rad.iter().all(|a| a.abs() < 1e-3), "blocked, yet moved: {:?}", t.alpha_rad);
+    assert!(
+        (t.force_user_n[1] + 8.0).abs() < 2.0 && t.force_user_n[0].abs() < 2.0,
+        "{:?}",
+        t.force_user_n
+    );
+    assert!(
+        t.alpha_rad.iter().all(|a| a.abs() < 1e-3),
+        "blocked, yet moved: {:?}",
+        t.alpha_rad
+    );
 }
 
 #[cfg(target_os = "linux")]
@@ -130,7 +167,13 @@ fn sim_rejects_unknown_effects_and_lists_the_known_ones() {
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("no_such_effect") && err.contains("mains_hum"), "{err}");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pamctl")).args(["sim", "--list-effects"]).output().unwrap();
+    assert!(
+        err.contains("no_such_effect") && err.contains("mains_hum"),
+        "{err}"
+    );
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pamctl"))
+        .args(["sim", "--list-effects"])
+        .output()
+        .unwrap();
     assert!(String::from_utf8_lossy(&out.stdout).contains("transport_delay"));
 }

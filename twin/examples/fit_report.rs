@@ -32,7 +32,14 @@ fn main() {
     );
     println!("{:<34} K  253.7  107.1  364.0 | B   26.6    9.4    0.9 | M   0.93  -0.05  -0.03 | R² 0.28–0.98", "thesis (temporal fit, §4.3)");
     println!("{:<34} K  145.9   73.5  387.0 |", "thesis (static trial)");
-    row("twin, base chain", &ExperimentConfig::thesis());
+    row(
+        "twin, base chain (thesis model)",
+        &ExperimentConfig::thesis(),
+    );
+    row(
+        "twin, identified rig",
+        &ExperimentConfig::new(pam_twin::TwinConfig::identified_rig()),
+    );
     for e in effects::catalog() {
         let mut cfg = ExperimentConfig::thesis();
         cfg.twin.effects = EffectSet::none().with(e.boxed_clone()).unwrap();

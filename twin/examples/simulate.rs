@@ -18,7 +18,7 @@ use pam_twin::TwinConfig;
 
 fn usage() -> &'static str {
     "usage: simulate --experiment dynamic|static|force_step [--point N] [--pose N] [--stiffness low|high] \
-     [--duration S] [--period S] [--seed N] [--with EFFECT_SPEC]... [--feed-forward] --out FILE\n       simulate --list-effects"
+     [--duration S] [--period S] [--seed N] [--with EFFECT_SPEC]... [--feed-forward] [--identified-rig] --out FILE\n       simulate --list-effects"
 }
 
 fn run() -> Result<(), String> {
@@ -29,6 +29,7 @@ fn run() -> Result<(), String> {
     let mut specs: Vec<String> = Vec::new();
     let mut out = None;
     let mut feed_forward = false;
+    let mut identified_rig = false;
     let mut i = 0;
     let value = |i: &mut usize| -> Result<String, String> {
         *i += 1;
@@ -65,6 +66,7 @@ fn run() -> Result<(), String> {
             "--seed" => seed = num(value(&mut i)?, "--seed")? as u64,
             "--with" => specs.push(value(&mut i)?),
             "--feed-forward" => feed_forward = true,
+            "--identified-rig" => identified_rig = true,
             "--out" => out = Some(value(&mut i)?),
             "-h" | "--help" => {
                 println!("{}", usage());
@@ -76,7 +78,11 @@ fn run() -> Result<(), String> {
     }
     let experiment = experiment.ok_or_else(|| format!("--experiment is required\n{}", usage()))?;
     let out = out.ok_or_else(|| format!("--out is required\n{}", usage()))?;
-    let mut twin = TwinConfig::thesis();
+    let mut twin = if identified_rig {
+        TwinConfig::identified_rig()
+    } else {
+        TwinConfig::thesis()
+    };
     twin.seed = seed;
     twin.effects = EffectSet::parse_list(&specs).map_err(|e| e.to_string())?;
     let mut cfg = ExperimentConfig::new(twin);

@@ -109,16 +109,19 @@ pub struct MechanicsConfig {
     pub hard_stop_stiffness_nm_per_rad: f64,
     pub hard_stop_damping_nm_s_per_rad: f64,
     /// Passive stiffness in parallel with each muscle pair, rest at the neutral pose
-    /// (α = 0). The default is calibrated from the thesis's identified stiffness
-    /// ([`crate::rig`]); zero gives the thesis's model alone.
+    /// (α = 0). Zero by default (the thesis's model); [`MechanicsConfig::identified_rig`]
+    /// calibrates it from the thesis's identified stiffness ([`crate::rig`]).
     pub parallel_stiffness_nm_per_rad: [f64; 2],
 }
 
 impl MechanicsConfig {
-    /// The thesis's model alone: no parallel stiffness.
-    pub fn thesis_model() -> Self {
+    /// The rig as the thesis measured it at point 1: the default mechanics plus the parallel
+    /// stiffness of [`crate::rig::parallel_stiffness_from_thesis`].
+    pub fn identified_rig() -> Self {
         MechanicsConfig {
-            parallel_stiffness_nm_per_rad: [0.0; 2],
+            parallel_stiffness_nm_per_rad: crate::rig::parallel_stiffness_from_thesis(
+                &RobotParams::thesis(),
+            ),
             ..Self::default()
         }
     }
@@ -127,9 +130,7 @@ impl MechanicsConfig {
 impl Default for MechanicsConfig {
     fn default() -> Self {
         MechanicsConfig {
-            parallel_stiffness_nm_per_rad: crate::rig::parallel_stiffness_from_thesis(
-                &RobotParams::thesis(),
-            ),
+            parallel_stiffness_nm_per_rad: [0.0; 2],
             joint_damping_nm_s_per_rad: [0.05, 0.05],
             hard_stop_margin_rad: 0.06,
             hard_stop_stiffness_nm_per_rad: 3000.0,
@@ -171,6 +172,14 @@ impl TwinConfig {
     }
     pub fn thesis() -> Self {
         Self::new(RobotParams::thesis())
+    }
+    /// [`TwinConfig::thesis`] with the rig's identified parallel stiffness
+    /// ([`MechanicsConfig::identified_rig`]).
+    pub fn identified_rig() -> Self {
+        TwinConfig {
+            mechanics: MechanicsConfig::identified_rig(),
+            ..Self::thesis()
+        }
     }
 }
 

@@ -43,7 +43,7 @@ fn print_mat(name: &str, m: &Mat2<f64>) -> String {
 /// issue 3 asks for it within a factor 1.5 of the print.
 #[test]
 fn dynamic_trial_point1_fits_linear_msd_with_positive_masses() {
-    let cfg = ExperimentConfig::thesis();
+    let cfg = ExperimentConfig::new(TwinConfig::identified_rig());
     let model = RobotModel::new(cfg.twin.params);
     let log = dynamic_trial(&cfg, 1, StiffnessLevel::Low, 90.0).unwrap();
     assert_eq!(log.len(), 90_000);
@@ -105,18 +105,29 @@ fn dynamic_trial_point1_fits_linear_msd_with_positive_masses() {
     }
 }
 
-/// Without the rig's parallel stiffness the twin is the thesis's model: the fitted stiffness
+/// The default twin (no parallel stiffness) is the thesis's model: the fitted stiffness
 /// is the model's K_C (and so a factor 1.6–3 under the thesis's measurement).
 #[test]
 fn thesis_model_alone_gives_the_model_stiffness() {
-    let mut cfg = ExperimentConfig::thesis();
-    cfg.twin.mechanics = pam_twin::MechanicsConfig::thesis_model();
+    let cfg = ExperimentConfig::thesis();
     let model = RobotModel::new(cfg.twin.params);
-    let fit = fit_msd(&dynamic_trial(&cfg, 1, StiffnessLevel::Low, 45.0).unwrap(), &model, [0.0; 2]);
+    let fit = fit_msd(
+        &dynamic_trial(&cfg, 1, StiffnessLevel::Low, 45.0).unwrap(),
+        &model,
+        [0.0; 2],
+    );
     let k_model = expected_k(&cfg, &model, StiffnessLevel::Low);
-    println!("{}   (model {:?})", print_mat("K_fit, thesis model alone", &fit.k), k_model.0);
+    println!(
+        "{}   (model {:?})",
+        print_mat("K_fit, thesis model alone", &fit.k),
+        k_model.0
+    );
     for (i, j) in [(0, 0), (0, 1), (1, 1)] {
-        assert!(rel(fit.k.0[i][j], k_model.0[i][j]) < 0.10, "K[{i}][{j}] {:?}", fit.k);
+        assert!(
+            rel(fit.k.0[i][j], k_model.0[i][j]) < 0.10,
+            "K[{i}][{j}] {:?}",
+            fit.k
+        );
     }
     assert!(fit.k.0[0][0] < 0.5 * pam_twin::rig::KC_DYNAMIC_LOW_POINT1_N_PER_M[0][0]);
 }
@@ -124,7 +135,7 @@ fn thesis_model_alone_gives_the_model_stiffness() {
 /// The high-stiffness trial is stiffer than the low one, by the model's ratio.
 #[test]
 fn dynamic_trial_point1_high_stiffness_is_stiffer() {
-    let cfg = ExperimentConfig::thesis();
+    let cfg = ExperimentConfig::new(TwinConfig::identified_rig());
     let model = RobotModel::new(cfg.twin.params);
     let low = fit_msd(
         &dynamic_trial(&cfg, 1, StiffnessLevel::Low, 45.0).unwrap(),
@@ -175,7 +186,7 @@ fn dynamic_trial_at_the_thesis_50ms_period() {
 /// K_C (the thesis measured [[145.9, 73.5], [73.5, 387.0]] at point 1, minimum stiffness).
 #[test]
 fn static_trial_point1_gives_the_spring_of_the_model() {
-    let cfg = ExperimentConfig::thesis();
+    let cfg = ExperimentConfig::new(TwinConfig::identified_rig());
     let model = RobotModel::new(cfg.twin.params);
     let log = static_trial(&cfg, 1, StiffnessLevel::Low).unwrap();
     let (x, y) = handle_positions(&log, &model);

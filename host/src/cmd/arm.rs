@@ -5,7 +5,9 @@ use pam_protocol::RequestBody;
 
 pub fn run(link: &LinkArgs, out: &mut dyn std::io::Write) -> Result<(), String> {
     let client = super::connect(link)?;
-    client.command(RequestBody::Arm).map_err(|e| e.to_string())?;
+    client
+        .command(RequestBody::Arm)
+        .map_err(|e| e.to_string())?;
     super::done(
         out,
         "armed. The device disarms itself (command timeout) unless the host keeps talking: \

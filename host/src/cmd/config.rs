@@ -112,7 +112,8 @@ pub fn parse_toml(text: &str, source: &str) -> Result<ConfigFile, String> {
 pub fn send(client: &Client, f: &ConfigFile, out: &mut dyn Write) -> Result<(), String> {
     let sections = [
         f.robot.map(|p| ("robot", Config::Robot(p))),
-        f.calibration.map(|c| ("calibration", Config::Calibration(c))),
+        f.calibration
+            .map(|c| ("calibration", Config::Calibration(c))),
         f.limits.map(|l| ("limits", Config::Limits(l))),
     ];
     let mut sent = 0;
@@ -154,7 +155,10 @@ pub fn assign(doc: &mut toml::Value, assignment: &str) -> Result<(), String> {
         })?;
     }
     let same_kind = std::mem::discriminant(node) == std::mem::discriminant(&value)
-        || matches!((&*node, &value), (toml::Value::Float(_), toml::Value::Integer(_)));
+        || matches!(
+            (&*node, &value),
+            (toml::Value::Float(_), toml::Value::Integer(_))
+        );
     if !same_kind {
         return Err(format!(
             "`{path}` holds a {}, not a {}",
@@ -201,11 +205,15 @@ pub fn run(c: ConfigCommand, link: &LinkArgs, out: &mut dyn Write) -> Result<(),
                 .map_err(|e| format!("the edited configuration does not read back: {e}"))?;
             // only the sections that were touched go to the device
             let f = ConfigFile {
-                robot: edited.robot.filter(|_| touched.iter().any(|s| s == "robot")),
+                robot: edited
+                    .robot
+                    .filter(|_| touched.iter().any(|s| s == "robot")),
                 calibration: edited
                     .calibration
                     .filter(|_| touched.iter().any(|s| s == "calibration")),
-                limits: edited.limits.filter(|_| touched.iter().any(|s| s == "limits")),
+                limits: edited
+                    .limits
+                    .filter(|_| touched.iter().any(|s| s == "limits")),
             };
             send(&client, &f, out)
         }
@@ -243,10 +251,18 @@ mod tests {
         assert_eq!(f.limits.unwrap().command_timeout_s, 0.2);
         assert_eq!(f.limits.unwrap().slew_bar_per_s, 40.0);
         assert_eq!(f.robot.unwrap().joints[1].pulley_radius_m, 0.05);
-        assert!(assign(&mut doc, "limits.nope=1").unwrap_err().contains("no `nope`"));
-        assert!(assign(&mut doc, "limits.command_timeout_s").unwrap_err().contains("PATH=VALUE"));
-        assert!(assign(&mut doc, "limits.command_timeout_s=true").unwrap_err().contains("float"));
-        assert!(assign(&mut doc, "limits.command_timeout_s=abc").unwrap_err().contains("not a TOML value"));
+        assert!(assign(&mut doc, "limits.nope=1")
+            .unwrap_err()
+            .contains("no `nope`"));
+        assert!(assign(&mut doc, "limits.command_timeout_s")
+            .unwrap_err()
+            .contains("PATH=VALUE"));
+        assert!(assign(&mut doc, "limits.command_timeout_s=true")
+            .unwrap_err()
+            .contains("float"));
+        assert!(assign(&mut doc, "limits.command_timeout_s=abc")
+            .unwrap_err()
+            .contains("not a TOML value"));
     }
 
     #[test]

@@ -25,8 +25,8 @@ use pam_log::LogWriter;
 use pam_model::{RobotModel, Vec2};
 use pam_protocol::{Config, ConfigSection, ReplyData, RequestBody};
 use pam_twin::experiments::{
-    static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel, STEP_POSES_DEG,
-    TABLE_4_1_POINTS_DEG,
+    static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
+    STEP_POSES_DEG, TABLE_4_1_POINTS_DEG,
 };
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -128,7 +128,12 @@ impl Session<'_> {
 
     /// Runs the link for `seconds` of host time, writing rows into `trial` if given.
     /// Ends early (error) on Ctrl-C or a device fault.
-    fn run_for(&mut self, seconds: f64, mut trial: Option<&mut Trial>, label: &str) -> Result<(), String> {
+    fn run_for(
+        &mut self,
+        seconds: f64,
+        mut trial: Option<&mut Trial>,
+        label: &str,
+    ) -> Result<(), String> {
         let start = Instant::now();
         let mut last_progress = Instant::now() - Duration::from_secs(1);
         while start.elapsed().as_secs_f64() < seconds {
@@ -139,7 +144,11 @@ impl Session<'_> {
                 self.client.heartbeat().map_err(|e| e.to_string())?;
                 self.last_beat = Instant::now();
             }
-            while let Some(t) = self.client.next_telemetry(Duration::from_millis(5)).map_err(|e| e.to_string())? {
+            while let Some(t) = self
+                .client
+                .next_telemetry(Duration::from_millis(5))
+                .map_err(|e| e.to_string())?
+            {
                 if t.state == State::Faulted {
                     return Err(format!(
                         "the device faulted ({}); the robot is in its safe state",
@@ -169,7 +178,8 @@ impl Session<'_> {
                     "\r{label}: {:.1} / {:.1} s{}   ",
                     start.elapsed().as_secs_f64(),
                     seconds,
-                    rows.map(|(r, d)| format!(", {r} samples, {d} dropped")).unwrap_or_default()
+                    rows.map(|(r, d)| format!(", {r} samples, {d} dropped"))
+                        .unwrap_or_default()
                 );
                 let _ = self.progress.flush();
             }
@@ -181,7 +191,13 @@ impl Session<'_> {
     /// Brings the arm to `alpha` in joint mode with a smooth (cosine) ramp of the target from
     /// where it is, then lets it settle: a step of the target would swing the lightly
     /// damped arm past its range.
-    fn move_to(&mut self, alpha: Vec2<f64>, k: Vec2<f64>, settle_s: f64, label: &str) -> Result<(), String> {
+    fn move_to(
+        &mut self,
+        alpha: Vec2<f64>,
+        k: Vec2<f64>,
+        settle_s: f64,
+        label: &str,
+    ) -> Result<(), String> {
         if self.alpha_rad.is_none() {
             self.run_for(0.05, None, label)?;
         }
@@ -190,7 +206,10 @@ impl Session<'_> {
         let steps = (ramp_s / 0.02).ceil().max(1.0) as usize;
         for i in 1..=steps {
             let w = 0.5 - 0.5 * (std::f64::consts::PI * i as f64 / steps as f64).cos();
-            let a = [from[0] + w * (alpha[0] - from[0]), from[1] + w * (alpha[1] - from[1])];
+            let a = [
+                from[0] + w * (alpha[0] - from[0]),
+                from[1] + w * (alpha[1] - from[1]),
+            ];
             self.set_mode(joint_mode(a, k))?;
             self.run_for(ramp_s / steps as f64, None, label)?;
         }
@@ -222,7 +241,10 @@ impl Session<'_> {
 const MOVE_S_PER_RAD: f64 = 10.0;
 
 fn device_model(client: &Client) -> Result<RobotModel<f64>, String> {
-    match client.request(RequestBody::GetConfig(ConfigSection::Robot)).map_err(|e| e.to_string())? {
+    match client
+        .request(RequestBody::GetConfig(ConfigSection::Robot))
+        .map_err(|e| e.to_string())?
+    {
         ReplyData::Config(Config::Robot(p)) => Ok(RobotModel::new(p.cast())),
         _ => Err("the device answered config get robot with the wrong kind of reply".into()),
     }
@@ -271,20 +293,46 @@ fn open_trial(
     let mut all: Vec<(&str, String)> = meta.to_vec();
     all.extend([
         ("source", "pamctl experiment".to_string()),
-        ("firmware", format!("{}.{}.{}", info.firmware_version.major, info.firmware_version.minor, info.firmware_version.patch)),
+        (
+            "firmware",
+            format!(
+                "{}.{}.{}",
+                info.firmware_version.major,
+                info.firmware_version.minor,
+                info.firmware_version.patch
+            ),
+        ),
         ("params_hash", format!("{:08x}", info.params_hash)),
-        ("sample_period_s", format!("{}", info.period_us as f64 * 1e-6)),
+        (
+            "sample_period_s",
+            format!("{}", info.period_us as f64 * 1e-6),
+        ),
     ]);
     let meta_ref: Vec<(&str, &str)> = all.iter().map(|(k, v)| (*k, v.as_str())).collect();
     let writer = LogWriter::create(&path, &columns(with_force_ref), &meta_ref)
         .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-    Ok(Trial { writer, path, with_force_ref, clock: Clock::default(), last_t: f64::NEG_INFINITY, drops: DropCounter::default() })
+    Ok(Trial {
+        writer,
+        path,
+        with_force_ref,
+        clock: Clock::default(),
+        last_t: f64::NEG_INFINITY,
+        drops: DropCounter::default(),
+    })
 }
 
 fn close_trial(trial: Trial, out: &mut dyn Write) -> Result<PathBuf, String> {
     let (rows, dropped, path) = (trial.writer.rows(), trial.drops.dropped, trial.path.clone());
-    trial.writer.finish().map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    writeln!(out, "wrote {} ({rows} samples, {dropped} dropped on the link)", path.display()).map_err(|e| e.to_string())?;
+    trial
+        .writer
+        .finish()
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    writeln!(
+        out,
+        "wrote {} ({rows} samples, {dropped} dropped on the link)",
+        path.display()
+    )
+    .map_err(|e| e.to_string())?;
     Ok(path)
 }
 
@@ -298,7 +346,11 @@ fn joint_mode(alpha: Vec2<f64>, k: Vec2<f64>) -> Mode {
 
 /// Arms the device if needed (it must be homed and free of faults).
 fn arm(s: &mut Session) -> Result<(), String> {
-    match s.client.request(RequestBody::GetStatus).map_err(|e| e.to_string())? {
+    match s
+        .client
+        .request(RequestBody::GetStatus)
+        .map_err(|e| e.to_string())?
+    {
         ReplyData::Status(st) if st.state == State::Armed => Ok(()),
         ReplyData::Status(st) if st.state == State::Faulted => Err(format!(
             "the device is faulted ({}): `pamctl disarm`, `pamctl fault clear`, then try again",
@@ -317,15 +369,28 @@ pub fn experiment(
     progress: &mut dyn Write,
 ) -> Result<Vec<PathBuf>, String> {
     positive("--settle-s", args.settle_s)?;
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
     let model = device_model(client)?;
-    if let ReplyData::Status(st) = client.request(RequestBody::GetStatus).map_err(|e| e.to_string())? {
+    if let ReplyData::Status(st) = client
+        .request(RequestBody::GetStatus)
+        .map_err(|e| e.to_string())?
+    {
         if st.telemetry_divider != 1 {
-            client.command(RequestBody::SetTelemetry { divider: 1 }).map_err(|e| e.to_string())?;
+            client
+                .command(RequestBody::SetTelemetry { divider: 1 })
+                .map_err(|e| e.to_string())?;
         }
     }
     client.start_telemetry();
-    let mut s = Session { client, stop, progress, yes: args.yes, last_beat: Instant::now(), alpha_rad: None };
+    let mut s = Session {
+        client,
+        stop,
+        progress,
+        yes: args.yes,
+        last_beat: Instant::now(),
+        alpha_rad: None,
+    };
     let mut files = Vec::new();
     let result = run_trials(&mut s, &model, args, out, &mut files);
     // whatever happened: back to safe outputs
@@ -341,7 +406,12 @@ fn run_trials(
     files: &mut Vec<PathBuf>,
 ) -> Result<(), String> {
     match &args.kind {
-        ExperimentKind::Static { point, stiffness, hold_s, move_s } => {
+        ExperimentKind::Static {
+            point,
+            stiffness,
+            hold_s,
+            move_s,
+        } => {
             positive("--hold-s", *hold_s)?;
             positive("--move-s", *move_s)?;
             for p in points(*point)? {
@@ -350,22 +420,47 @@ fn run_trials(
                     let k = trial_stiffness(model, alpha, level);
                     let centre = model.kinematics.forward_user(alpha);
                     let label = format!("static point {p} K_{}", level_name(level));
-                    s.prompt(&format!("{label}: hold the handle lightly; the arm goes to point {p}"))?;
+                    s.prompt(&format!(
+                        "{label}: hold the handle lightly; the arm goes to point {p}"
+                    ))?;
                     arm(s)?;
-                    s.move_to(alpha, k, args.settle_s, &format!("{label}: going to the point"))?;
-                    let mut trial = open_trial(s.client, &args.out, &format!("static_p{p}_{}.csv", level_name(level)), false, &meta_trial("static", p, level, k, centre))?;
+                    s.move_to(
+                        alpha,
+                        k,
+                        args.settle_s,
+                        &format!("{label}: going to the point"),
+                    )?;
+                    let mut trial = open_trial(
+                        s.client,
+                        &args.out,
+                        &format!("static_p{p}_{}.csv", level_name(level)),
+                        false,
+                        &meta_trial("static", p, level, k, centre),
+                    )?;
                     for (i, target) in static_points(centre, 0.04).iter().enumerate() {
                         let d = [(target[0] - centre[0]) * 1e3, (target[1] - centre[1]) * 1e3];
                         let _ = writeln!(s.progress, ">>> point {}/9: move the handle to ({:+.0}, {:+.0}) mm from the centre, then hold it still", i + 1, d[0], d[1]);
-                        s.run_for(*move_s, Some(&mut trial), &format!("{label}: moving to {}/9", i + 1))?;
-                        s.run_for(*hold_s, Some(&mut trial), &format!("{label}: holding {}/9", i + 1))?;
+                        s.run_for(
+                            *move_s,
+                            Some(&mut trial),
+                            &format!("{label}: moving to {}/9", i + 1),
+                        )?;
+                        s.run_for(
+                            *hold_s,
+                            Some(&mut trial),
+                            &format!("{label}: holding {}/9", i + 1),
+                        )?;
                     }
                     files.push(close_trial(trial, out)?);
                     s.set_mode(Mode::Idle)?;
                 }
             }
         }
-        ExperimentKind::Dynamic { point, stiffness, duration_s } => {
+        ExperimentKind::Dynamic {
+            point,
+            stiffness,
+            duration_s,
+        } => {
             positive("--duration-s", *duration_s)?;
             for p in points(*point)? {
                 for level in levels(*stiffness) {
@@ -374,21 +469,44 @@ fn run_trials(
                     let centre = model.kinematics.forward_user(alpha);
                     let label = format!("dynamic point {p} K_{}", level_name(level));
                     arm(s)?;
-                    s.move_to(alpha, k, args.settle_s, &format!("{label}: going to the point"))?;
+                    s.move_to(
+                        alpha,
+                        k,
+                        args.settle_s,
+                        &format!("{label}: going to the point"),
+                    )?;
                     s.prompt(&format!(
                         "{label}: move the handle smoothly, slow and fast, over the 8 cm square around the arm's rest point for {duration_s:.0} s"
                     ))?;
-                    let mut trial = open_trial(s.client, &args.out, &format!("dynamic_p{p}_{}.csv", level_name(level)), false, &meta_trial("dynamic", p, level, k, centre))?;
-                    s.run_for(*duration_s, Some(&mut trial), &format!("{label}: recording"))?;
+                    let mut trial = open_trial(
+                        s.client,
+                        &args.out,
+                        &format!("dynamic_p{p}_{}.csv", level_name(level)),
+                        false,
+                        &meta_trial("dynamic", p, level, k, centre),
+                    )?;
+                    s.run_for(
+                        *duration_s,
+                        Some(&mut trial),
+                        &format!("{label}: recording"),
+                    )?;
                     files.push(close_trial(trial, out)?);
                     let _ = writeln!(s.progress, ">>> {label}: done, let go of the handle");
                     s.set_mode(Mode::Idle)?;
                 }
             }
         }
-        ExperimentKind::Step { poses, hold_s, feed_forward } => {
+        ExperimentKind::Step {
+            poses,
+            hold_s,
+            feed_forward,
+        } => {
             positive("--hold-s", *hold_s)?;
-            let poses: Vec<usize> = if poses.is_empty() { (0..9).collect() } else { poses.clone() };
+            let poses: Vec<usize> = if poses.is_empty() {
+                (0..9).collect()
+            } else {
+                poses.clone()
+            };
             if let Some(bad) = poses.iter().find(|&&i| i > 8) {
                 return Err(format!("--pose {bad}: the nine poses are 0–8"));
             }
@@ -399,9 +517,18 @@ fn run_trials(
                 let stiffness = [k[0] as f32, k[1] as f32];
                 let label = format!("step pose {i} ({:+}°, {:+}°)", pose_deg[0], pose_deg[1]);
                 arm(s)?;
-                s.move_to(alpha, k, args.settle_s, &format!("{label}: going to the pose"))?;
+                s.move_to(
+                    alpha,
+                    k,
+                    args.settle_s,
+                    &format!("{label}: going to the pose"),
+                )?;
                 s.prompt(&format!("{label}: block the handle where it is"))?;
-                s.set_mode(Mode::Force { force_n: [0.0; 2], stiffness_nm_per_rad: stiffness, feed_forward: *feed_forward })?;
+                s.set_mode(Mode::Force {
+                    force_n: [0.0; 2],
+                    stiffness_nm_per_rad: stiffness,
+                    feed_forward: *feed_forward,
+                })?;
                 s.run_for(1.0, None, &format!("{label}: zero force"))?;
                 let meta = vec![
                     ("experiment", "force_step".to_string()),
@@ -409,13 +536,27 @@ fn run_trials(
                     ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
                     ("feed_forward", feed_forward.to_string()),
                 ];
-                let mut trial = open_trial(s.client, &args.out, &format!("step_pose{i}.csv"), true, &meta)?;
+                let mut trial = open_trial(
+                    s.client,
+                    &args.out,
+                    &format!("step_pose{i}.csv"),
+                    true,
+                    &meta,
+                )?;
                 for axis in 0..2 {
                     for level in step_levels() {
                         let mut f = [0.0f32; 2];
                         f[axis] = level as f32;
-                        s.set_mode(Mode::Force { force_n: f, stiffness_nm_per_rad: stiffness, feed_forward: *feed_forward })?;
-                        s.run_for(*hold_s, Some(&mut trial), &format!("{label}: F{} = {level:+.1} N", ["x", "y"][axis]))?;
+                        s.set_mode(Mode::Force {
+                            force_n: f,
+                            stiffness_nm_per_rad: stiffness,
+                            feed_forward: *feed_forward,
+                        })?;
+                        s.run_for(
+                            *hold_s,
+                            Some(&mut trial),
+                            &format!("{label}: F{} = {level:+.1} N", ["x", "y"][axis]),
+                        )?;
                     }
                 }
                 files.push(close_trial(trial, out)?);
@@ -427,7 +568,13 @@ fn run_trials(
     Ok(())
 }
 
-fn meta_trial(kind: &str, point: usize, level: StiffnessLevel, k: Vec2<f64>, centre: Vec2<f64>) -> Vec<(&'static str, String)> {
+fn meta_trial(
+    kind: &str,
+    point: usize,
+    level: StiffnessLevel,
+    k: Vec2<f64>,
+    centre: Vec2<f64>,
+) -> Vec<(&'static str, String)> {
     vec![
         ("experiment", kind.to_string()),
         ("point", point.to_string()),

@@ -4,8 +4,8 @@ pub mod disarm;
 pub mod experiment;
 pub mod fault;
 pub mod home;
-pub mod model;
 pub mod ident;
+pub mod model;
 pub mod model_loop;
 pub mod ports;
 pub mod record;
@@ -24,7 +24,8 @@ use std::time::Duration;
 /// Connects to `--device` with the handshake.
 pub fn connect(link: &LinkArgs) -> Result<Client, String> {
     let device = link.device.as_deref().ok_or_else(no_device_message)?;
-    Client::connect(device, Duration::from_millis(link.timeout_ms.max(1))).map_err(|e| e.to_string())
+    Client::connect(device, Duration::from_millis(link.timeout_ms.max(1)))
+        .map_err(|e| e.to_string())
 }
 
 /// Set by Ctrl-C (installed on first use; later uses share it).

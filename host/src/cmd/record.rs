@@ -170,7 +170,9 @@ pub fn record(
     }
     if let Some(div) = args.divider {
         client
-            .command(RequestBody::SetTelemetry { divider: div.max(1) })
+            .command(RequestBody::SetTelemetry {
+                divider: div.max(1),
+            })
             .map_err(|e| e.to_string())?;
     }
     let status = match client
@@ -194,11 +196,16 @@ pub fn record(
             "firmware".to_string(),
             format!(
                 "{}.{}.{}",
-                info.firmware_version.major, info.firmware_version.minor, info.firmware_version.patch
+                info.firmware_version.major,
+                info.firmware_version.minor,
+                info.firmware_version.patch
             ),
         ),
         ("protocol".to_string(), info.protocol_version.to_string()),
-        ("params_hash".to_string(), format!("{:08x}", info.params_hash)),
+        (
+            "params_hash".to_string(),
+            format!("{:08x}", info.params_hash),
+        ),
         (
             "sample_period_s".to_string(),
             format!("{}", status.period_us as f64 * 1e-6 * divider as f64),

@@ -25,7 +25,11 @@ pub enum SetMode {
     Idle,
     /// Four channel pressures, bar.
     Pressures {
-        #[arg(value_delimiter = ',', allow_negative_numbers = true, value_name = "P1,P2,P3,P4")]
+        #[arg(
+            value_delimiter = ',',
+            allow_negative_numbers = true,
+            value_name = "P1,P2,P3,P4"
+        )]
         pressure_bar: Vec<f64>,
     },
     /// Per joint: equilibrium angle, torque and stiffness.
@@ -39,7 +43,12 @@ pub enum SetMode {
     },
     /// Handle force in the user frame (τ = Jᵀ F at the measured pose).
     Force {
-        #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_name = "FX,FY")]
+        #[arg(
+            long,
+            value_delimiter = ',',
+            allow_negative_numbers = true,
+            value_name = "FX,FY"
+        )]
         force_n: Vec<f64>,
         #[arg(long, value_delimiter = ',', default_values_t = [60.0, 27.0], allow_negative_numbers = true, value_name = "K1,K2")]
         stiffness_nm_per_rad: Vec<f64>,
@@ -97,7 +106,9 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), St
     let mode = mode_of(&args.mode)?;
     let hold = match args.hold {
         Some(h) if h.is_nan() || h < 0.0 => {
-            return Err(format!("--hold {h}: give a duration in seconds ≥ 0, or inf"))
+            return Err(format!(
+                "--hold {h}: give a duration in seconds ≥ 0, or inf"
+            ))
         }
         h => h.unwrap_or(0.0),
     };
@@ -106,7 +117,8 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), St
     client
         .command(RequestBody::SetMode(mode))
         .map_err(|e| e.to_string())?;
-    writeln!(out, "mode set: {}", super::status::describe_mode(&mode)).map_err(|e| e.to_string())?;
+    writeln!(out, "mode set: {}", super::status::describe_mode(&mode))
+        .map_err(|e| e.to_string())?;
     // a few samples tell whether the target had to be clamped at this pose
     let mut clamped = false;
     for _ in 0..5 {

@@ -30,6 +30,10 @@ pub struct SimArgs {
     /// Stop after this many seconds (default: until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     pub seconds: Option<f64>,
+    /// Simulate the rig with the stiffness the thesis identified (a parallel joint stiffness,
+    /// twin/README.md) instead of the thesis's model.
+    #[arg(long)]
+    pub identified_rig: bool,
     /// List the twin's effects and their parameters, then exit.
     #[arg(long)]
     pub list_effects: bool,
@@ -49,7 +53,13 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
         }
     }
     let effects = EffectSet::parse_list(&args.with).map_err(|e| format!("--with: {e}"))?;
-    let mut config = SimConfig { effects, handle: args.handle, seed: args.seed, ..SimConfig::default() };
+    let mut config = SimConfig {
+        effects,
+        handle: args.handle,
+        seed: args.seed,
+        identified_rig: args.identified_rig,
+        ..SimConfig::default()
+    };
     if let Some(t) = args.command_timeout_s {
         config.command_timeout_s = t;
     }
@@ -79,12 +89,20 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
     let started = Instant::now();
     let mut last_report = Instant::now();
     let mut late_reported = 0;
-    while !stop.load(Ordering::SeqCst) && args.seconds.is_none_or(|s| started.elapsed().as_secs_f64() < s) {
+    while !stop.load(Ordering::SeqCst)
+        && args
+            .seconds
+            .is_none_or(|s| started.elapsed().as_secs_f64() < s)
+    {
         std::thread::sleep(Duration::from_millis(20));
         // tell about late periods as they happen, at most every 10 s
         let late = emulator.stats.late.load(Ordering::Relaxed);
         if late > late_reported && last_report.elapsed() >= Duration::from_secs(10) {
-            eprintln!("sim: {} late periods so far (caught up): {}", late, emulator.stats.summary());
+            eprintln!(
+                "sim: {} late periods so far (caught up): {}",
+                late,
+                emulator.stats.summary()
+            );
             late_reported = late;
             last_report = Instant::now();
         }

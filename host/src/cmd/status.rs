@@ -123,6 +123,9 @@ pub fn run(link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
     )?;
     match sample {
         Some(t) => w(out, format!("sample: {}", describe_sample(&t))),
-        None => w(out, "sample: none (telemetry off: `pamctl record` turns it on)".into()),
+        None => w(
+            out,
+            "sample: none (telemetry off: `pamctl record` turns it on)".into(),
+        ),
     }
 }

@@ -5,6 +5,8 @@ use pam_protocol::RequestBody;
 
 pub fn run(link: &LinkArgs, out: &mut dyn std::io::Write) -> Result<(), String> {
     let client = super::connect(link)?;
-    client.command(RequestBody::Tare).map_err(|e| e.to_string())?;
+    client
+        .command(RequestBody::Tare)
+        .map_err(|e| e.to_string())?;
     super::done(out, "tared: the present load-cell reading is zero force")
 }

@@ -109,8 +109,13 @@ impl View {
                 h.pop_front();
             }
         }
-        self.recent_timing.push_back((now, t.loop_exec_us, t.loop_jitter_us));
-        while self.recent_timing.front().is_some_and(|(t0, _, _)| now - t0 > 1.0) {
+        self.recent_timing
+            .push_back((now, t.loop_exec_us, t.loop_jitter_us));
+        while self
+            .recent_timing
+            .front()
+            .is_some_and(|(t0, _, _)| now - t0 > 1.0)
+        {
             self.recent_timing.pop_front();
         }
         self.last = Some(*t);
@@ -157,7 +162,10 @@ impl View {
 
     /// The full view, one string per line.
     pub fn render(&self, device: &str) -> Vec<String> {
-        let mut lines = vec![format!("pamctl watch — {device}   (Ctrl-C to stop)"), String::new()];
+        let mut lines = vec![
+            format!("pamctl watch — {device}   (Ctrl-C to stop)"),
+            String::new(),
+        ];
         let Some(t) = self.last else {
             lines.push("waiting for telemetry…".into());
             return lines;
@@ -191,7 +199,11 @@ impl View {
         for (i, (name, unit)) in SIGNALS.iter().enumerate() {
             let h = &self.history[i];
             let now = h.back().map(|x| x.1).unwrap_or(0.0);
-            let (lo, hi) = h.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x.1), hi.max(x.1)));
+            let (lo, hi) = h
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                    (lo.min(x.1), hi.max(x.1))
+                });
             lines.push(format!(
                 "{name:>3} {now:+8.2} {unit:<3} {}  [{lo:+.2} … {hi:+.2}]",
                 sparkline(h, PLOT_WIDTH)
@@ -257,9 +269,14 @@ pub fn watch(
             return Err(format!("--seconds {s}: give a positive number of seconds"));
         }
     }
-    if let ReplyData::Status(s) = client.request(RequestBody::GetStatus).map_err(|e| e.to_string())? {
+    if let ReplyData::Status(s) = client
+        .request(RequestBody::GetStatus)
+        .map_err(|e| e.to_string())?
+    {
         if s.telemetry_divider == 0 {
-            client.command(RequestBody::SetTelemetry { divider: 1 }).map_err(|e| e.to_string())?;
+            client
+                .command(RequestBody::SetTelemetry { divider: 1 })
+                .map_err(|e| e.to_string())?;
         }
     }
     let mut view = View::new(args.window);
@@ -274,7 +291,10 @@ pub fn watch(
             client.heartbeat().map_err(|e| e.to_string())?;
             last_beat = Instant::now();
         }
-        while let Some(t) = client.next_telemetry(Duration::from_millis(5)).map_err(|e| e.to_string())? {
+        while let Some(t) = client
+            .next_telemetry(Duration::from_millis(5))
+            .map_err(|e| e.to_string())?
+        {
             view.push(&t);
             if last_beat.elapsed() >= Duration::from_millis(25) {
                 break;
@@ -311,7 +331,9 @@ pub fn run(args: WatchArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), 
                 frame.push_str("\x1b[K\r\n");
             }
             frame.push_str("\x1b[J");
-            out.write_all(frame.as_bytes()).and_then(|_| out.flush()).map_err(io)
+            out.write_all(frame.as_bytes())
+                .and_then(|_| out.flush())
+                .map_err(io)
         });
         write!(out, "\x1b[?25h").map_err(io)?;
         let view = result?;
@@ -364,12 +386,19 @@ mod tests {
         assert!(text.contains("state armed   mode joint"), "{text}");
         assert!(text.contains("dropped 3"), "{text}");
         assert!(text.contains("jitter max 49 µs"), "{text}");
-        let a1 = lines.iter().find(|l| l.trim_start().starts_with("α1")).unwrap();
+        let a1 = lines
+            .iter()
+            .find(|l| l.trim_start().starts_with("α1"))
+            .unwrap();
         assert!(a1.contains("+19.90"), "{a1}");
         // a ramp: the plot starts at the bottom and ends at the top
         let plot: Vec<char> = sparkline(&v.history[0], 20).chars().collect();
         assert_eq!((plot[0], plot[19]), ('▁', '█'));
-        assert!(v.summary().contains("α (+19.90°, +0.00°)"), "{}", v.summary());
+        assert!(
+            v.summary().contains("α (+19.90°, +0.00°)"),
+            "{}",
+            v.summary()
+        );
     }
 
     #[test]

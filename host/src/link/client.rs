@@ -3,8 +3,8 @@
 
 use super::transport::{self, DeviceAddress};
 use pam_protocol::{
-    encode_frame, DeviceInfo, DeviceMessage, ErrorCode, FaultEvent, FrameDecoder, Reply,
-    ReplyData, Request, RequestBody, Telemetry, MAX_FRAME, PROTOCOL_VERSION,
+    encode_frame, DeviceInfo, DeviceMessage, ErrorCode, FaultEvent, FrameDecoder, Reply, ReplyData,
+    Request, RequestBody, Telemetry, MAX_FRAME, PROTOCOL_VERSION,
 };
 use std::fmt;
 use std::io::{ErrorKind, Write};
@@ -19,7 +19,10 @@ pub enum ClientError {
     /// Opening or writing the link failed (message says what to check).
     Link(String),
     /// No reply in time.
-    Timeout { request: &'static str, after: Duration },
+    Timeout {
+        request: &'static str,
+        after: Duration,
+    },
     /// The device refused the request; it changed nothing.
     Refused {
         request: &'static str,
@@ -269,7 +272,9 @@ impl Client {
         }
         let mut buf = [0u8; MAX_FRAME];
         let n = encode_frame(&Request { id, body }, &mut buf).map_err(|e| {
-            ClientError::Link(format!("cannot encode the request ({e:?}); this is a pamctl bug"))
+            ClientError::Link(format!(
+                "cannot encode the request ({e:?}); this is a pamctl bug"
+            ))
         })?;
         self.write_bytes(&buf[..n]).map_err(ClientError::Link)?;
         Ok(id)
@@ -448,8 +453,12 @@ mod tests {
             DeviceAddress::parse("/dev/ttyACM0"),
             Ok(DeviceAddress::Serial("/dev/ttyACM0".into()))
         );
-        assert!(DeviceAddress::parse("tcp://nohost").unwrap_err().contains("tcp://HOST:PORT"));
-        assert!(DeviceAddress::parse("udp://x:1").unwrap_err().contains("unknown scheme"));
+        assert!(DeviceAddress::parse("tcp://nohost")
+            .unwrap_err()
+            .contains("tcp://HOST:PORT"));
+        assert!(DeviceAddress::parse("udp://x:1")
+            .unwrap_err()
+            .contains("unknown scheme"));
         assert!(DeviceAddress::parse("").unwrap_err().contains("--device"));
     }
 }

@@ -109,8 +109,8 @@ pub fn open(address: &DeviceAddress, connect_timeout: Duration) -> Result<Stream
 
 /// Serial ports that may be the robot, USB ones first.
 pub fn list_ports() -> Result<Vec<(String, String)>, String> {
-    let mut ports = serialport::available_ports()
-        .map_err(|e| format!("cannot list serial ports: {e}"))?;
+    let mut ports =
+        serialport::available_ports().map_err(|e| format!("cannot list serial ports: {e}"))?;
     ports.sort_by_key(|p| !matches!(p.port_type, serialport::SerialPortType::UsbPort(_)));
     Ok(ports
         .into_iter()

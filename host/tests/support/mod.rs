@@ -78,7 +78,9 @@ fn send(stream: &mut TcpStream, msg: &DeviceMessage, corrupt: bool) -> bool {
         match stream.write(&buf[sent..n]) {
             Ok(0) => return false,
             Ok(k) => sent += k,
-            Err(e) if e.kind() == ErrorKind::WouldBlock => std::thread::sleep(Duration::from_micros(100)),
+            Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                std::thread::sleep(Duration::from_micros(100))
+            }
             Err(_) => return false,
         }
     }
