@@ -24,10 +24,8 @@ use crate::control::{with_device, FAULT_EVENTS, TELEMETRY};
 /// Full-speed bulk packet size.
 pub const USB_PACKET_BYTES: usize = 64;
 
-/// USB identity: the pid.codes test VID/PID (0x1209/0x0001), to be replaced by an
-/// allocated pair before the device leaves the lab.
-pub const USB_VID: u16 = 0x1209;
-pub const USB_PID: u16 = 0x0001;
+/// USB identity, shared with the host (`pamctl ports` recognises it).
+pub use pam_protocol::{USB_PID, USB_VID};
 
 type UsbDriver = Driver<'static, UsbPeripheral>;
 

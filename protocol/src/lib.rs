@@ -20,6 +20,12 @@ pub use frame::{
 };
 pub use messages::*;
 
+/// USB identity of the firmware's CDC-ACM interface, so `pamctl ports` can point at the
+/// robot: the pid.codes test VID/PID, to be replaced by an allocated pair before the device
+/// leaves the lab.
+pub const USB_VID: u16 = 0x1209;
+pub const USB_PID: u16 = 0x0001;
+
 /// Largest telemetry frame on the wire, delimiter included (all varints at their longest,
 /// force reference present). Typical frames are a few bytes shorter. Checked by the
 /// `telemetry_frame_size` test.

@@ -111,17 +111,31 @@ pub fn open(address: &DeviceAddress, connect_timeout: Duration) -> Result<Stream
 pub fn list_ports() -> Result<Vec<(String, String)>, String> {
     let mut ports =
         serialport::available_ports().map_err(|e| format!("cannot list serial ports: {e}"))?;
-    ports.sort_by_key(|p| !matches!(p.port_type, serialport::SerialPortType::UsbPort(_)));
+    // the robot first, then other USB ports, then the rest
+    ports.sort_by_key(|p| match &p.port_type {
+        serialport::SerialPortType::UsbPort(u)
+            if (u.vid, u.pid) == (pam_protocol::USB_VID, pam_protocol::USB_PID) =>
+        {
+            0
+        }
+        serialport::SerialPortType::UsbPort(_) => 1,
+        _ => 2,
+    });
     Ok(ports
         .into_iter()
         .map(|p| {
             let what = match p.port_type {
                 serialport::SerialPortType::UsbPort(u) => format!(
-                    "USB {:04x}:{:04x}{}{}",
+                    "USB {:04x}:{:04x}{}{}{}",
                     u.vid,
                     u.pid,
                     u.manufacturer.map(|m| format!(" {m}")).unwrap_or_default(),
-                    u.product.map(|m| format!(" {m}")).unwrap_or_default()
+                    u.product.map(|m| format!(" {m}")).unwrap_or_default(),
+                    if (u.vid, u.pid) == (pam_protocol::USB_VID, pam_protocol::USB_PID) {
+                        "  <- the PAM robot firmware"
+                    } else {
+                        ""
+                    }
                 ),
                 serialport::SerialPortType::PciPort => "PCI".into(),
                 serialport::SerialPortType::BluetoothPort => "Bluetooth".into(),
