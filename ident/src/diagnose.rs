@@ -123,9 +123,10 @@ pub struct Loop<'a> {
     /// Chosen shape per effect id (cached by the single-effect fits).
     shapes: std::cell::RefCell<BTreeMap<&'static str, Shape>>,
     base_step: std::cell::RefCell<Option<[StepParams; 2]>>,
-    /// The two variants of the dynamic base model (Cartesian and joint-space stiffness, see
-    /// [`base_columns`]), each with the pneumatic regulator dynamics (ωn rad/s, ζ) that fit
-    /// it best. Every fit uses the variant that fits its training part better.
+    /// The variants of the dynamic base model (Cartesian, joint-space or force-law
+    /// stiffness, see [`base_columns`]), each without and with the pneumatic regulator
+    /// dynamics (ωn rad/s, ζ) that fit it best. Every fit uses the variant that its training
+    /// part prefers by the information criterion.
     base_variants: Vec<BaseVariant>,
     step_init: Option<[StepParams; 2]>,
     /// Effective number of independent training residual samples of the plain base.
@@ -145,7 +146,54 @@ type VariantFit = (
 struct BaseVariant {
     cols: Vec<Column>,
     pneumatic: (f64, f64),
-    joint_stiffness: bool,
+    stiffness: Stiffness,
+}
+
+/// How the dynamic base model's restoring force is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stiffness {
+    /// A symmetric K on the handle displacement (eq. 4.29 as printed), 3 parameters.
+    Cartesian,
+    /// A symmetric joint-space K on the angle changes, through J⁻ᵀ, 3 parameters.
+    Joint,
+    /// The model's muscle force law (eq. 3.1 through the joint pair) at the logged angles
+    /// and the pressures of the logged currents, one gain per joint, and the muscles'
+    /// torque at the start (a preload): 4 parameters. Needs the currents.
+    ForceLaw,
+}
+
+impl Stiffness {
+    pub const ALL: [Stiffness; 3] = [Stiffness::Cartesian, Stiffness::Joint, Stiffness::ForceLaw];
+
+    /// Number of base columns without the pneumatic term (M, B and the stiffness).
+    pub fn plain_len(self) -> usize {
+        match self {
+            Stiffness::ForceLaw => 10,
+            _ => 9,
+        }
+    }
+
+    /// Base parameters kept ≥ 0: the damping diagonals and the stiffness diagonals (or
+    /// force-law gains).
+    pub fn positive(self) -> [usize; 4] {
+        match self {
+            Stiffness::ForceLaw => [3, 5, 6, 7],
+            _ => MSD_POSITIVE,
+        }
+    }
+
+    /// Whether the pneumatic term is written in joint space.
+    fn joint_space(self) -> bool {
+        self != Stiffness::Cartesian
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Stiffness::Cartesian => "cartesian",
+            Stiffness::Joint => "joint",
+            Stiffness::ForceLaw => "force_law",
+        }
+    }
 }
 
 fn held_out_scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([f64; 2], [f64; 2]) {
@@ -184,23 +232,27 @@ impl<'a> Loop<'a> {
         // its training part prefers by the information criterion
         let (base_variants, n_eff) = if experiment == Experiment::Dynamic {
             let mut v = Vec::new();
-            for joint in [false, true] {
-                let (cols, pneumatic) = choose_pneumatic(&p, model, joint);
+            for stiffness in Stiffness::ALL {
+                let Some((cols, pneumatic)) = choose_pneumatic(&p, model, stiffness) else {
+                    continue;
+                };
                 let mut plain = cols.clone();
-                plain.truncate(9);
+                plain.truncate(stiffness.plain_len());
                 v.push(BaseVariant {
                     cols: plain,
                     pneumatic: (0.0, 0.0),
-                    joint_stiffness: joint,
+                    stiffness,
                 });
-                v.push(BaseVariant {
-                    cols,
-                    pneumatic,
-                    joint_stiffness: joint,
-                });
+                if pneumatic.0 > 0.0 {
+                    v.push(BaseVariant {
+                        cols,
+                        pneumatic,
+                        stiffness,
+                    });
+                }
             }
             let y = msd::target(&p);
-            let pred = msd::fit_columns(&p, &v[0].cols, &MSD_POSITIVE, &y).1;
+            let pred = msd::fit_columns(&p, &v[0].cols, &v[0].stiffness.positive(), &y).1;
             let res: Vec<Vec<f64>> = (0..2)
                 .map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect())
                 .collect();
@@ -239,7 +291,7 @@ impl<'a> Loop<'a> {
         effects: &[(&dyn ModelEffect, Shape)],
     ) -> (Vec<Column>, Vec<(usize, usize)>, Vec<usize>) {
         let base_cols = &self.base_variants[variant].cols;
-        let mut positive: Vec<usize> = MSD_POSITIVE.to_vec();
+        let mut positive: Vec<usize> = self.base_variants[variant].stiffness.positive().to_vec();
         let mut delay = 0.0f64;
         let mut extra = Vec::new();
         let mut ranges = Vec::new();
@@ -363,7 +415,11 @@ impl<'a> Loop<'a> {
         base.insert("pneumatic_zeta".into(), bv.pneumatic.1);
         base.insert(
             "joint_space_stiffness".into(),
-            if bv.joint_stiffness { 1.0 } else { 0.0 },
+            if bv.stiffness == Stiffness::Joint { 1.0 } else { 0.0 },
+        );
+        base.insert(
+            "force_law_stiffness".into(),
+            if bv.stiffness == Stiffness::ForceLaw { 1.0 } else { 0.0 },
         );
         params.insert("base".to_string(), base);
         let mut added = 0;
@@ -390,7 +446,13 @@ impl<'a> Loop<'a> {
             let base_rss = (0..self.base_variants.len())
                 .map(|v| {
                     let r = train_rss(
-                        &msd::fit_columns(p, &self.base_variants[v].cols, &MSD_POSITIVE, &y).1,
+                        &msd::fit_columns(
+                            p,
+                            &self.base_variants[v].cols,
+                            &self.base_variants[v].stiffness.positive(),
+                            &y,
+                        )
+                        .1,
                     );
                     (self.criterion(r, self.base_variants[v].cols.len(), v), r)
                 })
@@ -684,35 +746,46 @@ pub fn joint_stiffness_columns(ctx: &DynCtx, d: &[Vec<f64>; 2], prefix: &str) ->
 }
 
 /// The loop's base model for dynamic trials: eq. 4.29's M and B in Cartesian coordinates,
-/// the stiffness either in Cartesian coordinates (eq. 4.29 as printed) or in joint space
-/// (the muscles act on the joints: the kinematics' curvature is then the model's, not an
-/// error) — whichever fits the training part better — and the pneumatic compliance.
+/// the stiffness in Cartesian coordinates (eq. 4.29 as printed), in joint space (the
+/// muscles act on the joints: the kinematics' curvature is then the model's, not an error)
+/// or as the model's muscle force law with a gain per joint (its curvature away from the
+/// neutral pose is then the model's too) — whichever the training part prefers — and the
+/// pneumatic compliance. `None` when the variant needs what the log lacks (currents).
 pub fn base_columns(
     p: &Prepared,
     ctx: &DynCtx,
-    joint_stiffness: bool,
+    stiffness: Stiffness,
     omega_n: f64,
     zeta: f64,
-) -> Vec<Column> {
+) -> Option<Vec<Column>> {
     let mut cols = msd::msd_columns(p);
-    if joint_stiffness {
-        let da = [
-            p.alpha_smooth_rad[0]
-                .iter()
-                .map(|a| a - p.alpha0_rad[0])
-                .collect::<Vec<f64>>(),
-            p.alpha_smooth_rad[1]
-                .iter()
-                .map(|a| a - p.alpha0_rad[1])
-                .collect::<Vec<f64>>(),
-        ];
-        cols.truncate(6);
-        cols.extend(joint_stiffness_columns(ctx, &da, "kj"));
+    match stiffness {
+        Stiffness::Cartesian => {}
+        Stiffness::Joint => {
+            let da = [0, 1].map(|j| {
+                p.alpha_smooth_rad[j]
+                    .iter()
+                    .map(|a| a - p.alpha0_rad[j])
+                    .collect::<Vec<f64>>()
+            });
+            cols.truncate(6);
+            cols.extend(joint_stiffness_columns(ctx, &da, "kj"));
+        }
+        Stiffness::ForceLaw => {
+            let law = crate::effects::force_law_columns(ctx)?;
+            cols.truncate(6);
+            cols.extend(law);
+            // the muscles' torque where the trial starts: the handle need not start at the
+            // equilibrium (the hand holds a small preload), and a constant joint torque
+            // is what that leaves in the force law's frame
+            cols.push(ctx.torque_column("start_torque_nm_joint1", |_| [1.0, 0.0]));
+            cols.push(ctx.torque_column("start_torque_nm_joint2", |_| [0.0, 1.0]));
+        }
     }
     if omega_n > 0.0 {
-        cols.extend(pneumatic_columns(p, ctx, joint_stiffness, omega_n, zeta));
+        cols.extend(pneumatic_columns(p, ctx, stiffness.joint_space(), omega_n, zeta));
     }
-    cols
+    Some(cols)
 }
 
 /// The base columns with the regulator dynamics that fit the training part best, from a
@@ -720,8 +793,8 @@ pub fn base_columns(
 fn choose_pneumatic(
     p: &Prepared,
     model: &RobotModel<f64>,
-    joint: bool,
-) -> (Vec<Column>, (f64, f64)) {
+    stiffness: Stiffness,
+) -> Option<(Vec<Column>, (f64, f64))> {
     let y = msd::target(p);
     let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
     let rows = 0..p.split;
@@ -739,19 +812,18 @@ fn choose_pneumatic(
     let z0 = model.params.ip.damping_ratio;
     let fit = |cols: &[Column]| {
         let ne = lsq::normal_equations_strided(cols, &[&y[0], &y[1]], rows.clone(), stride);
-        let th = lsq::solve(&ne, &MSD_POSITIVE);
+        let th = lsq::solve(&ne, &stiffness.positive());
         (lsq::rss(&ne, yty, &th), th)
     };
     // without the pneumatic term
-    let mut plain = base_columns(p, &ctx, joint, 0.0, 0.0);
-    plain.truncate(9);
+    let plain = base_columns(p, &ctx, stiffness, 0.0, 0.0)?;
     let (rss_plain, th_plain) = fit(&plain);
     let mut best: Option<(f64, Vec<Column>, (f64, f64))> = None;
     for (wf, z) in [0.6, 1.0, 1.6]
         .iter()
         .flat_map(|&wf| [z0, 0.7, 1.0].into_iter().map(move |z| (wf, z)))
     {
-        let cols = base_columns(p, &ctx, joint, wn0 * wf, z);
+        let cols = base_columns(p, &ctx, stiffness, wn0 * wf, z)?;
         let (r, _) = fit(&cols);
         if best.as_ref().is_none_or(|b| r < b.0) {
             best = Some((r, cols, (wn0 * wf, z)));
@@ -781,11 +853,11 @@ fn choose_pneumatic(
     let n = 2.0 * p.split as f64;
     let n_eff = (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n);
     let ratio = rss_pn / rss_plain.max(1e-300);
-    if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {
+    Some(if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {
         (cols, wz)
     } else {
         (plain, (0.0, 0.0))
-    }
+    })
 }
 
 // -------------------------------------------------------------------- diagnosis
