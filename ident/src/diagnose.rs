@@ -157,18 +157,34 @@ pub enum Stiffness {
     /// A symmetric joint-space K on the angle changes, through J⁻ᵀ, 3 parameters.
     Joint,
     /// The model's muscle force law (eq. 3.1 through the joint pair) at the logged angles
-    /// and the pressures of the logged currents, one gain per joint, and the muscles'
-    /// torque at the start (a preload): 4 parameters. Needs the currents.
+    /// and the pressures of the logged currents, minus its value at the start of the trial,
+    /// one gain per joint: 2 parameters. Needs the currents.
     ForceLaw,
+    /// The same without subtracting the start: the model's own equilibrium (zero torque)
+    /// instead of where the trial starts, which the hand need not hold force-free. Right
+    /// when the model's torque is right in absolute terms (a constant on the load cell is
+    /// then not taken for a preload); the BIC tells.
+    ForceLawAbsolute,
+    /// `ForceLaw` and the muscles' torque where the trial starts, one constant torque per
+    /// joint (a preload, or the equilibrium shift of an effect that counts from the neutral
+    /// pose): 4 parameters.
+    ForceLawWithPreload,
 }
 
 impl Stiffness {
-    pub const ALL: [Stiffness; 3] = [Stiffness::Cartesian, Stiffness::Joint, Stiffness::ForceLaw];
+    pub const ALL: [Stiffness; 5] = [
+        Stiffness::Cartesian,
+        Stiffness::Joint,
+        Stiffness::ForceLaw,
+        Stiffness::ForceLawAbsolute,
+        Stiffness::ForceLawWithPreload,
+    ];
 
     /// Number of base columns without the pneumatic term (M, B and the stiffness).
     pub fn plain_len(self) -> usize {
         match self {
-            Stiffness::ForceLaw => 10,
+            Stiffness::ForceLaw | Stiffness::ForceLawAbsolute => 8,
+            Stiffness::ForceLawWithPreload => 10,
             _ => 9,
         }
     }
@@ -177,7 +193,9 @@ impl Stiffness {
     /// force-law gains).
     pub fn positive(self) -> [usize; 4] {
         match self {
-            Stiffness::ForceLaw => [3, 5, 6, 7],
+            Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload => {
+                [3, 5, 6, 7]
+            }
             _ => MSD_POSITIVE,
         }
     }
@@ -192,6 +210,8 @@ impl Stiffness {
             Stiffness::Cartesian => "cartesian",
             Stiffness::Joint => "joint",
             Stiffness::ForceLaw => "force_law",
+            Stiffness::ForceLawAbsolute => "force_law_absolute",
+            Stiffness::ForceLawWithPreload => "force_law_with_preload",
         }
     }
 }
@@ -289,14 +309,18 @@ impl<'a> Loop<'a> {
         ctx: &DynCtx,
         variant: usize,
         effects: &[(&dyn ModelEffect, Shape)],
-    ) -> (Vec<Column>, Vec<(usize, usize)>, Vec<usize>) {
+    ) -> Option<(Vec<Column>, Vec<(usize, usize)>, Vec<usize>)> {
         let base_cols = &self.base_variants[variant].cols;
+        let preload = self.base_variants[variant].stiffness == Stiffness::ForceLawWithPreload;
         let mut positive: Vec<usize> = self.base_variants[variant].stiffness.positive().to_vec();
         let mut delay = 0.0f64;
         let mut extra = Vec::new();
         let mut ranges = Vec::new();
         for (e, s) in effects {
             let term = e.dynamic_term(ctx, s);
+            if preload && term.carries_constant {
+                return None;
+            }
             delay = delay.max(term.base_delay_s);
             let nb = base_cols.len();
             let start = nb + extra.len();
@@ -322,7 +346,7 @@ impl<'a> Loop<'a> {
             }
         }
         cols.extend(extra);
-        (cols, ranges, positive)
+        Some((cols, ranges, positive))
     }
 
     /// Information criterion of a fit of `ncols` columns with variant `v`: the pneumatic
@@ -355,7 +379,10 @@ impl<'a> Loop<'a> {
             let mut best = (f64::INFINITY, Shape::default());
             for s in shapes {
                 for v in 0..self.base_variants.len() {
-                    let (cols, _, positive) = self.dyn_columns(ctx, v, &[(e, s.clone())]);
+                    let Some((cols, _, positive)) = self.dyn_columns(ctx, v, &[(e, s.clone())])
+                    else {
+                        continue;
+                    };
                     let ne =
                         lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
                     let th = lsq::solve(&ne, &positive);
@@ -392,7 +419,9 @@ impl<'a> Loop<'a> {
         // both base variants; keep the one that fits the training part better
         let mut best: Option<VariantFit> = None;
         for v in 0..self.base_variants.len() {
-            let (cols, ranges, positive) = self.dyn_columns(&ctx, v, &chosen);
+            let Some((cols, ranges, positive)) = self.dyn_columns(&ctx, v, &chosen) else {
+                continue;
+            };
             let (theta, pred) = msd::fit_columns(p, &cols, &positive, &y);
             let r = train_rss(&pred);
             let c = self.criterion(r, cols.len(), v);
@@ -415,12 +444,30 @@ impl<'a> Loop<'a> {
         base.insert("pneumatic_zeta".into(), bv.pneumatic.1);
         base.insert(
             "joint_space_stiffness".into(),
-            if bv.stiffness == Stiffness::Joint { 1.0 } else { 0.0 },
+            if bv.stiffness == Stiffness::Joint {
+                1.0
+            } else {
+                0.0
+            },
+        );
+        let force_law = matches!(
+            bv.stiffness,
+            Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload
         );
         base.insert(
             "force_law_stiffness".into(),
-            if bv.stiffness == Stiffness::ForceLaw { 1.0 } else { 0.0 },
+            if force_law { 1.0 } else { 0.0 },
         );
+        if force_law {
+            base.insert(
+                "force_law_from_start".into(),
+                if bv.stiffness == Stiffness::ForceLawAbsolute {
+                    0.0
+                } else {
+                    1.0
+                },
+            );
+        }
         params.insert("base".to_string(), base);
         let mut added = 0;
         for ((e, s), (a, b)) in chosen.iter().zip(&ranges) {
@@ -748,8 +795,8 @@ pub fn joint_stiffness_columns(ctx: &DynCtx, d: &[Vec<f64>; 2], prefix: &str) ->
 /// The loop's base model for dynamic trials: eq. 4.29's M and B in Cartesian coordinates,
 /// the stiffness in Cartesian coordinates (eq. 4.29 as printed), in joint space (the
 /// muscles act on the joints: the kinematics' curvature is then the model's, not an error)
-/// or as the model's muscle force law with a gain per joint (its curvature away from the
-/// neutral pose is then the model's too) — whichever the training part prefers — and the
+/// or as the model's muscle force law with a gain per joint, from the trial's start or
+/// absolute (its curvature away from the neutral pose is then the model's too) — whichever the training part prefers — and the
 /// pneumatic compliance. `None` when the variant needs what the log lacks (currents).
 pub fn base_columns(
     p: &Prepared,
@@ -771,19 +818,26 @@ pub fn base_columns(
             cols.truncate(6);
             cols.extend(joint_stiffness_columns(ctx, &da, "kj"));
         }
-        Stiffness::ForceLaw => {
-            let law = crate::effects::force_law_columns(ctx)?;
+        Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload => {
+            let from_start = stiffness != Stiffness::ForceLawAbsolute;
+            let law = crate::effects::force_law_columns(ctx, from_start)?;
             cols.truncate(6);
             cols.extend(law);
-            // the muscles' torque where the trial starts: the handle need not start at the
-            // equilibrium (the hand holds a small preload), and a constant joint torque
-            // is what that leaves in the force law's frame
-            cols.push(ctx.torque_column("start_torque_nm_joint1", |_| [1.0, 0.0]));
-            cols.push(ctx.torque_column("start_torque_nm_joint2", |_| [0.0, 1.0]));
+            if stiffness == Stiffness::ForceLawWithPreload {
+                // the muscles' torque where the trial starts, as a constant joint torque
+                cols.push(ctx.torque_column("start_torque_nm_joint1", |_| [1.0, 0.0]));
+                cols.push(ctx.torque_column("start_torque_nm_joint2", |_| [0.0, 1.0]));
+            }
         }
     }
     if omega_n > 0.0 {
-        cols.extend(pneumatic_columns(p, ctx, stiffness.joint_space(), omega_n, zeta));
+        cols.extend(pneumatic_columns(
+            p,
+            ctx,
+            stiffness.joint_space(),
+            omega_n,
+            zeta,
+        ));
     }
     Some(cols)
 }
@@ -853,11 +907,13 @@ fn choose_pneumatic(
     let n = 2.0 * p.split as f64;
     let n_eff = (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n);
     let ratio = rss_pn / rss_plain.max(1e-300);
-    Some(if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {
-        (cols, wz)
-    } else {
-        (plain, (0.0, 0.0))
-    })
+    Some(
+        if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {
+            (cols, wz)
+        } else {
+            (plain, (0.0, 0.0))
+        },
+    )
 }
 
 // -------------------------------------------------------------------- diagnosis
@@ -1034,7 +1090,10 @@ pub fn diagnose_with(
         .collect();
     let mut warnings = base.warnings.clone();
     if lp.p.resampled {
-        warnings.push("the log's sampling is uneven (dropped frames?): it was resampled to its median period".into());
+        warnings.push(
+            "the log's sampling is uneven (dropped frames?): it was resampled to its median period"
+                .into(),
+        );
     }
     if lp.p.len() < 200 {
         warnings.push(format!(
@@ -1179,7 +1238,11 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
     // slow structure: the residual's level wandering over the trial (20 time bins), which
     // neither the model nor a linear drift (the catalog's) accounts for
     // (dynamic trials: a step trial's residual has levels by construction)
-    let axes = if lp.experiment == Experiment::Dynamic { fit.axes.clone() } else { Vec::new() };
+    let axes = if lp.experiment == Experiment::Dynamic {
+        fit.axes.clone()
+    } else {
+        Vec::new()
+    };
     for a in axes {
         let r = fit.residual(a);
         let share = binned_share(&r, 20);

@@ -116,6 +116,10 @@ pub struct DynTerm {
     /// Indices (into `columns`) of parameters that are physically ≥ 0 (dissipation, a
     /// friction force): a sign-flipped fit of one effect must not pass for another.
     pub positive: Vec<usize>,
+    /// The term has a constant part of its own (an offset, or the equilibrium shift of an
+    /// effect counted from the neutral pose): the base variant with a fitted preload is then
+    /// not used with it, as the two cannot be told apart.
+    pub carries_constant: bool,
 }
 
 /// A model-side effect.
@@ -188,11 +192,12 @@ pub fn model_torque(
 
 /// The model's muscle force law as the base model's stiffness: per joint, the torque of
 /// the model's muscles (eq. 3.1 through the joint pair, eq. 3.2–3.5) at the logged angle and
-/// the pressures from the logged currents, minus its value at the equilibrium (start of the
-/// trial), as a handle force through J⁻ᵀ. Away from the neutral pose this force law is
+/// the pressures from the logged currents — minus its value at the start of the trial when
+/// `from_start`, else as it is (the model's own equilibrium) — as a handle force through
+/// J⁻ᵀ. Away from the neutral pose this force law is
 /// visibly curved over the operator's motion, which no constant K follows. One gain per
 /// joint (≈ 1 when the model's force law is right). `None` without currents in the log.
-pub fn force_law_columns(ctx: &DynCtx) -> Option<Vec<Column>> {
+pub fn force_law_columns(ctx: &DynCtx, from_start: bool) -> Option<Vec<Column>> {
     let p = ctx.p;
     let pr = joint_pressures(p, ctx.model)?;
     let mut cols = Vec::new();
@@ -201,7 +206,11 @@ pub fn force_law_columns(ctx: &DynCtx) -> Option<Vec<Column>> {
         let tau: Vec<f64> = (0..p.len())
             .map(|i| model_torque(ctx.model, j, a[i], pr[i][j]).1)
             .collect();
-        let tau0 = at_start(p, |i| tau[i]);
+        let tau0 = if from_start {
+            at_start(p, |i| tau[i])
+        } else {
+            0.0
+        };
         let name = ["force_law_gain_joint1", "force_law_gain_joint2"][j];
         // the muscles' restoring torque is balanced by the hand: −f gains −J⁻ᵀ Δτ, and
         // Δτ < 0 for α > α0; the regressor is that column itself, so the gain is +1 when
@@ -357,6 +366,7 @@ impl ModelEffect for NonlinearStiffness {
         }
         DynTerm {
             columns: cols,
+            carries_constant: from_neutral(s),
             ..Default::default()
         }
     }
@@ -501,11 +511,19 @@ impl ModelEffect for PoseDependence {
         // with the pressures known (currents in the log): the pressure part of each joint's
         // torque scaled by a plane in (α1, α2) — the gain plane of eq. 5.2 acting on the
         // muscles; the parameters are the plane's slopes
-        let pressures = if shape.get("quadratic_form") == 0.0 { joint_pressures(ctx.p, ctx.model) } else { None };
+        let pressures = if shape.get("quadratic_form") == 0.0 {
+            joint_pressures(ctx.p, ctx.model)
+        } else {
+            None
+        };
         if let Some(pr) = pressures {
             let p = ctx.p;
             let a = &p.alpha_smooth_rad;
-            let origin = if from_neutral(shape) { [0.0; 2] } else { p.alpha0_rad };
+            let origin = if from_neutral(shape) {
+                [0.0; 2]
+            } else {
+                p.alpha0_rad
+            };
             let mut cols = Vec::new();
             for (k, name) in [(0, "gain_per_rad_1"), (1, "gain_per_rad_2")] {
                 let v: Vec<[f64; 2]> = (0..p.len())
@@ -524,6 +542,7 @@ impl ModelEffect for PoseDependence {
             }
             return DynTerm {
                 columns: cols,
+                carries_constant: from_neutral(shape),
                 ..Default::default()
             };
         }
@@ -653,7 +672,7 @@ impl ModelEffect for TransportDelay {
         DynTerm {
             columns: vec![],
             base_delay_s: shape.get("delay_s"),
-            positive: vec![],
+            ..Default::default()
         }
     }
     fn step_extras(&self) -> &'static [StepExtra] {
@@ -701,6 +720,7 @@ impl ModelEffect for LoadcellDrift {
         }
         DynTerm {
             columns: cols,
+            carries_constant: true,
             ..Default::default()
         }
     }
