@@ -131,22 +131,35 @@ pub struct Loop<'a> {
     step_init: Option<[StepParams; 2]>,
     /// Effective number of independent training residual samples of the plain base.
     n_eff: f64,
+    /// Σ y² over the training rows (dynamic trials).
+    yty_train: f64,
+    /// Training RSS of the base alone, with the variant it prefers (cached).
+    base_rss: std::cell::Cell<Option<f64>>,
 }
 
-/// (criterion, variant, columns, effect ranges, θ, prediction) of one base variant's fit.
+/// (criterion, variant, columns, effect ranges, θ, training RSS) of one base variant's fit.
 type VariantFit = (
     f64,
     usize,
     Vec<Column>,
     Vec<(usize, usize)>,
     Vec<f64>,
-    [Vec<f64>; 2],
+    f64,
 );
 
 struct BaseVariant {
     cols: Vec<Column>,
     pneumatic: (f64, f64),
     stiffness: Stiffness,
+    /// Normal equations of `cols` on the training rows, every row and every
+    /// [`shape_stride`]-th: shared by every fit with this variant.
+    normal: lsq::Normal,
+    normal_strided: lsq::Normal,
+}
+
+/// Row stride of the cheap fits that choose shape parameters (5 ms).
+fn shape_stride(dt_s: f64) -> usize {
+    ((0.005 / dt_s).floor() as usize).max(1)
 }
 
 /// How the dynamic base model's restoring force is written.
@@ -258,16 +271,26 @@ impl<'a> Loop<'a> {
                 };
                 let mut plain = cols.clone();
                 plain.truncate(stiffness.plain_len());
-                v.push(BaseVariant {
-                    cols: plain,
-                    pneumatic: (0.0, 0.0),
-                    stiffness,
-                });
+                let mut forms = vec![(plain, (0.0, 0.0))];
                 if pneumatic.0 > 0.0 {
+                    forms.push((cols, pneumatic));
+                }
+                let y = msd::target(&p);
+                for (cols, pneumatic) in forms {
+                    let target = [y[0].as_slice(), y[1].as_slice()];
+                    let normal = lsq::normal_equations(&cols, &target, 0..p.split);
+                    let normal_strided = lsq::normal_equations_strided(
+                        &cols,
+                        &target,
+                        0..p.split,
+                        shape_stride(p.dt_s),
+                    );
                     v.push(BaseVariant {
                         cols,
                         pneumatic,
                         stiffness,
+                        normal,
+                        normal_strided,
                     });
                 }
             }
@@ -280,9 +303,19 @@ impl<'a> Loop<'a> {
         } else {
             (Vec::new(), 0.0)
         };
+        let yty_train = if experiment == Experiment::Dynamic {
+            let y = msd::target(&p);
+            (0..2)
+                .map(|a| y[a][..p.split].iter().map(|v| v * v).sum::<f64>())
+                .sum()
+        } else {
+            0.0
+        };
         Ok(Loop {
             step_init,
             n_eff,
+            yty_train,
+            base_rss: Default::default(),
             base_variants,
             p,
             model,
@@ -309,7 +342,7 @@ impl<'a> Loop<'a> {
         ctx: &DynCtx,
         variant: usize,
         effects: &[(&dyn ModelEffect, Shape)],
-    ) -> Option<(Vec<Column>, Vec<(usize, usize)>, Vec<usize>)> {
+    ) -> Option<(Vec<Column>, Vec<(usize, usize)>, Vec<usize>, bool)> {
         let base_cols = &self.base_variants[variant].cols;
         let preload = self.base_variants[variant].stiffness == Stiffness::ForceLawWithPreload;
         let mut positive: Vec<usize> = self.base_variants[variant].stiffness.positive().to_vec();
@@ -346,7 +379,7 @@ impl<'a> Loop<'a> {
             }
         }
         cols.extend(extra);
-        Some((cols, ranges, positive))
+        Some((cols, ranges, positive, delay > 0.0))
     }
 
     /// Information criterion of a fit of `ncols` columns with variant `v`: the pneumatic
@@ -365,7 +398,7 @@ impl<'a> Loop<'a> {
         let best = if shapes.len() <= 1 {
             shapes.into_iter().next().unwrap_or_default()
         } else {
-            let stride = ((0.005 / self.p.dt_s).floor() as usize).max(1);
+            let stride = shape_stride(self.p.dt_s);
             let rows = 0..self.p.split;
             let yty: f64 = (0..2)
                 .map(|a| {
@@ -379,12 +412,18 @@ impl<'a> Loop<'a> {
             let mut best = (f64::INFINITY, Shape::default());
             for s in shapes {
                 for v in 0..self.base_variants.len() {
-                    let Some((cols, _, positive)) = self.dyn_columns(ctx, v, &[(e, s.clone())])
+                    let Some((cols, _, positive, shifted)) =
+                        self.dyn_columns(ctx, v, &[(e, s.clone())])
                     else {
                         continue;
                     };
-                    let ne =
-                        lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
+                    let target = [y[0].as_slice(), y[1].as_slice()];
+                    let ne = if shifted {
+                        lsq::normal_equations_strided(&cols, &target, rows.clone(), stride)
+                    } else {
+                        let known = &self.base_variants[v].normal_strided;
+                        lsq::normal_equations_extended(known, &cols, &target, rows.clone(), stride)
+                    };
                     let th = lsq::solve(&ne, &positive);
                     let r = self.criterion(lsq::rss(&ne, yty, &th) * stride as f64, cols.len(), v);
                     if r < best.0 {
@@ -398,6 +437,43 @@ impl<'a> Loop<'a> {
         best
     }
 
+    /// Normal equations of a fit with variant `v` on the training rows (the base part from
+    /// the variant's cache unless the effects shifted the base columns).
+    fn training_normal(
+        &self,
+        v: usize,
+        cols: &[Column],
+        shifted: bool,
+        y: &[Vec<f64>; 2],
+    ) -> lsq::Normal {
+        let target = [y[0].as_slice(), y[1].as_slice()];
+        if shifted {
+            lsq::normal_equations(cols, &target, 0..self.p.split)
+        } else {
+            let known = &self.base_variants[v].normal;
+            lsq::normal_equations_extended(known, cols, &target, 0..self.p.split, 1)
+        }
+    }
+
+    /// Training RSS of the base alone with the variant it prefers.
+    fn base_alone_rss(&self) -> f64 {
+        if let Some(r) = self.base_rss.get() {
+            return r;
+        }
+        let r = (0..self.base_variants.len())
+            .map(|v| {
+                let bv = &self.base_variants[v];
+                let th = lsq::solve(&bv.normal, &bv.stiffness.positive());
+                let r = lsq::rss(&bv.normal, self.yty_train, &th);
+                (self.criterion(r, bv.cols.len(), v), r)
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|x| x.1)
+            .unwrap_or(f64::INFINITY);
+        self.base_rss.set(Some(r));
+        r
+    }
+
     fn fit_dynamic(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
         let p = &self.p;
         let ctx = DynCtx::new(p, self.model);
@@ -407,30 +483,23 @@ impl<'a> Loop<'a> {
             .filter(|e| e.applies(Experiment::Dynamic))
             .map(|e| (*e, self.choose_shape(&ctx, *e, &y)))
             .collect();
-        let train_rss = |pr: &[Vec<f64>; 2]| -> f64 {
-            (0..2)
-                .map(|a| {
-                    (0..p.split)
-                        .map(|i| (y[a][i] - pr[a][i]).powi(2))
-                        .sum::<f64>()
-                })
-                .sum()
-        };
-        // both base variants; keep the one that fits the training part better
+        // every base variant; keep the one the training part prefers
         let mut best: Option<VariantFit> = None;
         for v in 0..self.base_variants.len() {
-            let Some((cols, ranges, positive)) = self.dyn_columns(&ctx, v, &chosen) else {
+            let Some((cols, ranges, positive, shifted)) = self.dyn_columns(&ctx, v, &chosen)
+            else {
                 continue;
             };
-            let (theta, pred) = msd::fit_columns(p, &cols, &positive, &y);
-            let r = train_rss(&pred);
+            let ne = self.training_normal(v, &cols, shifted, &y);
+            let theta = lsq::solve(&ne, &positive);
+            let r = lsq::rss(&ne, self.yty_train, &theta);
             let c = self.criterion(r, cols.len(), v);
             if best.as_ref().is_none_or(|b| c < b.0) {
-                best = Some((c, v, cols, ranges, theta, pred));
+                best = Some((c, v, cols, ranges, theta, r));
             }
         }
-        let (_, variant, cols, ranges, theta, pred) = best.expect("variants");
-        let fit_rss = train_rss(&pred);
+        let (_, variant, cols, ranges, theta, fit_rss) = best.expect("variants");
+        let pred = lsq::predict(&cols, &theta, p.len());
         let bv = &self.base_variants[variant];
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
         let mut params = BTreeMap::new();
@@ -490,23 +559,7 @@ impl<'a> Loop<'a> {
             0.0
         } else {
             // against the base alone, with the variant the base alone prefers
-            let base_rss = (0..self.base_variants.len())
-                .map(|v| {
-                    let r = train_rss(
-                        &msd::fit_columns(
-                            p,
-                            &self.base_variants[v].cols,
-                            &self.base_variants[v].stiffness.positive(),
-                            &y,
-                        )
-                        .1,
-                    );
-                    (self.criterion(r, self.base_variants[v].cols.len(), v), r)
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|x| x.1)
-                .unwrap_or(f64::INFINITY);
-            1.0 - fit_rss / base_rss.max(1e-300)
+            1.0 - fit_rss / self.base_alone_rss().max(1e-300)
         };
         ModelFit {
             experiment: Experiment::Dynamic,
