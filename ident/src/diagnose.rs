@@ -137,15 +137,12 @@ pub struct Loop<'a> {
     base_rss: std::cell::Cell<Option<f64>>,
 }
 
+/// (columns, effect ranges, positive parameters, base columns shifted by a delay) of a
+/// dynamic fit.
+type DynColumns = (Vec<Column>, Vec<(usize, usize)>, Vec<usize>, bool);
+
 /// (criterion, variant, columns, effect ranges, θ, training RSS) of one base variant's fit.
-type VariantFit = (
-    f64,
-    usize,
-    Vec<Column>,
-    Vec<(usize, usize)>,
-    Vec<f64>,
-    f64,
-);
+type VariantFit = (f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, f64);
 
 struct BaseVariant {
     cols: Vec<Column>,
@@ -342,7 +339,7 @@ impl<'a> Loop<'a> {
         ctx: &DynCtx,
         variant: usize,
         effects: &[(&dyn ModelEffect, Shape)],
-    ) -> Option<(Vec<Column>, Vec<(usize, usize)>, Vec<usize>, bool)> {
+    ) -> Option<DynColumns> {
         let base_cols = &self.base_variants[variant].cols;
         let preload = self.base_variants[variant].stiffness == Stiffness::ForceLawWithPreload;
         let mut positive: Vec<usize> = self.base_variants[variant].stiffness.positive().to_vec();
@@ -486,8 +483,7 @@ impl<'a> Loop<'a> {
         // every base variant; keep the one the training part prefers
         let mut best: Option<VariantFit> = None;
         for v in 0..self.base_variants.len() {
-            let Some((cols, ranges, positive, shifted)) = self.dyn_columns(&ctx, v, &chosen)
-            else {
+            let Some((cols, ranges, positive, shifted)) = self.dyn_columns(&ctx, v, &chosen) else {
                 continue;
             };
             let ne = self.training_normal(v, &cols, shifted, &y);
