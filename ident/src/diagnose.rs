@@ -123,29 +123,107 @@ pub struct Loop<'a> {
     /// Chosen shape per effect id (cached by the single-effect fits).
     shapes: std::cell::RefCell<BTreeMap<&'static str, Shape>>,
     base_step: std::cell::RefCell<Option<[StepParams; 2]>>,
-    /// The two variants of the dynamic base model (Cartesian and joint-space stiffness, see
-    /// [`base_columns`]), each with the pneumatic regulator dynamics (ωn rad/s, ζ) that fit
-    /// it best. Every fit uses the variant that fits its training part better.
+    /// The variants of the dynamic base model (Cartesian, joint-space or force-law
+    /// stiffness, see [`base_columns`]), each without and with the pneumatic regulator
+    /// dynamics (ωn rad/s, ζ) that fit it best. Every fit uses the variant that its training
+    /// part prefers by the information criterion.
     base_variants: Vec<BaseVariant>,
     step_init: Option<[StepParams; 2]>,
     /// Effective number of independent training residual samples of the plain base.
     n_eff: f64,
+    /// Σ y² over the training rows (dynamic trials).
+    yty_train: f64,
+    /// Training RSS of the base alone, with the variant it prefers (cached).
+    base_rss: std::cell::Cell<Option<f64>>,
 }
 
-/// (criterion, variant, columns, effect ranges, θ, prediction) of one base variant's fit.
-type VariantFit = (
-    f64,
-    usize,
-    Vec<Column>,
-    Vec<(usize, usize)>,
-    Vec<f64>,
-    [Vec<f64>; 2],
-);
+/// (columns, effect ranges, positive parameters, base columns shifted by a delay) of a
+/// dynamic fit.
+type DynColumns = (Vec<Column>, Vec<(usize, usize)>, Vec<usize>, bool);
+
+/// (criterion, variant, columns, effect ranges, θ, training RSS) of one base variant's fit.
+type VariantFit = (f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, f64);
 
 struct BaseVariant {
     cols: Vec<Column>,
     pneumatic: (f64, f64),
-    joint_stiffness: bool,
+    stiffness: Stiffness,
+    /// Normal equations of `cols` on the training rows, every row and every
+    /// [`shape_stride`]-th: shared by every fit with this variant.
+    normal: lsq::Normal,
+    normal_strided: lsq::Normal,
+}
+
+/// Row stride of the cheap fits that choose shape parameters (5 ms).
+fn shape_stride(dt_s: f64) -> usize {
+    ((0.005 / dt_s).floor() as usize).max(1)
+}
+
+/// How the dynamic base model's restoring force is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stiffness {
+    /// A symmetric K on the handle displacement (eq. 4.29 as printed), 3 parameters.
+    Cartesian,
+    /// A symmetric joint-space K on the angle changes, through J⁻ᵀ, 3 parameters.
+    Joint,
+    /// The model's muscle force law (eq. 3.1 through the joint pair) at the logged angles
+    /// and the pressures of the logged currents, minus its value at the start of the trial,
+    /// one gain per joint: 2 parameters. Needs the currents.
+    ForceLaw,
+    /// The same without subtracting the start: the model's own equilibrium (zero torque)
+    /// instead of where the trial starts, which the hand need not hold force-free. Right
+    /// when the model's torque is right in absolute terms (a constant on the load cell is
+    /// then not taken for a preload); the BIC tells.
+    ForceLawAbsolute,
+    /// `ForceLaw` and the muscles' torque where the trial starts, one constant torque per
+    /// joint (a preload, or the equilibrium shift of an effect that counts from the neutral
+    /// pose): 4 parameters.
+    ForceLawWithPreload,
+}
+
+impl Stiffness {
+    pub const ALL: [Stiffness; 5] = [
+        Stiffness::Cartesian,
+        Stiffness::Joint,
+        Stiffness::ForceLaw,
+        Stiffness::ForceLawAbsolute,
+        Stiffness::ForceLawWithPreload,
+    ];
+
+    /// Number of base columns without the pneumatic term (M, B and the stiffness).
+    pub fn plain_len(self) -> usize {
+        match self {
+            Stiffness::ForceLaw | Stiffness::ForceLawAbsolute => 8,
+            Stiffness::ForceLawWithPreload => 10,
+            _ => 9,
+        }
+    }
+
+    /// Base parameters kept ≥ 0: the damping diagonals and the stiffness diagonals (or
+    /// force-law gains).
+    pub fn positive(self) -> [usize; 4] {
+        match self {
+            Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload => {
+                [3, 5, 6, 7]
+            }
+            _ => MSD_POSITIVE,
+        }
+    }
+
+    /// Whether the pneumatic term is written in joint space.
+    fn joint_space(self) -> bool {
+        self != Stiffness::Cartesian
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Stiffness::Cartesian => "cartesian",
+            Stiffness::Joint => "joint",
+            Stiffness::ForceLaw => "force_law",
+            Stiffness::ForceLawAbsolute => "force_law_absolute",
+            Stiffness::ForceLawWithPreload => "force_law_with_preload",
+        }
+    }
 }
 
 fn held_out_scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([f64; 2], [f64; 2]) {
@@ -184,23 +262,37 @@ impl<'a> Loop<'a> {
         // its training part prefers by the information criterion
         let (base_variants, n_eff) = if experiment == Experiment::Dynamic {
             let mut v = Vec::new();
-            for joint in [false, true] {
-                let (cols, pneumatic) = choose_pneumatic(&p, model, joint);
+            for stiffness in Stiffness::ALL {
+                let Some((cols, pneumatic)) = choose_pneumatic(&p, model, stiffness) else {
+                    continue;
+                };
                 let mut plain = cols.clone();
-                plain.truncate(9);
-                v.push(BaseVariant {
-                    cols: plain,
-                    pneumatic: (0.0, 0.0),
-                    joint_stiffness: joint,
-                });
-                v.push(BaseVariant {
-                    cols,
-                    pneumatic,
-                    joint_stiffness: joint,
-                });
+                plain.truncate(stiffness.plain_len());
+                let mut forms = vec![(plain, (0.0, 0.0))];
+                if pneumatic.0 > 0.0 {
+                    forms.push((cols, pneumatic));
+                }
+                let y = msd::target(&p);
+                for (cols, pneumatic) in forms {
+                    let target = [y[0].as_slice(), y[1].as_slice()];
+                    let normal = lsq::normal_equations(&cols, &target, 0..p.split);
+                    let normal_strided = lsq::normal_equations_strided(
+                        &cols,
+                        &target,
+                        0..p.split,
+                        shape_stride(p.dt_s),
+                    );
+                    v.push(BaseVariant {
+                        cols,
+                        pneumatic,
+                        stiffness,
+                        normal,
+                        normal_strided,
+                    });
+                }
             }
             let y = msd::target(&p);
-            let pred = msd::fit_columns(&p, &v[0].cols, &MSD_POSITIVE, &y).1;
+            let pred = msd::fit_columns(&p, &v[0].cols, &v[0].stiffness.positive(), &y).1;
             let res: Vec<Vec<f64>> = (0..2)
                 .map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect())
                 .collect();
@@ -208,9 +300,19 @@ impl<'a> Loop<'a> {
         } else {
             (Vec::new(), 0.0)
         };
+        let yty_train = if experiment == Experiment::Dynamic {
+            let y = msd::target(&p);
+            (0..2)
+                .map(|a| y[a][..p.split].iter().map(|v| v * v).sum::<f64>())
+                .sum()
+        } else {
+            0.0
+        };
         Ok(Loop {
             step_init,
             n_eff,
+            yty_train,
+            base_rss: Default::default(),
             base_variants,
             p,
             model,
@@ -237,14 +339,18 @@ impl<'a> Loop<'a> {
         ctx: &DynCtx,
         variant: usize,
         effects: &[(&dyn ModelEffect, Shape)],
-    ) -> (Vec<Column>, Vec<(usize, usize)>, Vec<usize>) {
+    ) -> Option<DynColumns> {
         let base_cols = &self.base_variants[variant].cols;
-        let mut positive: Vec<usize> = MSD_POSITIVE.to_vec();
+        let preload = self.base_variants[variant].stiffness == Stiffness::ForceLawWithPreload;
+        let mut positive: Vec<usize> = self.base_variants[variant].stiffness.positive().to_vec();
         let mut delay = 0.0f64;
         let mut extra = Vec::new();
         let mut ranges = Vec::new();
         for (e, s) in effects {
             let term = e.dynamic_term(ctx, s);
+            if preload && term.carries_constant {
+                return None;
+            }
             delay = delay.max(term.base_delay_s);
             let nb = base_cols.len();
             let start = nb + extra.len();
@@ -270,7 +376,7 @@ impl<'a> Loop<'a> {
             }
         }
         cols.extend(extra);
-        (cols, ranges, positive)
+        Some((cols, ranges, positive, delay > 0.0))
     }
 
     /// Information criterion of a fit of `ncols` columns with variant `v`: the pneumatic
@@ -289,7 +395,7 @@ impl<'a> Loop<'a> {
         let best = if shapes.len() <= 1 {
             shapes.into_iter().next().unwrap_or_default()
         } else {
-            let stride = ((0.005 / self.p.dt_s).floor() as usize).max(1);
+            let stride = shape_stride(self.p.dt_s);
             let rows = 0..self.p.split;
             let yty: f64 = (0..2)
                 .map(|a| {
@@ -303,9 +409,18 @@ impl<'a> Loop<'a> {
             let mut best = (f64::INFINITY, Shape::default());
             for s in shapes {
                 for v in 0..self.base_variants.len() {
-                    let (cols, _, positive) = self.dyn_columns(ctx, v, &[(e, s.clone())]);
-                    let ne =
-                        lsq::normal_equations_strided(&cols, &[&y[0], &y[1]], rows.clone(), stride);
+                    let Some((cols, _, positive, shifted)) =
+                        self.dyn_columns(ctx, v, &[(e, s.clone())])
+                    else {
+                        continue;
+                    };
+                    let target = [y[0].as_slice(), y[1].as_slice()];
+                    let ne = if shifted {
+                        lsq::normal_equations_strided(&cols, &target, rows.clone(), stride)
+                    } else {
+                        let known = &self.base_variants[v].normal_strided;
+                        lsq::normal_equations_extended(known, &cols, &target, rows.clone(), stride)
+                    };
                     let th = lsq::solve(&ne, &positive);
                     let r = self.criterion(lsq::rss(&ne, yty, &th) * stride as f64, cols.len(), v);
                     if r < best.0 {
@@ -319,6 +434,43 @@ impl<'a> Loop<'a> {
         best
     }
 
+    /// Normal equations of a fit with variant `v` on the training rows (the base part from
+    /// the variant's cache unless the effects shifted the base columns).
+    fn training_normal(
+        &self,
+        v: usize,
+        cols: &[Column],
+        shifted: bool,
+        y: &[Vec<f64>; 2],
+    ) -> lsq::Normal {
+        let target = [y[0].as_slice(), y[1].as_slice()];
+        if shifted {
+            lsq::normal_equations(cols, &target, 0..self.p.split)
+        } else {
+            let known = &self.base_variants[v].normal;
+            lsq::normal_equations_extended(known, cols, &target, 0..self.p.split, 1)
+        }
+    }
+
+    /// Training RSS of the base alone with the variant it prefers.
+    fn base_alone_rss(&self) -> f64 {
+        if let Some(r) = self.base_rss.get() {
+            return r;
+        }
+        let r = (0..self.base_variants.len())
+            .map(|v| {
+                let bv = &self.base_variants[v];
+                let th = lsq::solve(&bv.normal, &bv.stiffness.positive());
+                let r = lsq::rss(&bv.normal, self.yty_train, &th);
+                (self.criterion(r, bv.cols.len(), v), r)
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|x| x.1)
+            .unwrap_or(f64::INFINITY);
+        self.base_rss.set(Some(r));
+        r
+    }
+
     fn fit_dynamic(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
         let p = &self.p;
         let ctx = DynCtx::new(p, self.model);
@@ -328,28 +480,22 @@ impl<'a> Loop<'a> {
             .filter(|e| e.applies(Experiment::Dynamic))
             .map(|e| (*e, self.choose_shape(&ctx, *e, &y)))
             .collect();
-        let train_rss = |pr: &[Vec<f64>; 2]| -> f64 {
-            (0..2)
-                .map(|a| {
-                    (0..p.split)
-                        .map(|i| (y[a][i] - pr[a][i]).powi(2))
-                        .sum::<f64>()
-                })
-                .sum()
-        };
-        // both base variants; keep the one that fits the training part better
+        // every base variant; keep the one the training part prefers
         let mut best: Option<VariantFit> = None;
         for v in 0..self.base_variants.len() {
-            let (cols, ranges, positive) = self.dyn_columns(&ctx, v, &chosen);
-            let (theta, pred) = msd::fit_columns(p, &cols, &positive, &y);
-            let r = train_rss(&pred);
+            let Some((cols, ranges, positive, shifted)) = self.dyn_columns(&ctx, v, &chosen) else {
+                continue;
+            };
+            let ne = self.training_normal(v, &cols, shifted, &y);
+            let theta = lsq::solve(&ne, &positive);
+            let r = lsq::rss(&ne, self.yty_train, &theta);
             let c = self.criterion(r, cols.len(), v);
             if best.as_ref().is_none_or(|b| c < b.0) {
-                best = Some((c, v, cols, ranges, theta, pred));
+                best = Some((c, v, cols, ranges, theta, r));
             }
         }
-        let (_, variant, cols, ranges, theta, pred) = best.expect("variants");
-        let fit_rss = train_rss(&pred);
+        let (_, variant, cols, ranges, theta, fit_rss) = best.expect("variants");
+        let pred = lsq::predict(&cols, &theta, p.len());
         let bv = &self.base_variants[variant];
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
         let mut params = BTreeMap::new();
@@ -363,8 +509,30 @@ impl<'a> Loop<'a> {
         base.insert("pneumatic_zeta".into(), bv.pneumatic.1);
         base.insert(
             "joint_space_stiffness".into(),
-            if bv.joint_stiffness { 1.0 } else { 0.0 },
+            if bv.stiffness == Stiffness::Joint {
+                1.0
+            } else {
+                0.0
+            },
         );
+        let force_law = matches!(
+            bv.stiffness,
+            Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload
+        );
+        base.insert(
+            "force_law_stiffness".into(),
+            if force_law { 1.0 } else { 0.0 },
+        );
+        if force_law {
+            base.insert(
+                "force_law_from_start".into(),
+                if bv.stiffness == Stiffness::ForceLawAbsolute {
+                    0.0
+                } else {
+                    1.0
+                },
+            );
+        }
         params.insert("base".to_string(), base);
         let mut added = 0;
         for ((e, s), (a, b)) in chosen.iter().zip(&ranges) {
@@ -387,17 +555,7 @@ impl<'a> Loop<'a> {
             0.0
         } else {
             // against the base alone, with the variant the base alone prefers
-            let base_rss = (0..self.base_variants.len())
-                .map(|v| {
-                    let r = train_rss(
-                        &msd::fit_columns(p, &self.base_variants[v].cols, &MSD_POSITIVE, &y).1,
-                    );
-                    (self.criterion(r, self.base_variants[v].cols.len(), v), r)
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|x| x.1)
-                .unwrap_or(f64::INFINITY);
-            1.0 - fit_rss / base_rss.max(1e-300)
+            1.0 - fit_rss / self.base_alone_rss().max(1e-300)
         };
         ModelFit {
             experiment: Experiment::Dynamic,
@@ -684,35 +842,53 @@ pub fn joint_stiffness_columns(ctx: &DynCtx, d: &[Vec<f64>; 2], prefix: &str) ->
 }
 
 /// The loop's base model for dynamic trials: eq. 4.29's M and B in Cartesian coordinates,
-/// the stiffness either in Cartesian coordinates (eq. 4.29 as printed) or in joint space
-/// (the muscles act on the joints: the kinematics' curvature is then the model's, not an
-/// error) — whichever fits the training part better — and the pneumatic compliance.
+/// the stiffness in Cartesian coordinates (eq. 4.29 as printed), in joint space (the
+/// muscles act on the joints: the kinematics' curvature is then the model's, not an error)
+/// or as the model's muscle force law with a gain per joint, from the trial's start or
+/// absolute (its curvature away from the neutral pose is then the model's too) — whichever the training part prefers — and the
+/// pneumatic compliance. `None` when the variant needs what the log lacks (currents).
 pub fn base_columns(
     p: &Prepared,
     ctx: &DynCtx,
-    joint_stiffness: bool,
+    stiffness: Stiffness,
     omega_n: f64,
     zeta: f64,
-) -> Vec<Column> {
+) -> Option<Vec<Column>> {
     let mut cols = msd::msd_columns(p);
-    if joint_stiffness {
-        let da = [
-            p.alpha_smooth_rad[0]
-                .iter()
-                .map(|a| a - p.alpha0_rad[0])
-                .collect::<Vec<f64>>(),
-            p.alpha_smooth_rad[1]
-                .iter()
-                .map(|a| a - p.alpha0_rad[1])
-                .collect::<Vec<f64>>(),
-        ];
-        cols.truncate(6);
-        cols.extend(joint_stiffness_columns(ctx, &da, "kj"));
+    match stiffness {
+        Stiffness::Cartesian => {}
+        Stiffness::Joint => {
+            let da = [0, 1].map(|j| {
+                p.alpha_smooth_rad[j]
+                    .iter()
+                    .map(|a| a - p.alpha0_rad[j])
+                    .collect::<Vec<f64>>()
+            });
+            cols.truncate(6);
+            cols.extend(joint_stiffness_columns(ctx, &da, "kj"));
+        }
+        Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload => {
+            let from_start = stiffness != Stiffness::ForceLawAbsolute;
+            let law = crate::effects::force_law_columns(ctx, from_start)?;
+            cols.truncate(6);
+            cols.extend(law);
+            if stiffness == Stiffness::ForceLawWithPreload {
+                // the muscles' torque where the trial starts, as a constant joint torque
+                cols.push(ctx.torque_column("start_torque_nm_joint1", |_| [1.0, 0.0]));
+                cols.push(ctx.torque_column("start_torque_nm_joint2", |_| [0.0, 1.0]));
+            }
+        }
     }
     if omega_n > 0.0 {
-        cols.extend(pneumatic_columns(p, ctx, joint_stiffness, omega_n, zeta));
+        cols.extend(pneumatic_columns(
+            p,
+            ctx,
+            stiffness.joint_space(),
+            omega_n,
+            zeta,
+        ));
     }
-    cols
+    Some(cols)
 }
 
 /// The base columns with the regulator dynamics that fit the training part best, from a
@@ -720,8 +896,8 @@ pub fn base_columns(
 fn choose_pneumatic(
     p: &Prepared,
     model: &RobotModel<f64>,
-    joint: bool,
-) -> (Vec<Column>, (f64, f64)) {
+    stiffness: Stiffness,
+) -> Option<(Vec<Column>, (f64, f64))> {
     let y = msd::target(p);
     let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
     let rows = 0..p.split;
@@ -739,19 +915,18 @@ fn choose_pneumatic(
     let z0 = model.params.ip.damping_ratio;
     let fit = |cols: &[Column]| {
         let ne = lsq::normal_equations_strided(cols, &[&y[0], &y[1]], rows.clone(), stride);
-        let th = lsq::solve(&ne, &MSD_POSITIVE);
+        let th = lsq::solve(&ne, &stiffness.positive());
         (lsq::rss(&ne, yty, &th), th)
     };
     // without the pneumatic term
-    let mut plain = base_columns(p, &ctx, joint, 0.0, 0.0);
-    plain.truncate(9);
+    let plain = base_columns(p, &ctx, stiffness, 0.0, 0.0)?;
     let (rss_plain, th_plain) = fit(&plain);
     let mut best: Option<(f64, Vec<Column>, (f64, f64))> = None;
     for (wf, z) in [0.6, 1.0, 1.6]
         .iter()
         .flat_map(|&wf| [z0, 0.7, 1.0].into_iter().map(move |z| (wf, z)))
     {
-        let cols = base_columns(p, &ctx, joint, wn0 * wf, z);
+        let cols = base_columns(p, &ctx, stiffness, wn0 * wf, z)?;
         let (r, _) = fit(&cols);
         if best.as_ref().is_none_or(|b| r < b.0) {
             best = Some((r, cols, (wn0 * wf, z)));
@@ -781,11 +956,13 @@ fn choose_pneumatic(
     let n = 2.0 * p.split as f64;
     let n_eff = (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n);
     let ratio = rss_pn / rss_plain.max(1e-300);
-    if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {
-        (cols, wz)
-    } else {
-        (plain, (0.0, 0.0))
-    }
+    Some(
+        if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {
+            (cols, wz)
+        } else {
+            (plain, (0.0, 0.0))
+        },
+    )
 }
 
 // -------------------------------------------------------------------- diagnosis
@@ -962,7 +1139,10 @@ pub fn diagnose_with(
         .collect();
     let mut warnings = base.warnings.clone();
     if lp.p.resampled {
-        warnings.push("the log's sampling is uneven (dropped frames?): it was resampled to its median period".into());
+        warnings.push(
+            "the log's sampling is uneven (dropped frames?): it was resampled to its median period"
+                .into(),
+        );
     }
     if lp.p.len() < 200 {
         warnings.push(format!(
@@ -1107,7 +1287,11 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
     // slow structure: the residual's level wandering over the trial (20 time bins), which
     // neither the model nor a linear drift (the catalog's) accounts for
     // (dynamic trials: a step trial's residual has levels by construction)
-    let axes = if lp.experiment == Experiment::Dynamic { fit.axes.clone() } else { Vec::new() };
+    let axes = if lp.experiment == Experiment::Dynamic {
+        fit.axes.clone()
+    } else {
+        Vec::new()
+    };
     for a in axes {
         let r = fit.residual(a);
         let share = binned_share(&r, 20);

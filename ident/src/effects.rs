@@ -116,6 +116,10 @@ pub struct DynTerm {
     /// Indices (into `columns`) of parameters that are physically ≥ 0 (dissipation, a
     /// friction force): a sign-flipped fit of one effect must not pass for another.
     pub positive: Vec<usize>,
+    /// The term has a constant part of its own (an offset, or the equilibrium shift of an
+    /// effect counted from the neutral pose): the base variant with a fitted preload is then
+    /// not used with it, as the two cannot be told apart.
+    pub carries_constant: bool,
 }
 
 /// A model-side effect.
@@ -186,51 +190,58 @@ pub fn model_torque(
     (total - passive, total)
 }
 
-/// The model's muscle force law beyond its linearisation at the equilibrium: per joint,
-/// τ(α) − τ(α0) − τ'(α0)(α − α0) at the logged pressures. The thesis's MSD is linear; the
-/// force law is not (§4.3), so the loop's base model carries this curvature with one free
-/// factor per joint (≈ 1 when the model's force law is right).
-pub fn force_law_columns(ctx: &DynCtx) -> Vec<Column> {
+/// The model's muscle force law as the base model's stiffness: per joint, the torque of
+/// the model's muscles (eq. 3.1 through the joint pair, eq. 3.2–3.5) at the logged angle and
+/// the pressures from the logged currents — minus its value at the start of the trial when
+/// `from_start`, else as it is (the model's own equilibrium) — as a handle force through
+/// J⁻ᵀ. Away from the neutral pose this force law is
+/// visibly curved over the operator's motion, which no constant K follows. One gain per
+/// joint (≈ 1 when the model's force law is right). `None` without currents in the log.
+pub fn force_law_columns(ctx: &DynCtx, from_start: bool) -> Option<Vec<Column>> {
     let p = ctx.p;
-    let Some(pr) = joint_pressures(p, ctx.model) else {
-        return Vec::new();
-    };
+    let pr = joint_pressures(p, ctx.model)?;
     let mut cols = Vec::new();
     for j in 0..2 {
-        let a0 = p.alpha0_rad[j];
-        let p0 = pr[0][j];
-        let h = 1e-4;
-        let tau0 = model_torque(ctx.model, j, a0, p0).1;
-        let slope = (model_torque(ctx.model, j, a0 + h, p0).1
-            - model_torque(ctx.model, j, a0 - h, p0).1)
-            / (2.0 * h);
         let a = &p.alpha_smooth_rad[j];
-        let nl: Vec<f64> = (0..p.len())
-            .map(|i| model_torque(ctx.model, j, a[i], pr[i][j]).1 - tau0 - slope * (a[i] - a0))
+        let tau: Vec<f64> = (0..p.len())
+            .map(|i| model_torque(ctx.model, j, a[i], pr[i][j]).1)
             .collect();
-        let name = ["force_law_joint1", "force_law_joint2"][j];
-        // the muscles' torque is balanced by the hand: −f gains −J⁻ᵀ τ, so a model that is
-        // right gives a factor of −1 here; report it as +1 by flipping the regressor
-        let mut c = ctx.torque_column(name, |i| {
+        let tau0 = if from_start {
+            at_start(p, |i| tau[i])
+        } else {
+            0.0
+        };
+        let name = ["force_law_gain_joint1", "force_law_gain_joint2"][j];
+        // the muscles' restoring torque is balanced by the hand: −f gains −J⁻ᵀ Δτ, and
+        // Δτ < 0 for α > α0; the regressor is that column itself, so the gain is +1 when
+        // the model's force law is right
+        cols.push(ctx.torque_column(name, |i| {
             let mut t = [0.0; 2];
-            t[j] = nl[i];
+            t[j] = tau[i] - tau0;
             t
-        });
-        for v in c.axis.iter_mut().flatten() {
-            for x in v.iter_mut() {
-                *x = -*x;
-            }
-        }
-        cols.push(c);
+        }));
     }
-    cols
+    Some(cols)
 }
 
 /// Value of a per-sample quantity at the equilibrium (mean over the first 0.1 s), so a
 /// position-dependent regressor is zero where the trial starts, like x − x0.
-fn at_start(p: &Prepared, f: impl Fn(usize) -> f64) -> f64 {
+pub(crate) fn at_start(p: &Prepared, f: impl Fn(usize) -> f64) -> f64 {
     let k = ((0.1 / p.dt_s).round() as usize).clamp(1, p.len());
     (0..k).map(&f).sum::<f64>() / k as f64
+}
+
+/// The two references of a pose-dependent effect: the neutral pose (α = 0, where the
+/// model's muscles are pretensioned) or the start of the trial.
+fn reference_shapes() -> Vec<Shape> {
+    vec![
+        Shape(vec![("from_neutral_pose", 1.0)]),
+        Shape(vec![("from_neutral_pose", 0.0)]),
+    ]
+}
+
+fn from_neutral(s: &Shape) -> bool {
+    s.get("from_neutral_pose") != 0.0
 }
 
 /// Dry friction of the carrier ball: a force of constant size against the handle velocity,
@@ -330,12 +341,22 @@ impl ModelEffect for NonlinearStiffness {
     fn applies(&self, e: Experiment) -> bool {
         e == Experiment::Dynamic
     }
-    fn dynamic_term(&self, ctx: &DynCtx, _s: &Shape) -> DynTerm {
+    /// The stretch is counted from the neutral pose's pretension (a trial away from it
+    /// then also shows the effect as a shift of the equilibrium) or from the start of the
+    /// trial (only the change of stiffness shows): chosen on the data.
+    fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
+        reference_shapes()
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, s: &Shape) -> DynTerm {
         let p = ctx.p;
         let mut cols = Vec::new();
         for j in 0..2 {
             let a = &p.alpha_smooth_rad[j];
-            let t0 = at_start(p, |i| Self::torque_per_n(ctx.model, j, a[i]));
+            let t0 = if from_neutral(s) {
+                0.0
+            } else {
+                at_start(p, |i| Self::torque_per_n(ctx.model, j, a[i]))
+            };
             let name = ["cubic_n_joint1", "cubic_n_joint2"][j];
             cols.push(ctx.torque_column(name, |i| {
                 let mut t = [0.0; 2];
@@ -345,6 +366,7 @@ impl ModelEffect for NonlinearStiffness {
         }
         DynTerm {
             columns: cols,
+            carries_constant: from_neutral(s),
             ..Default::default()
         }
     }
@@ -352,9 +374,10 @@ impl ModelEffect for NonlinearStiffness {
         &self,
         _ctx: &DynCtx,
         fitted: &[(String, f64)],
-        _s: &Shape,
+        s: &Shape,
     ) -> Vec<(String, f64)> {
         let mut v = fitted.to_vec();
+        v.extend(s.0.iter().map(|(n, x)| (n.to_string(), *x)));
         // one cubic coefficient for both joints (the twin's parameter), from the two fits
         // weighted towards the joint that moved most is approximated by their mean
         let c = fitted.iter().map(|p| p.1).sum::<f64>() / fitted.len().max(1) as f64;
@@ -472,21 +495,35 @@ impl ModelEffect for PoseDependence {
     /// Two forms, chosen on the data like any shape: the gain plane acting on the muscle
     /// pressures (needs the currents; 2 parameters), or a restoring force quadratic in the
     /// displacement (6 parameters; any simulator or rig).
+    /// With the gain plane, its angles count from the neutral pose (eq. 5.2: a trial away
+    /// from it also shows a shift of the equilibrium) or from the start of the trial.
     fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
-        let mut v = vec![Shape(vec![("quadratic_form", 1.0)])];
+        let mut v = Vec::new();
         if joint_pressures(ctx.p, ctx.model).is_some() {
-            v.insert(0, Shape(vec![("quadratic_form", 0.0)]));
+            for r in reference_shapes() {
+                v.push(Shape([vec![("quadratic_form", 0.0)], r.0].concat()));
+            }
         }
+        v.push(Shape(vec![("quadratic_form", 1.0)]));
         v
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         // with the pressures known (currents in the log): the pressure part of each joint's
         // torque scaled by a plane in (α1, α2) — the gain plane of eq. 5.2 acting on the
         // muscles; the parameters are the plane's slopes
-        let pressures = if shape.get("quadratic_form") == 0.0 { joint_pressures(ctx.p, ctx.model) } else { None };
+        let pressures = if shape.get("quadratic_form") == 0.0 {
+            joint_pressures(ctx.p, ctx.model)
+        } else {
+            None
+        };
         if let Some(pr) = pressures {
             let p = ctx.p;
             let a = &p.alpha_smooth_rad;
+            let origin = if from_neutral(shape) {
+                [0.0; 2]
+            } else {
+                p.alpha0_rad
+            };
             let mut cols = Vec::new();
             for (k, name) in [(0, "gain_per_rad_1"), (1, "gain_per_rad_2")] {
                 let v: Vec<[f64; 2]> = (0..p.len())
@@ -494,7 +531,7 @@ impl ModelEffect for PoseDependence {
                         let mut t = [0.0; 2];
                         for j in 0..2 {
                             t[j] = model_torque(ctx.model, j, a[j][i], pr[i][j]).0
-                                * (a[k][i] - p.alpha0_rad[k]);
+                                * (a[k][i] - origin[k]);
                         }
                         t
                     })
@@ -505,6 +542,7 @@ impl ModelEffect for PoseDependence {
             }
             return DynTerm {
                 columns: cols,
+                carries_constant: from_neutral(shape),
                 ..Default::default()
             };
         }
@@ -634,7 +672,7 @@ impl ModelEffect for TransportDelay {
         DynTerm {
             columns: vec![],
             base_delay_s: shape.get("delay_s"),
-            positive: vec![],
+            ..Default::default()
         }
     }
     fn step_extras(&self) -> &'static [StepExtra] {
@@ -682,6 +720,7 @@ impl ModelEffect for LoadcellDrift {
         }
         DynTerm {
             columns: cols,
+            carries_constant: true,
             ..Default::default()
         }
     }

@@ -76,16 +76,38 @@ pub fn normal_equations_strided(
     rows: Range<usize>,
     stride: usize,
 ) -> Normal {
+    let empty = Normal {
+        gram: Vec::new(),
+        rhs: Vec::new(),
+    };
+    normal_equations_extended(&empty, cols, target, rows, stride)
+}
+
+/// Normal equations of `cols` whose first `known.rhs.len()` columns are those `known` was
+/// computed from (same rows, stride and target): only the new columns' products are
+/// computed. The base model's columns are shared by every effect's fit.
+pub fn normal_equations_extended(
+    known: &Normal,
+    cols: &[Column],
+    target: &[&[f64]; 2],
+    rows: Range<usize>,
+    stride: usize,
+) -> Normal {
     let p = cols.len();
+    let nk = known.rhs.len().min(p);
     let mut gram = vec![vec![0.0; p]; p];
     let mut rhs = vec![0.0; p];
-    for j in 0..p {
+    for j in 0..nk {
+        rhs[j] = known.rhs[j];
+        gram[j][..nk].copy_from_slice(&known.gram[j][..nk]);
+    }
+    for j in nk..p {
         for a in 0..2 {
             if let Some(cj) = &cols[j].axis[a] {
                 rhs[j] += dot_strided(&cj[rows.clone()], &target[a][rows.clone()], stride);
             }
         }
-        for k in j..p {
+        for k in 0..=j {
             let mut s = 0.0;
             for a in 0..2 {
                 if let (Some(cj), Some(ck)) = (&cols[j].axis[a], &cols[k].axis[a]) {

@@ -48,9 +48,16 @@ fn config(spec: &str, r: Regime, seed: u64) -> ExperimentConfig {
 }
 
 fn run(exp: Experiment, spec: &str, r: Regime, seed: u64) -> Diagnosis {
+    run_at(1, exp, spec, r, seed)
+}
+
+/// `run` at one of Table 4.1's points (dynamic trials; step tests stay at the centre).
+fn run_at(point: usize, exp: Experiment, spec: &str, r: Regime, seed: u64) -> Diagnosis {
     let cfg = config(spec, r, seed);
     let log = match exp {
-        Experiment::Dynamic => dynamic_trial(&cfg, 1, StiffnessLevel::Low, r.duration_s).unwrap(),
+        Experiment::Dynamic => {
+            dynamic_trial(&cfg, point, StiffnessLevel::Low, r.duration_s).unwrap()
+        }
         Experiment::Step => force_step_test(&cfg, [0.0, 0.0]).unwrap(),
     };
     let trial = Trial::from_log(&log).unwrap();
@@ -378,5 +385,76 @@ fn twin_mains_hum_is_unexplained() {
             "{:?}",
             d.unexplained
         );
+    }
+}
+
+/// Away from the centre of the workspace (Table 4.1's points 2–5) the muscles' force law is
+/// visibly curved over the operator's motion; the base model carries it (the force-law
+/// stiffness variant), so without a hidden effect the verdict is still "none".
+#[test]
+fn twin_controls_give_none_away_from_the_centre() {
+    for (k, r) in REGIMES.iter().enumerate() {
+        for point in 2..=5 {
+            let d = run_at(point, Experiment::Dynamic, "", *r, 60 + k as u64);
+            assert_eq!(
+                d.verdict,
+                "none",
+                "point {point}, {} s: base {:?}; {:?}",
+                r.period_s,
+                d.base.params,
+                d.effects
+                    .iter()
+                    .map(|e| (&e.id, e.score, e.accepted))
+                    .collect::<Vec<_>>()
+            );
+        }
+    }
+}
+
+/// The twin's cubic term counts the stretch from the neutral pose, so away from it the same
+/// coefficient makes far larger forces (at point 2, 15 N per 1 % gives over 1 kN per muscle
+/// and slack cables); 1 N per 1 % is of the size of the default at the centre. Points 3
+/// and 4: at point 2 (50 ms, this seed) pose_dependence edges it out (scores 0.209 vs
+/// 0.206) — the two are close there once the base carries the force law's curvature (see
+/// docs/model-loop.md, known limitations).
+#[test]
+fn twin_nonlinear_stiffness_away_from_the_centre() {
+    for (k, r) in REGIMES.iter().enumerate() {
+        for point in [3, 4] {
+            let label = format!("point {point}, {} s", r.period_s);
+            found(
+                &run_at(
+                    point,
+                    Experiment::Dynamic,
+                    "nonlinear_stiffness:cubic_n=1",
+                    *r,
+                    70 + k as u64,
+                ),
+                "nonlinear_stiffness",
+                &label,
+            );
+        }
+    }
+}
+
+#[test]
+fn twin_pose_dependence_away_from_the_centre() {
+    for (k, r) in REGIMES.iter().enumerate() {
+        for point in [3, 5] {
+            let label = format!("point {point}, {} s", r.period_s);
+            let p = found(
+                &run_at(
+                    point,
+                    Experiment::Dynamic,
+                    "pose_dependence:gain_per_rad_1=0.6,gain_per_rad_2=-0.4",
+                    *r,
+                    80 + k as u64,
+                ),
+                "pose_dependence",
+                &label,
+            );
+            near(&p, "gain_per_rad_1", 0.6, 0.4, &label);
+            near(&p, "gain_per_rad_2", -0.4, 0.4, &label);
+        }
     }
 }
