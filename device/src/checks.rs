@@ -18,11 +18,7 @@ const OPTIONS: DeviceOptions = DeviceOptions {
 };
 
 fn device() -> Device {
-    Device::new(
-        RobotParams::thesis(),
-        SafetyConfig::default_1khz(),
-        OPTIONS,
-    )
+    Device::new(RobotParams::thesis(), SafetyConfig::default_1khz(), OPTIONS)
 }
 
 /// Encoders at `counts`, load cell near zero with the dither a live ADC has.
@@ -49,7 +45,10 @@ fn done(d: &mut Device, body: RequestBody) -> CheckResult {
 }
 
 fn refused(d: &mut Device, body: RequestBody, code: ErrorCode) -> CheckResult {
-    holds("request refused with its code", request(d, body) == Err(code))
+    holds(
+        "request refused with its code",
+        request(d, body) == Err(code),
+    )
 }
 
 fn steps(d: &mut Device, n: u32, start: u32) -> StepResult {
@@ -122,9 +121,15 @@ pub fn boots_disarmed_unhomed_and_vented() -> CheckResult {
         index: 0,
     })?;
     holds("seq starts at 0", t.seq == 0)?;
-    holds("disarmed", t.state == State::Disarmed && t.mode == ModeKind::Idle)?;
+    holds(
+        "disarmed",
+        t.state == State::Disarmed && t.mode == ModeKind::Idle,
+    )?;
     let s = status(&mut d)?;
-    holds("not homed", !s.homed && s.period_us == 1000 && s.telemetry_divider == 1)
+    holds(
+        "not homed",
+        !s.homed && s.period_us == 1000 && s.telemetry_divider == 1,
+    )
 }
 
 pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
@@ -136,8 +141,14 @@ pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
         },
     ) {
         Ok(ReplyData::Hello(info)) => {
-            holds("protocol version", info.protocol_version == PROTOCOL_VERSION)?;
-            holds("firmware version", info.firmware_version == OPTIONS.firmware_version)?;
+            holds(
+                "protocol version",
+                info.protocol_version == PROTOCOL_VERSION,
+            )?;
+            holds(
+                "firmware version",
+                info.firmware_version == OPTIONS.firmware_version,
+            )?;
             holds("period", info.period_us == 1000)?;
             holds(
                 "params hash",
@@ -178,21 +189,39 @@ pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
 
 pub fn home_zeroes_the_angle_and_is_refused_while_armed() -> CheckResult {
     let mut d = device();
-    let t = steps(&mut d, 1, 0).telemetry.unwrap_or_else(unreachable_telemetry);
+    let t = steps(&mut d, 1, 0)
+        .telemetry
+        .unwrap_or_else(unreachable_telemetry);
     holds("boot position is the origin", t.alpha_rad == [0.0, 0.0])?;
     // move slowly (10 counts per ms = 7.9 rad/s, below the encoder-jump speed)
     let mut t = None;
     for k in 1..=8 {
-        t = d.step(raw([HOME[0] + 10 * k, HOME[1] - 5 * k], k), StepTiming::default()).telemetry;
+        t = d
+            .step(
+                raw([HOME[0] + 10 * k, HOME[1] - 5 * k], k),
+                StepTiming::default(),
+            )
+            .telemetry;
     }
     let moved = [HOME[0] + 80, HOME[1] - 40];
     let a = t.map(|t| t.alpha_rad).unwrap_or([9.0; 2]);
     let per_count = 2.0 * core::f32::consts::PI / 8000.0;
-    near("alpha1 before homing", a[0], (moved[0] - HOME[0]) as f32 * per_count, 1e-6)?;
+    near(
+        "alpha1 before homing",
+        a[0],
+        (moved[0] - HOME[0]) as f32 * per_count,
+        1e-6,
+    )?;
     done(&mut d, RequestBody::Home)?;
     let t = d.step(raw(moved, 9), StepTiming::default()).telemetry;
-    holds("homed position reads zero", t.map(|t| t.alpha_rad) == Some([0.0, 0.0]))?;
-    holds("homing is no encoder jump", d.controller().faults().is_none())?;
+    holds(
+        "homed position reads zero",
+        t.map(|t| t.alpha_rad) == Some([0.0, 0.0]),
+    )?;
+    holds(
+        "homing is no encoder jump",
+        d.controller().faults().is_none(),
+    )?;
     done(&mut d, RequestBody::Arm)?;
     refused(&mut d, RequestBody::Home, ErrorCode::WrongState)
 }
@@ -251,12 +280,25 @@ pub fn encoder_calibration_sets_scale_and_sign() -> CheckResult {
     ];
     done(&mut d, RequestBody::SetConfig(Config::Calibration(cal)))?;
     let t = d
-        .step(raw([HOME[0] + 100, HOME[1] + 100], 1), StepTiming::default())
+        .step(
+            raw([HOME[0] + 100, HOME[1] + 100], 1),
+            StepTiming::default(),
+        )
         .telemetry;
     let a = t.map(|t| t.alpha_rad).unwrap_or([9.0; 2]);
     let tau = 2.0 * core::f32::consts::PI;
-    near("joint 1: −100 counts of 4000", a[0], -100.0 * tau / 4000.0, 1e-6)?;
-    near("joint 2: 100 counts of 10000", a[1], 100.0 * tau / 10_000.0, 1e-6)
+    near(
+        "joint 1: −100 counts of 4000",
+        a[0],
+        -100.0 * tau / 4000.0,
+        1e-6,
+    )?;
+    near(
+        "joint 2: 100 counts of 10000",
+        a[1],
+        100.0 * tau / 10_000.0,
+        1e-6,
+    )
 }
 
 pub fn loadcell_volts_become_user_frame_newtons_and_tare_zeroes_them() -> CheckResult {
@@ -280,7 +322,9 @@ pub fn loadcell_volts_become_user_frame_newtons_and_tare_zeroes_them() -> CheckR
     let f = t.map(|t| t.force_user_n).unwrap_or([f32::NAN; 2]);
     holds("tared force is zero", f == [0.0, 0.0])?;
     match config(&mut d, ConfigSection::Calibration)? {
-        Config::Calibration(c) => holds("tare is in the calibration", c.load_cell.offset_v == volts)?,
+        Config::Calibration(c) => {
+            holds("tare is in the calibration", c.load_cell.offset_v == volts)?
+        }
         _ => holds("calibration section", false)?,
     }
     done(&mut d, RequestBody::Arm)?;
@@ -334,9 +378,17 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
     let out = steps_alive(&mut d, 200, 1);
     let t = out.telemetry.unwrap_or_else(unreachable_telemetry);
     near("channel 3 pressure", t.pressure_cmd_bar[2], 3.0, 1e-5)?;
-    holds("pressures mode", t.mode == ModeKind::Pressures && t.force_ref_n.is_none())?;
+    holds(
+        "pressures mode",
+        t.mode == ModeKind::Pressures && t.force_ref_n.is_none(),
+    )?;
     let ip = &d.controller().model().params.ip;
-    near("channel 3 current", out.current_ma[2], (3.0 - ip.offset_bar) / ip.gain_bar_per_ma, 1e-3)?;
+    near(
+        "channel 3 current",
+        out.current_ma[2],
+        (3.0 - ip.offset_bar) / ip.gain_bar_per_ma,
+        1e-3,
+    )?;
 
     done(
         &mut d,
@@ -346,8 +398,13 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
             stiffness_nm_per_rad: [60.0, 27.0],
         }),
     )?;
-    let t = steps_alive(&mut d, 200, 300).telemetry.unwrap_or_else(unreachable_telemetry);
-    holds("joint mode", t.mode == ModeKind::Joint && t.state == State::Armed)?;
+    let t = steps_alive(&mut d, 200, 300)
+        .telemetry
+        .unwrap_or_else(unreachable_telemetry);
+    holds(
+        "joint mode",
+        t.mode == ModeKind::Joint && t.state == State::Armed,
+    )?;
     let p = t.pressure_cmd_bar;
     // zero torque at the neutral pose: both muscles of a pair at the same pressure
     near("joint 1 pair balanced", p[0], p[1], 1e-3)?;
@@ -362,8 +419,13 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
             feed_forward: true,
         }),
     )?;
-    let t = steps_alive(&mut d, 200, 600).telemetry.unwrap_or_else(unreachable_telemetry);
-    holds("force mode with feed-forward", t.mode == ModeKind::ForceFeedForward)?;
+    let t = steps_alive(&mut d, 200, 600)
+        .telemetry
+        .unwrap_or_else(unreachable_telemetry);
+    holds(
+        "force mode with feed-forward",
+        t.mode == ModeKind::ForceFeedForward,
+    )?;
     holds("force reference reported", t.force_ref_n == Some(force))?;
     holds("no fault", t.faults == 0 && t.state == State::Armed)
 }
@@ -535,14 +597,20 @@ pub fn any_request_is_a_heartbeat_and_silence_times_out() -> CheckResult {
         }
         d.step(raw(HOME, k), StepTiming::default());
     }
-    holds("alive while the host talks", d.controller().state() == State::Armed)?;
+    holds(
+        "alive while the host talks",
+        d.controller().state() == State::Armed,
+    )?;
     let mut events = 0;
     let mut first_at = 0;
     for k in 0..300 {
         if let Some(e) = d.step(raw(HOME, k), StepTiming::default()).fault_event {
             events += 1;
             first_at = k;
-            holds("timeout code", e.code == 0 && e.bits == Faults::COMMAND_TIMEOUT.0)?;
+            holds(
+                "timeout code",
+                e.code == 0 && e.bits == Faults::COMMAND_TIMEOUT.0,
+            )?;
         }
     }
     holds("one fault event", events == 1)?;
@@ -560,7 +628,10 @@ pub fn faults_clear_only_when_gone() -> CheckResult {
     )?;
     refused(&mut d, RequestBody::Arm, ErrorCode::WrongState)?;
     done(&mut d, RequestBody::ClearFaults)?;
-    holds("cleared, disarmed", status(&mut d)?.faults == 0 && d.controller().state() == State::Disarmed)?;
+    holds(
+        "cleared, disarmed",
+        status(&mut d)?.faults == 0 && d.controller().state() == State::Disarmed,
+    )?;
     // a saturated load cell that stays saturated cannot be cleared
     let sat = RawSensors {
         encoder_counts: HOME,
@@ -568,7 +639,11 @@ pub fn faults_clear_only_when_gone() -> CheckResult {
     };
     let ev = d.step(sat, StepTiming::default()).fault_event;
     holds("saturation event", ev.map(|e| e.code) == Some(4))?;
-    refused(&mut d, RequestBody::ClearFaults, ErrorCode::FaultStillPresent)?;
+    refused(
+        &mut d,
+        RequestBody::ClearFaults,
+        ErrorCode::FaultStillPresent,
+    )?;
     steps(&mut d, 1, 2);
     done(&mut d, RequestBody::ClearFaults)
 }
@@ -576,16 +651,25 @@ pub fn faults_clear_only_when_gone() -> CheckResult {
 pub fn corrupted_frames_get_a_malformed_reply() -> CheckResult {
     let mut d = device();
     let r = d.handle_frame(Err(DecodeError::Crc));
-    holds("unknown id", r.id == UNKNOWN_REQUEST_ID && r.result == Err(ErrorCode::Malformed))?;
+    holds(
+        "unknown id",
+        r.id == UNKNOWN_REQUEST_ID && r.result == Err(ErrorCode::Malformed),
+    )?;
     let r = d.handle_frame(Err(DecodeError::Message {
         leading_u16: Some(42),
     }));
-    holds("id echoed", r.id == 42 && r.result == Err(ErrorCode::Malformed))?;
+    holds(
+        "id echoed",
+        r.id == 42 && r.result == Err(ErrorCode::Malformed),
+    )?;
     let r = d.handle_frame(Ok(Request {
         id: 5,
         body: RequestBody::Heartbeat,
     }));
-    holds("good frame handled", r.id == 5 && r.result == Ok(ReplyData::Done))
+    holds(
+        "good frame handled",
+        r.id == 5 && r.result == Ok(ReplyData::Done),
+    )
 }
 
 pub fn requests_survive_the_wire() -> CheckResult {

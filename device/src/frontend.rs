@@ -66,7 +66,9 @@ impl Encoders {
                 let delta = r.wrapping_sub(self.last_raw[j]) & self.counter_mask;
                 let signed = if delta > half {
                     // backwards: delta − 2^bits, as an i32
-                    (delta as i32).wrapping_sub(self.counter_mask as i32).wrapping_sub(1)
+                    (delta as i32)
+                        .wrapping_sub(self.counter_mask as i32)
+                        .wrapping_sub(1)
                 } else {
                     delta as i32
                 };
@@ -80,8 +82,7 @@ impl Encoders {
 
     pub fn alpha_rad(&self) -> [f32; 2] {
         [0, 1].map(|j| {
-            self.position_counts[j].wrapping_sub(self.home_counts[j]) as f32
-                * self.rad_per_count[j]
+            self.position_counts[j].wrapping_sub(self.home_counts[j]) as f32 * self.rad_per_count[j]
         })
     }
 

@@ -212,7 +212,11 @@ impl Device {
                     state: out.state,
                     faults: out.faults.0,
                     limited: (out.limited.0 & !LIMITED_OUTPUT)
-                        | if out.output_limited { LIMITED_OUTPUT } else { 0 },
+                        | if out.output_limited {
+                            LIMITED_OUTPUT
+                        } else {
+                            0
+                        },
                     loop_exec_us: timing.loop_exec_us,
                     loop_jitter_us: timing.loop_jitter_us,
                 };

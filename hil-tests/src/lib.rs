@@ -26,7 +26,10 @@ pub fn pamctl_bin() -> PathBuf {
     }
     let exe = std::env::current_exe().expect("test executable path");
     // target/<profile>/deps/<test> → target/<profile>/pamctl
-    let dir = exe.parent().and_then(|d| d.parent()).expect("target directory");
+    let dir = exe
+        .parent()
+        .and_then(|d| d.parent())
+        .expect("target directory");
     let bin = dir.join(format!("pamctl{}", std::env::consts::EXE_SUFFIX));
     assert!(
         bin.exists(),
@@ -70,7 +73,10 @@ impl Target {
     pub fn acquire(sim_args: &[&str]) -> Target {
         if let Ok(d) = std::env::var("PAM_DEVICE") {
             if !d.trim().is_empty() {
-                return Target { address: d, emulator: None };
+                return Target {
+                    address: d,
+                    emulator: None,
+                };
             }
         }
         let mut child = Command::new(pamctl_bin())
@@ -95,7 +101,10 @@ impl Target {
             .strip_prefix("listening on ")
             .unwrap_or_else(|| panic!("unexpected first line from pamctl sim: {line:?}"))
             .to_string();
-        Target { address, emulator: Some(child) }
+        Target {
+            address,
+            emulator: Some(child),
+        }
     }
 
     pub fn is_emulator(&self) -> bool {
@@ -114,13 +123,18 @@ impl Target {
         c.command(RequestBody::Disarm).expect("disarm");
         // a timeout fault from a previous test clears once disarmed
         let _ = c.command(RequestBody::ClearFaults);
-        let mut limits = match c.request(RequestBody::GetConfig(ConfigSection::Limits)).expect("limits") {
+        let mut limits = match c
+            .request(RequestBody::GetConfig(ConfigSection::Limits))
+            .expect("limits")
+        {
             ReplyData::Config(Config::Limits(l)) => l,
             other => panic!("limits: unexpected reply {other:?}"),
         };
         limits.command_timeout_s = command_timeout_s;
-        c.command(RequestBody::SetConfig(Config::Limits(limits))).expect("set the command timeout");
-        c.command(RequestBody::SetTelemetry { divider: 1 }).expect("telemetry at every period");
+        c.command(RequestBody::SetConfig(Config::Limits(limits)))
+            .expect("set the command timeout");
+        c.command(RequestBody::SetTelemetry { divider: 1 })
+            .expect("telemetry at every period");
         // on a real board the arm must be at the neutral pose when the tests start
         c.command(RequestBody::Home).expect("home");
         limits
@@ -131,7 +145,9 @@ impl Drop for Target {
     fn drop(&mut self) {
         if let Some(mut child) = self.emulator.take() {
             // Ctrl-C: the emulator stops cleanly
-            let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+            let _ = Command::new("kill")
+                .args(["-INT", &child.id().to_string()])
+                .status();
             for _ in 0..50 {
                 if let Ok(Some(_)) = child.try_wait() {
                     return;
@@ -146,7 +162,10 @@ impl Drop for Target {
 
 /// The safe state: (the converters' floor pressure, the safe loop current, 4 mA).
 pub fn vent(c: &Client) -> (f32, f32) {
-    match c.request(RequestBody::GetConfig(ConfigSection::Robot)).expect("robot parameters") {
+    match c
+        .request(RequestBody::GetConfig(ConfigSection::Robot))
+        .expect("robot parameters")
+    {
         ReplyData::Config(Config::Robot(p)) => {
             // the converter's floor, commanded with the safe current (4 mA)
             (p.ip.output_min_bar, p.ip.current_min_ma)

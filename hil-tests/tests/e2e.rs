@@ -17,7 +17,8 @@ use std::time::{Duration, Instant};
 const SIM: &[&str] = &["--handle", "blocked"];
 
 fn column<'a>(log: &'a pam_log::Log, name: &str) -> &'a [f64] {
-    log.column(name).unwrap_or_else(|| panic!("column {name} missing"))
+    log.column(name)
+        .unwrap_or_else(|| panic!("column {name} missing"))
 }
 
 fn mean_of_last(v: &[f64], n: usize) -> f64 {
@@ -31,24 +32,51 @@ fn assert_physical(log: &pam_log::Log, mode_code: f64, what: &str) {
     assert!(!log.is_empty(), "{what}: empty log");
     for name in col::PRESSURES_CMD_BAR {
         for &p in column(log, name) {
-            assert!((0.0..=5.0).contains(&p), "{what}: {name} = {p} bar outside 0–5 bar");
+            assert!(
+                (0.0..=5.0).contains(&p),
+                "{what}: {name} = {p} bar outside 0–5 bar"
+            );
         }
     }
     for name in col::CURRENTS_MA {
         for &i in column(log, name) {
-            assert!((4.0 - 1e-4..=20.0 + 1e-4).contains(&i), "{what}: {name} = {i} mA outside 4–20 mA");
+            assert!(
+                (4.0 - 1e-4..=20.0 + 1e-4).contains(&i),
+                "{what}: {name} = {i} mA outside 4–20 mA"
+            );
         }
     }
-    assert!(column(log, col::STATE).iter().all(|&s| s == 1.0), "{what}: not armed throughout");
-    assert!(column(log, col::FAULTS).iter().all(|&f| f == 0.0), "{what}: faults latched");
-    assert!(column(log, "mode").iter().all(|&m| m == mode_code), "{what}: mode column is not {mode_code}");
+    assert!(
+        column(log, col::STATE).iter().all(|&s| s == 1.0),
+        "{what}: not armed throughout"
+    );
+    assert!(
+        column(log, col::FAULTS).iter().all(|&f| f == 0.0),
+        "{what}: faults latched"
+    );
+    assert!(
+        column(log, "mode").iter().all(|&m| m == mode_code),
+        "{what}: mode column is not {mode_code}"
+    );
 }
 
-fn record(device: &str, file: &std::path::Path, seconds: &str, extra: &[&str]) -> (String, pam_log::Log) {
-    let mut args = vec!["record", file.to_str().unwrap(), "--duration", seconds, "--quiet"];
+fn record(
+    device: &str,
+    file: &std::path::Path,
+    seconds: &str,
+    extra: &[&str],
+) -> (String, pam_log::Log) {
+    let mut args = vec![
+        "record",
+        file.to_str().unwrap(),
+        "--duration",
+        seconds,
+        "--quiet",
+    ];
     args.extend(extra);
     let out = ok(device, &args);
-    let log = pam_log::read_path(file).unwrap_or_else(|e| panic!("{}: not a valid log: {e}", file.display()));
+    let log = pam_log::read_path(file)
+        .unwrap_or_else(|e| panic!("{}: not a valid log: {e}", file.display()));
     (out, log)
 }
 
@@ -67,8 +95,18 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     let (_, log) = record(d, &tmp("idle.csv"), "0.5", &[]);
     assert_physical(&log, 0.0, "idle");
     for (i, p) in col::CURRENTS_MA.iter().zip(col::PRESSURES_CMD_BAR) {
-        assert!(column(&log, i).iter().all(|&v| (v - vent_ma as f64).abs() < 1e-3), "idle: {i} not {vent_ma} mA");
-        assert!(column(&log, p).iter().all(|&v| (v - vent_bar as f64).abs() < 1e-4), "idle: {p} not {vent_bar} bar");
+        assert!(
+            column(&log, i)
+                .iter()
+                .all(|&v| (v - vent_ma as f64).abs() < 1e-3),
+            "idle: {i} not {vent_ma} mA"
+        );
+        assert!(
+            column(&log, p)
+                .iter()
+                .all(|&v| (v - vent_bar as f64).abs() < 1e-4),
+            "idle: {p} not {vent_bar} bar"
+        );
     }
 
     // force, first, at the neutral pose: the handle is blocked there and the measured force
@@ -81,7 +119,10 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     let fy = mean_of_last(column(&log, col::FY_N), 500);
     eprintln!("force mode, blocked handle: measured ({fx:.2}, {fy:.2}) N for (10, 0) N");
     // open loop (thesis §5.2: gains 0.6–1.3 per axis, cross-talk a few N)
-    assert!((5.0..=15.0).contains(&fx) && fy.abs() < 5.0, "force: measured ({fx:.2}, {fy:.2}) N for (10, 0) N");
+    assert!(
+        (5.0..=15.0).contains(&fx) && fy.abs() < 5.0,
+        "force: measured ({fx:.2}, {fy:.2}) N for (10, 0) N"
+    );
 
     // pressures: the command reaches the targets (slew-limited) and stays there
     ok(d, &["set", "pressures", "1.0,2.0,3.0,2.5"]);
@@ -89,11 +130,20 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     assert_physical(&log, 1.0, "pressures");
     for (name, want) in col::PRESSURES_CMD_BAR.iter().zip([1.0, 2.0, 3.0, 2.5]) {
         let p = mean_of_last(column(&log, name), 300);
-        assert!((p - want).abs() < 0.01, "pressures: {name} settles at {p}, want {want}");
+        assert!(
+            (p - want).abs() < 0.01,
+            "pressures: {name} settles at {p}, want {want}"
+        );
     }
     // the loop current follows the I/P law's slope: more pressure, more current
-    let i: Vec<f64> = col::CURRENTS_MA.iter().map(|n| mean_of_last(column(&log, n), 300)).collect();
-    assert!(i[0] < i[1] && i[1] < i[3] && i[3] < i[2], "pressures: currents {i:?} not ordered like the pressures");
+    let i: Vec<f64> = col::CURRENTS_MA
+        .iter()
+        .map(|n| mean_of_last(column(&log, n), 300))
+        .collect();
+    assert!(
+        i[0] < i[1] && i[1] < i[3] && i[3] < i[2],
+        "pressures: currents {i:?} not ordered like the pressures"
+    );
 
     // joint: free handle, the arm goes toward the target and nothing pushes back
     ok(d, &["set", "joint", "--alpha-deg", "5,-5"]);
@@ -101,16 +151,26 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     assert_physical(&log, 2.0, "joint");
     let a1 = mean_of_last(column(&log, col::ALPHA1_RAD), 300).to_degrees();
     let a2 = mean_of_last(column(&log, col::ALPHA2_RAD), 300).to_degrees();
-    assert!(a1 > 1.0 && a2 < -1.0, "joint: arm at ({a1:.2}°, {a2:.2}°), target (5°, −5°)");
+    assert!(
+        a1 > 1.0 && a2 < -1.0,
+        "joint: arm at ({a1:.2}°, {a2:.2}°), target (5°, −5°)"
+    );
     for name in [col::FX_N, col::FY_N] {
         let f = mean_of_last(column(&log, name), 300);
-        assert!(f.abs() < 3.0, "joint, free handle: {name} = {f:.2} N, nothing holds the handle");
+        assert!(
+            f.abs() < 3.0,
+            "joint, free handle: {name} = {f:.2} N, nothing holds the handle"
+        );
     }
 
     // ten seconds at 1 kHz, with the link throughput
     let file = tmp("ten_seconds.csv");
     let (out, log) = record(d, &file, "10", &["--stats"]);
-    assert!((9_999..=10_001).contains(&log.len()), "{} rows in 10 s at 1 kHz", log.len());
+    assert!(
+        (9_999..=10_001).contains(&log.len()),
+        "{} rows in 10 s at 1 kHz",
+        log.len()
+    );
     assert_eq!(seq_gaps(&log), 0, "sequence gaps in the 10 s recording");
     assert!(out.contains("0 dropped on the link"), "{out}");
     assert_physical(&log, 2.0, "10 s in joint mode");
@@ -122,9 +182,15 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
         .and_then(|s| s.rsplit(' ').nth(1))
         .and_then(|s| s.parse().ok())
         .unwrap_or_else(|| panic!("no throughput in {out}"));
-    eprintln!("{}", out.lines().find(|l| l.starts_with("link:")).unwrap_or(""));
+    eprintln!(
+        "{}",
+        out.lines().find(|l| l.starts_with("link:")).unwrap_or("")
+    );
     // every sample arrived: at least one minimal frame per sample, at most the largest
-    assert!(rate > 1000.0 * 40.0 && rate < 1000.0 * pam_protocol::TELEMETRY_FRAME_MAX as f64 * 1.1, "{rate} bytes/s");
+    assert!(
+        rate > 1000.0 * 40.0 && rate < 1000.0 * pam_protocol::TELEMETRY_FRAME_MAX as f64 * 1.1,
+        "{rate} bytes/s"
+    );
     ok(d, &["disarm"]);
 }
 
@@ -136,7 +202,12 @@ fn status(c: &Client) -> pam_protocol::Status {
 }
 
 /// Telemetry until `done` says so (or `limit`), feeding the command timeout meanwhile.
-fn wait_for(c: &Client, limit: Duration, heartbeat: bool, mut done: impl FnMut(&Telemetry) -> bool) -> Telemetry {
+fn wait_for(
+    c: &Client,
+    limit: Duration,
+    heartbeat: bool,
+    mut done: impl FnMut(&Telemetry) -> bool,
+) -> Telemetry {
     let start = Instant::now();
     let mut last_beat = Instant::now();
     while start.elapsed() < limit {
@@ -144,7 +215,10 @@ fn wait_for(c: &Client, limit: Duration, heartbeat: bool, mut done: impl FnMut(&
             c.heartbeat().expect("heartbeat");
             last_beat = Instant::now();
         }
-        if let Some(t) = c.next_telemetry(Duration::from_millis(10)).expect("telemetry") {
+        if let Some(t) = c
+            .next_telemetry(Duration::from_millis(10))
+            .expect("telemetry")
+        {
             if done(&t) {
                 return t;
             }
@@ -163,9 +237,14 @@ fn silent_host_brings_the_device_to_its_safe_state_within_the_timeout() {
     let (vent, vent_ma) = pam_hil_tests::vent(&c);
     c.command(RequestBody::Arm).expect("arm");
     let p_set = 2.5f32;
-    c.command(RequestBody::SetMode(Mode::Pressures { pressure_bar: [p_set; 4] })).expect("pressures");
+    c.command(RequestBody::SetMode(Mode::Pressures {
+        pressure_bar: [p_set; 4],
+    }))
+    .expect("pressures");
     c.start_telemetry();
-    wait_for(&c, Duration::from_secs(2), true, |t| t.pressure_cmd_bar.iter().all(|&p| (p - p_set).abs() < 1e-3));
+    wait_for(&c, Duration::from_secs(2), true, |t| {
+        t.pressure_cmd_bar.iter().all(|&p| (p - p_set).abs() < 1e-3)
+    });
 
     // the host falls silent: only listens from now on
     c.command(RequestBody::Heartbeat).expect("last request");
@@ -182,20 +261,39 @@ fn silent_host_brings_the_device_to_its_safe_state_within_the_timeout() {
             assert_eq!(t.state, State::Armed, "faulted before the timeout");
             assert!(t.pressure_cmd_bar.iter().all(|&p| (p - p_set).abs() < 1e-3));
         }
-        t.pressure_cmd_bar.iter().all(|&p| p <= vent + 1e-4) && t.current_ma.iter().all(|&i| i <= vent_ma + 1e-3)
+        t.pressure_cmd_bar.iter().all(|&p| p <= vent + 1e-4)
+            && t.current_ma.iter().all(|&i| i <= vent_ma + 1e-3)
     });
     let fault_s = fault_at_us.expect("faulted").wrapping_sub(t0_us) as f64 * 1e-6;
     let safe_s = safe.time_us.wrapping_sub(t0_us) as f64 * 1e-6;
-    let allowed_s = limits.command_timeout_s as f64 + (p_set - vent) as f64 / limits.timeout_ramp_bar_per_s as f64;
+    let allowed_s = limits.command_timeout_s as f64
+        + (p_set - vent) as f64 / limits.timeout_ramp_bar_per_s as f64;
     eprintln!("timeout fault after {fault_s:.3} s, vented ({vent_ma:.2} mA) after {safe_s:.3} s; allowed {allowed_s:.3} s");
     // the first sample seen lags the last request by the link latency: a few ms of slack
-    assert!(fault_s <= limits.command_timeout_s as f64 + 0.01, "fault after {fault_s} s");
-    assert!(safe_s <= allowed_s + 0.01, "safe state after {safe_s} s, allowed {allowed_s} s");
-    assert!(safe.faults & Faults::COMMAND_TIMEOUT.0 != 0, "fault bits {:#x}", safe.faults);
+    assert!(
+        fault_s <= limits.command_timeout_s as f64 + 0.01,
+        "fault after {fault_s} s"
+    );
+    assert!(
+        safe_s <= allowed_s + 0.01,
+        "safe state after {safe_s} s, allowed {allowed_s} s"
+    );
+    assert!(
+        safe.faults & Faults::COMMAND_TIMEOUT.0 != 0,
+        "fault bits {:#x}",
+        safe.faults
+    );
     let events = c.fault_events();
-    assert!(events.iter().any(|e| e.bits & Faults::COMMAND_TIMEOUT.0 != 0), "no fault event: {events:?}");
+    assert!(
+        events
+            .iter()
+            .any(|e| e.bits & Faults::COMMAND_TIMEOUT.0 != 0),
+        "no fault event: {events:?}"
+    );
     // and it stays safe until the host clears it
-    let later = wait_for(&c, Duration::from_secs(1), false, |t| t.time_us.wrapping_sub(safe.time_us) > 200_000);
+    let later = wait_for(&c, Duration::from_secs(1), false, |t| {
+        t.time_us.wrapping_sub(safe.time_us) > 200_000
+    });
     assert_eq!(later.state, State::Faulted);
     assert!(later.current_ma.iter().all(|&i| i <= vent_ma + 1e-3));
     // the host comes back: disarm cuts the loops to 4 mA, then the fault clears
@@ -204,7 +302,11 @@ fn silent_host_brings_the_device_to_its_safe_state_within_the_timeout() {
     assert_eq!(status(&c).state, State::Disarmed);
     c.start_telemetry();
     let t = wait_for(&c, Duration::from_secs(1), true, |_| true);
-    assert!(t.current_ma.iter().all(|&i| i == 4.0), "disarmed: {:?} mA", t.current_ma);
+    assert!(
+        t.current_ma.iter().all(|&i| i == 4.0),
+        "disarmed: {:?} mA",
+        t.current_ma
+    );
 }
 
 #[test]
@@ -214,17 +316,36 @@ fn out_of_range_target_is_refused_and_the_state_is_unchanged() {
     target.prepare(1.0);
     let c = target.client();
     c.command(RequestBody::Arm).expect("arm");
-    let joint = Mode::Joint { alpha_rad: [0.05, -0.05], torque_nm: [0.0; 2], stiffness_nm_per_rad: [60.0, 27.0] };
+    let joint = Mode::Joint {
+        alpha_rad: [0.05, -0.05],
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [60.0, 27.0],
+    };
     c.command(RequestBody::SetMode(joint)).expect("joint");
     let before = status(&c);
     for bad in [
-        Mode::Pressures { pressure_bar: [6.0, 1.0, 1.0, 1.0] },
-        Mode::Pressures { pressure_bar: [f32::NAN, 1.0, 1.0, 1.0] },
-        Mode::Joint { alpha_rad: [0.0; 2], torque_nm: [0.0; 2], stiffness_nm_per_rad: [1.0e6, 27.0] },
-        Mode::Force { force_n: [1000.0, 0.0], stiffness_nm_per_rad: [60.0, 27.0], feed_forward: false },
+        Mode::Pressures {
+            pressure_bar: [6.0, 1.0, 1.0, 1.0],
+        },
+        Mode::Pressures {
+            pressure_bar: [f32::NAN, 1.0, 1.0, 1.0],
+        },
+        Mode::Joint {
+            alpha_rad: [0.0; 2],
+            torque_nm: [0.0; 2],
+            stiffness_nm_per_rad: [1.0e6, 27.0],
+        },
+        Mode::Force {
+            force_n: [1000.0, 0.0],
+            stiffness_nm_per_rad: [60.0, 27.0],
+            feed_forward: false,
+        },
     ] {
         match c.request(RequestBody::SetMode(bad)) {
-            Err(ClientError::Refused { code: ErrorCode::OutOfRange, .. }) => {}
+            Err(ClientError::Refused {
+                code: ErrorCode::OutOfRange,
+                ..
+            }) => {}
             other => panic!("{bad:?}: expected OutOfRange, got {other:?}"),
         }
         assert_eq!(status(&c), before, "a refused target changed the state");
@@ -237,9 +358,15 @@ fn out_of_range_target_is_refused_and_the_state_is_unchanged() {
     // the same through the command line: a clear error, non-zero exit, nothing changed
     let (code, _, err) = pamctl(&target.address, &["set", "pressures", "9,1,1,1"]);
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains("OutOfRange") && err.contains("nothing was changed"), "{err}");
+    assert!(
+        err.contains("OutOfRange") && err.contains("nothing was changed"),
+        "{err}"
+    );
     let out = ok(&target.address, &["status"]);
-    assert!(out.contains("state: armed") && out.contains("mode: joint α +2.86°, -2.86°"), "{out}");
+    assert!(
+        out.contains("state: armed") && out.contains("mode: joint α +2.86°, -2.86°"),
+        "{out}"
+    );
     ok(&target.address, &["disarm"]);
 }
 
@@ -255,7 +382,12 @@ fn corrupted_frame_is_rejected_and_the_link_recovers() {
 
     // a valid pressures request with one byte flipped in flight
     let mut frame = [0u8; MAX_FRAME];
-    let request = Request { id: 999, body: RequestBody::SetMode(Mode::Pressures { pressure_bar: [3.0; 4] }) };
+    let request = Request {
+        id: 999,
+        body: RequestBody::SetMode(Mode::Pressures {
+            pressure_bar: [3.0; 4],
+        }),
+    };
     let n = encode_frame(&request, &mut frame).unwrap();
     frame[n / 2] ^= 0x40;
     if frame[n / 2] == 0 {
@@ -272,12 +404,18 @@ fn corrupted_frame_is_rejected_and_the_link_recovers() {
     c.start_telemetry();
     let t = wait_for(&c, Duration::from_secs(1), true, |t| t.time_us > 0);
     assert_eq!(t.mode, ModeKind::Idle);
-    assert!(t.pressure_cmd_bar.iter().all(|&p| p < 0.2), "{:?}", t.pressure_cmd_bar);
+    assert!(
+        t.pressure_cmd_bar.iter().all(|&p| p < 0.2),
+        "{:?}",
+        t.pressure_cmd_bar
+    );
     // and the uncorrupted request is carried out
     let mut frame = [0u8; MAX_FRAME];
     let n = encode_frame(&request, &mut frame).unwrap();
     c.send_raw(&frame[..n]).unwrap();
-    let t = wait_for(&c, Duration::from_secs(1), true, |t| t.mode == ModeKind::Pressures);
+    let t = wait_for(&c, Duration::from_secs(1), true, |t| {
+        t.mode == ModeKind::Pressures
+    });
     assert_eq!(t.state, State::Armed);
     c.command(RequestBody::Disarm).expect("disarm");
 }
@@ -290,7 +428,12 @@ fn ctrl_c_during_record_leaves_a_valid_csv_with_everything_received() {
     let file = tmp("interrupted.csv");
     let _ = std::fs::remove_file(&file);
     let child = Command::new(pam_hil_tests::pamctl_bin())
-        .args(["--device", &target.address, "record", file.to_str().unwrap()])
+        .args([
+            "--device",
+            &target.address,
+            "record",
+            file.to_str().unwrap(),
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -298,10 +441,16 @@ fn ctrl_c_during_record_leaves_a_valid_csv_with_everything_received() {
     // wait until the recording is under way (rows on disk), then Ctrl-C
     let start = Instant::now();
     while std::fs::metadata(&file).map(|m| m.len()).unwrap_or(0) < 50_000 {
-        assert!(start.elapsed() < Duration::from_secs(10), "the recording did not start");
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "the recording did not start"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
-    let killed = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
     assert!(killed.success());
     let out = child.wait_with_output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -309,7 +458,10 @@ fn ctrl_c_during_record_leaves_a_valid_csv_with_everything_received() {
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     let log = pam_log::read_path(&file).expect("a valid log after Ctrl-C");
     assert!(log.len() > 300, "{} rows", log.len());
-    assert!(stdout.contains(&format!("recorded {} samples", log.len())), "{stdout}");
+    assert!(
+        stdout.contains(&format!("recorded {} samples", log.len())),
+        "{stdout}"
+    );
     assert_eq!(seq_gaps(&log), 0);
 }
 
@@ -319,7 +471,9 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
     let target = Target::acquire(SIM);
     if !target.is_emulator() {
         // on a real board the operator must block the handle: run it by hand
-        eprintln!("skipped on PAM_DEVICE: `pamctl experiment step` needs the handle blocked by hand");
+        eprintln!(
+            "skipped on PAM_DEVICE: `pamctl experiment step` needs the handle blocked by hand"
+        );
         return;
     }
     target.prepare(1.0);
@@ -327,7 +481,19 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
     let _ = std::fs::remove_dir_all(&dir);
     let out = ok(
         &target.address,
-        &["experiment", "step", "--pose", "0", "--hold-s", "0.25", "--settle-s", "0.3", "--yes", "--out", dir.to_str().unwrap()],
+        &[
+            "experiment",
+            "step",
+            "--pose",
+            "0",
+            "--hold-s",
+            "0.25",
+            "--settle-s",
+            "0.3",
+            "--yes",
+            "--out",
+            dir.to_str().unwrap(),
+        ],
     );
     assert!(out.contains("1 log(s)"), "{out}");
     let log = pam_log::read_path(dir.join("step_pose0.csv")).expect("a valid log");
@@ -343,9 +509,19 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
         if end_of_level {
             levels += 1;
             let (ex, ey) = (fx[i - 1] - rx[i - 1], fy[i - 1] - ry[i - 1]);
-            assert!(ex.abs() < 4.0 && ey.abs() < 4.0, "level ({}, {}) N: measured ({:.2}, {:.2}) N", rx[i - 1], ry[i - 1], fx[i - 1], fy[i - 1]);
+            assert!(
+                ex.abs() < 4.0 && ey.abs() < 4.0,
+                "level ({}, {}) N: measured ({:.2}, {:.2}) N",
+                rx[i - 1],
+                ry[i - 1],
+                fx[i - 1],
+                fy[i - 1]
+            );
         }
     }
     assert!(levels >= 20, "{levels} level changes");
-    assert!(rx.iter().chain(ry).any(|&f| (f - 27.3).abs() < 1e-3) && rx.iter().chain(ry).any(|&f| (f + 27.3).abs() < 1e-3));
+    assert!(
+        rx.iter().chain(ry).any(|&f| (f - 27.3).abs() < 1e-3)
+            && rx.iter().chain(ry).any(|&f| (f + 27.3).abs() < 1e-3)
+    );
 }

@@ -936,25 +936,10 @@ fn choose_pneumatic(
     // the term must pay for itself like an effect: a relative gain of 1 % and the BIC on
     // the effective number of samples of the plain residual (4 parameters with the grid)
     let pred = lsq::predict(&plain, &th_plain, p.len());
-    let mut rho = Vec::new();
-    for a in 0..2 {
-        let r: Vec<f64> = (0..p.split).map(|i| y[a][i] - pred[a][i]).collect();
-        let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
-        let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
-        if var > 0.0 {
-            rho.push(
-                (r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var)
-                    .clamp(-0.99, 0.999),
-            );
-        }
-    }
-    let rho = if rho.is_empty() {
-        0.0
-    } else {
-        rho.iter().sum::<f64>() / rho.len() as f64
-    };
-    let n = 2.0 * p.split as f64;
-    let n_eff = (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n);
+    let residuals: Vec<Vec<f64>> = (0..2)
+        .map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect())
+        .collect();
+    let n_eff = effective_samples_of(&residuals);
     let ratio = rss_pn / rss_plain.max(1e-300);
     Some(
         if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {

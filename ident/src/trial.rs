@@ -238,8 +238,14 @@ impl Trial {
             alpha_rad: [interp(&self.alpha_rad[0]), interp(&self.alpha_rad[1])],
             force_n: [interp(&self.force_n[0]), interp(&self.force_n[1])],
             // references and currents are piecewise constant: hold the last value
-            force_ref_n: self.force_ref_n.as_ref().map(|r| [hold(&self.t_s, &r[0], &grid), hold(&self.t_s, &r[1], &grid)]),
-            current_ma: self.current_ma.as_ref().map(|c| [0, 1, 2, 3].map(|k| hold(&self.t_s, &c[k], &grid))),
+            force_ref_n: self
+                .force_ref_n
+                .as_ref()
+                .map(|r| [hold(&self.t_s, &r[0], &grid), hold(&self.t_s, &r[1], &grid)]),
+            current_ma: self
+                .current_ma
+                .as_ref()
+                .map(|c| [0, 1, 2, 3].map(|k| hold(&self.t_s, &c[k], &grid))),
         })
     }
 }
@@ -342,6 +348,11 @@ mod tests {
             assert!((f - i as f64 * 0.01).abs() < 1e-9);
         }
         let model = RobotModel::<f64>::thesis();
-        assert!(uneven.prepare(&model, FilterSettings::default()).unwrap().resampled);
+        assert!(
+            uneven
+                .prepare(&model, FilterSettings::default())
+                .unwrap()
+                .resampled
+        );
     }
 }

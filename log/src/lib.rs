@@ -55,8 +55,9 @@ pub mod col {
     pub const FAULTS: &str = "faults";
 
     /// Every log has these, in any order.
-    pub const REQUIRED: [&str; 9] =
-        [T_S, ALPHA1_RAD, ALPHA2_RAD, FX_N, FY_N, I1_MA, I2_MA, I3_MA, I4_MA];
+    pub const REQUIRED: [&str; 9] = [
+        T_S, ALPHA1_RAD, ALPHA2_RAD, FX_N, FY_N, I1_MA, I2_MA, I3_MA, I4_MA,
+    ];
     /// The four commanded currents, channel order.
     pub const CURRENTS_MA: [&str; 4] = [I1_MA, I2_MA, I3_MA, I4_MA];
     /// The four measured pressures, channel order.
@@ -98,7 +99,12 @@ impl Log {
             assert!(!columns[..i].contains(c), "column {c:?} given twice");
         }
         let values = vec![Vec::new(); columns.len()];
-        Self { columns, values, meta: Vec::new(), source: None }
+        Self {
+            columns,
+            values,
+            meta: Vec::new(),
+            source: None,
+        }
     }
 
     /// Appends one sample; `row` is in the order of [`Log::columns`].
@@ -106,7 +112,11 @@ impl Log {
     /// # Panics
     /// If `row` does not have one value per column (a programming error).
     pub fn push_row(&mut self, row: &[f64]) {
-        assert_eq!(row.len(), self.columns.len(), "row length must equal the column count");
+        assert_eq!(
+            row.len(),
+            self.columns.len(),
+            "row length must equal the column count"
+        );
         for (column, &v) in self.values.iter_mut().zip(row) {
             column.push(v);
         }
@@ -154,7 +164,11 @@ impl Log {
 
     /// The value of a metadata key (the last one, if repeated).
     pub fn meta(&self, key: &str) -> Option<&str> {
-        self.meta.iter().rev().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+        self.meta
+            .iter()
+            .rev()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
     }
 
     /// Sets (or replaces) a metadata key.
@@ -181,7 +195,11 @@ impl Log {
     pub fn slice(&self, range: std::ops::Range<usize>) -> Log {
         Log {
             columns: self.columns.clone(),
-            values: self.values.iter().map(|c| c[range.clone()].to_vec()).collect(),
+            values: self
+                .values
+                .iter()
+                .map(|c| c[range.clone()].to_vec())
+                .collect(),
             meta: self.meta.clone(),
             source: self.source.clone(),
         }
@@ -189,8 +207,11 @@ impl Log {
 
     /// Writes the log as CSV (metadata, header, rows).
     pub fn write_to<W: std::io::Write>(&self, out: W) -> std::io::Result<()> {
-        let meta: Vec<(&str, &str)> =
-            self.meta.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+        let meta: Vec<(&str, &str)> = self
+            .meta
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str()))
+            .collect();
         let mut writer = LogWriter::new(out, &self.columns, &meta)?;
         let mut row = vec![0.0; self.columns.len()];
         for i in 0..self.len() {
@@ -211,7 +232,8 @@ impl Log {
     /// The log as CSV text.
     pub fn to_csv_string(&self) -> String {
         let mut out = Vec::new();
-        self.write_to(&mut out).expect("writing to memory cannot fail");
+        self.write_to(&mut out)
+            .expect("writing to memory cannot fail");
         String::from_utf8(out).expect("the writer emits UTF-8")
     }
 }

@@ -35,16 +35,15 @@ struct Field<'a> {
 
 fn parse(text: &str, file: Option<PathBuf>) -> Result<Log, LogError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let error = |line: usize, column: Option<usize>, field: Option<&str>, kind, message: String| {
-        LogError {
+    let error =
+        |line: usize, column: Option<usize>, field: Option<&str>, kind, message: String| LogError {
             file: file.clone(),
             line: Some(line),
             column,
             field: field.map(str::to_string),
             kind,
             message,
-        }
-    };
+        };
 
     let mut meta = Vec::new();
     let mut header: Option<(usize, Vec<String>)> = None;
@@ -111,8 +110,11 @@ fn parse(text: &str, file: Option<PathBuf>) -> Result<Log, LogError> {
                     ));
                 }
             }
-            let missing: Vec<&str> =
-                col::REQUIRED.iter().copied().filter(|c| !names.iter().any(|n| n == c)).collect();
+            let missing: Vec<&str> = col::REQUIRED
+                .iter()
+                .copied()
+                .filter(|c| !names.iter().any(|n| n == c))
+                .collect();
             if !missing.is_empty() {
                 let end = line.chars().count() + 1;
                 return Err(error(
@@ -140,13 +142,19 @@ fn parse(text: &str, file: Option<PathBuf>) -> Result<Log, LogError> {
 
         let names = &header.as_ref().map(|(_, n)| n).expect("set with the log");
         if fields.len() != names.len() {
-            let column = fields.get(names.len()).map_or(line.chars().count() + 1, |f| f.column);
+            let column = fields
+                .get(names.len())
+                .map_or(line.chars().count() + 1, |f| f.column);
             return Err(error(
                 line_number,
                 Some(column),
                 None,
                 ErrorKind::FieldCount,
-                format!("{} fields; expected {} (one per header column)", fields.len(), names.len()),
+                format!(
+                    "{} fields; expected {} (one per header column)",
+                    fields.len(),
+                    names.len()
+                ),
             ));
         }
         for (i, field) in fields.iter().enumerate() {
@@ -208,13 +216,20 @@ fn parse(text: &str, file: Option<PathBuf>) -> Result<Log, LogError> {
             column: Some(1),
             field: None,
             kind: ErrorKind::Empty,
-            message: format!("the log is empty; expected a header row with {}", quoted_list(&col::REQUIRED)),
+            message: format!(
+                "the log is empty; expected a header row with {}",
+                quoted_list(&col::REQUIRED)
+            ),
         }),
     }
 }
 
 fn quoted_list(names: &[&str]) -> String {
-    names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+    names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Splits one CSV line (RFC 4180 quoting) into fields with their character columns.
@@ -258,7 +273,10 @@ fn split_fields(line: &str) -> Result<Vec<Field<'_>>, usize> {
                     break;
                 }
             }
-            fields.push(Field { text: text.into(), column: start_column });
+            fields.push(Field {
+                text: text.into(),
+                column: start_column,
+            });
             if ended_line {
                 return Ok(fields);
             }
@@ -274,7 +292,10 @@ fn split_fields(line: &str) -> Result<Vec<Field<'_>>, usize> {
                 }
                 column += 1;
             }
-            fields.push(Field { text: line[start_byte..end_byte].into(), column: start_column });
+            fields.push(Field {
+                text: line[start_byte..end_byte].into(),
+                column: start_column,
+            });
             if ended_line {
                 return Ok(fields);
             }

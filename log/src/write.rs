@@ -27,7 +27,11 @@ impl LogWriter<std::io::BufWriter<std::fs::File>> {
 
 impl<W: Write> LogWriter<W> {
     /// Writes `# format = pam-log v1`, the metadata lines and the header to `out`.
-    pub fn new<S: AsRef<str>>(mut out: W, columns: &[S], meta: &[(&str, &str)]) -> std::io::Result<Self> {
+    pub fn new<S: AsRef<str>>(
+        mut out: W,
+        columns: &[S],
+        meta: &[(&str, &str)],
+    ) -> std::io::Result<Self> {
         let mut head = format!("# format = {FORMAT_V1}\n");
         for (key, value) in meta.iter().filter(|(k, _)| *k != "format") {
             let value = value.replace(['\n', '\r'], " ");
@@ -37,7 +41,12 @@ impl<W: Write> LogWriter<W> {
         head.push_str(&names.join(","));
         head.push('\n');
         out.write_all(head.as_bytes())?;
-        Ok(Self { out, column_count: names.len(), line: String::new(), rows: 0 })
+        Ok(Self {
+            out,
+            column_count: names.len(),
+            line: String::new(),
+            rows: 0,
+        })
     }
 
     /// Appends one row (values in header order). Values print in Rust's shortest form that

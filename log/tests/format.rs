@@ -46,25 +46,41 @@ fn missing_column_names_it_and_the_header_line() {
 
 #[test]
 fn text_in_a_number_gives_line_and_column() {
-    let e = err(&format!("{HEADER}\n0,0,0,0,0,4,4,4,4\n0.001,0,0,abc,0,4,4,4,4\n"));
+    let e = err(&format!(
+        "{HEADER}\n0,0,0,0,0,4,4,4,4\n0.001,0,0,abc,0,4,4,4,4\n"
+    ));
     assert_eq!(e.kind, ErrorKind::NotANumber);
     assert_eq!((e.line, e.column), (Some(3), Some(11)));
     assert_eq!(e.field.as_deref(), Some("fx_n"));
-    assert_eq!(e.to_string(), "trial.csv:3:11: `fx_n` holds `abc`; expected a number");
+    assert_eq!(
+        e.to_string(),
+        "trial.csv:3:11: `fx_n` holds `abc`; expected a number"
+    );
 }
 
 #[test]
 fn nan_and_infinity_are_rejected_in_known_columns() {
     let e = err(&format!("{HEADER}\n0,0,0,0,NaN,4,4,4,4\n"));
-    assert_eq!((e.kind, e.line, e.column), (ErrorKind::NotFinite, Some(2), Some(9)));
+    assert_eq!(
+        (e.kind, e.line, e.column),
+        (ErrorKind::NotFinite, Some(2), Some(9))
+    );
     let e = err(&format!("{HEADER},p2_bar\n0,0,0,0,0,4,4,4,4,inf\n"));
-    assert_eq!((e.kind, e.field.as_deref()), (ErrorKind::NotFinite, Some("p2_bar")));
+    assert_eq!(
+        (e.kind, e.field.as_deref()),
+        (ErrorKind::NotFinite, Some("p2_bar"))
+    );
 }
 
 #[test]
 fn time_must_increase_strictly() {
-    let e = err(&format!("{HEADER}\n0,0,0,0,0,4,4,4,4\n0.002,0,0,0,0,4,4,4,4\n0.002,0,0,0,0,4,4,4,4\n"));
-    assert_eq!((e.kind, e.line, e.column), (ErrorKind::TimeNotIncreasing, Some(4), Some(1)));
+    let e = err(&format!(
+        "{HEADER}\n0,0,0,0,0,4,4,4,4\n0.002,0,0,0,0,4,4,4,4\n0.002,0,0,0,0,4,4,4,4\n"
+    ));
+    assert_eq!(
+        (e.kind, e.line, e.column),
+        (ErrorKind::TimeNotIncreasing, Some(4), Some(1))
+    );
 }
 
 #[test]
@@ -72,14 +88,20 @@ fn wrong_field_count_and_unclosed_quote() {
     let e = err(&format!("{HEADER}\n0,0,0,0,0,4,4,4\n"));
     assert_eq!((e.kind, e.line), (ErrorKind::FieldCount, Some(2)));
     let e = err(&format!("{HEADER},note\n0,0,0,0,0,4,4,4,4,\"open\n"));
-    assert_eq!((e.kind, e.line, e.column), (ErrorKind::FieldCount, Some(2), Some(19)));
+    assert_eq!(
+        (e.kind, e.line, e.column),
+        (ErrorKind::FieldCount, Some(2), Some(19))
+    );
 }
 
 #[test]
 fn empty_logs_and_other_versions_are_errors() {
     assert_eq!(err("").kind, ErrorKind::Empty);
     assert_eq!(err(&format!("{HEADER}\n")).kind, ErrorKind::Empty);
-    assert_eq!(err(&format!("# format = pam-log v2\n{HEADER}\n")).kind, ErrorKind::UnsupportedVersion);
+    assert_eq!(
+        err(&format!("# format = pam-log v2\n{HEADER}\n")).kind,
+        ErrorKind::UnsupportedVersion
+    );
     assert_eq!(err("t_s,,x\n").kind, ErrorKind::BadHeader);
 }
 
@@ -88,7 +110,9 @@ fn a_log_cut_between_rows_is_still_valid() {
     let mut out = Vec::new();
     let mut writer = LogWriter::new(&mut out, &col::REQUIRED, &[("experiment", "record")]).unwrap();
     for k in 0..5 {
-        writer.write_row(&[k as f64 * 0.001, 0.0, 0.0, 0.0, 0.0, 4.0, 4.0, 4.0, 4.0]).unwrap();
+        writer
+            .write_row(&[k as f64 * 0.001, 0.0, 0.0, 0.0, 0.0, 4.0, 4.0, 4.0, 4.0])
+            .unwrap();
     }
     assert!(writer.write_row(&[1.0]).is_err(), "a short row is refused");
     writer.finish().unwrap();

@@ -29,7 +29,9 @@ pub struct Request {
 pub enum RequestBody {
     /// Handshake: the device answers with [`ReplyData::Hello`], or
     /// [`ErrorCode::UnsupportedVersion`] if it does not speak `protocol_version`.
-    Hello { protocol_version: u16 },
+    Hello {
+        protocol_version: u16,
+    },
     /// Keep-alive. Every valid request counts as one; this one does nothing else.
     Heartbeat,
     Arm,
@@ -48,7 +50,9 @@ pub enum RequestBody {
     /// Replaces one configuration section. Invalid → error reply, nothing changed.
     SetConfig(Config),
     /// Telemetry every `divider` control periods (1 = every period); 0 stops it.
-    SetTelemetry { divider: u16 },
+    SetTelemetry {
+        divider: u16,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

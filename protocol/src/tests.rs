@@ -111,7 +111,9 @@ fn every_device_message() -> Vec<DeviceMessage> {
         Ok(ReplyData::Status(status)),
         Ok(ReplyData::Config(Config::Robot(RobotParams::thesis()))),
         Ok(ReplyData::Config(Config::Calibration(calibration()))),
-        Ok(ReplyData::Config(Config::Limits(SafetyConfig::default_1khz()))),
+        Ok(ReplyData::Config(Config::Limits(
+            SafetyConfig::default_1khz(),
+        ))),
         Err(ErrorCode::Malformed),
         Err(ErrorCode::UnsupportedVersion),
         Err(ErrorCode::OutOfRange),
@@ -171,7 +173,11 @@ fn the_largest_message_fits_with_room_to_spare() {
         .max()
         .unwrap();
     assert!(biggest <= MAX_FRAME);
-    assert!(biggest + 32 <= MAX_FRAME, "only {} bytes of margin", MAX_FRAME - biggest);
+    assert!(
+        biggest + 32 <= MAX_FRAME,
+        "only {} bytes of margin",
+        MAX_FRAME - biggest
+    );
 }
 
 #[test]
@@ -216,7 +222,10 @@ fn telemetry_frame_size() {
         ..telemetry(0)
     };
     let n = frame_of(&DeviceMessage::Telemetry(worst)).len();
-    assert_eq!(n, TELEMETRY_FRAME_MAX, "update TELEMETRY_FRAME_MAX and the docs");
+    assert_eq!(
+        n, TELEMETRY_FRAME_MAX,
+        "update TELEMETRY_FRAME_MAX and the docs"
+    );
     let typical = frame_of(&DeviceMessage::Telemetry(telemetry(5_000))).len();
     assert!(typical < n);
     println!("telemetry frame: max {n} B, typical {typical} B");
@@ -234,8 +243,15 @@ fn any_single_corrupted_byte_is_rejected_and_the_next_frame_is_received() {
             let out = feed(&mut dec, &bad);
             // a byte turned into 0x00 splits the frame: every piece must be rejected
             assert!(!out.is_empty(), "byte {i} ^ {flip:#x}: nothing reported");
-            assert!(out.iter().all(|o| o.is_err()), "byte {i} ^ {flip:#x}: {out:?}");
-            assert_eq!(feed(&mut dec, &good), vec![Ok(r)], "no recovery after byte {i}");
+            assert!(
+                out.iter().all(|o| o.is_err()),
+                "byte {i} ^ {flip:#x}: {out:?}"
+            );
+            assert_eq!(
+                feed(&mut dec, &good),
+                vec![Ok(r)],
+                "no recovery after byte {i}"
+            );
         }
     }
 }
@@ -250,7 +266,10 @@ fn a_wrong_crc_is_reported_as_crc() {
     payload[n..n + 2].copy_from_slice(&bad_crc.to_be_bytes());
     let mut enc = [0u8; 80];
     let m = cobs::encode(&payload[..n + 2], &mut enc).unwrap();
-    assert_eq!(decode_block::<Request>(&mut enc[..m]), Err(DecodeError::Crc));
+    assert_eq!(
+        decode_block::<Request>(&mut enc[..m]),
+        Err(DecodeError::Crc)
+    );
 }
 
 #[test]
@@ -452,4 +471,3 @@ fn no_single_byte_corruption_of_any_request_is_ever_accepted() {
     }
     assert!(checked > 20_000);
 }
-
