@@ -159,6 +159,19 @@ fn shape_stride(dt_s: f64) -> usize {
     ((0.005 / dt_s).floor() as usize).max(1)
 }
 
+/// Σ y² of both axes over the first `rows` samples, every `stride`-th one.
+fn strided_sum_of_squares(y: &[Vec<f64>; 2], rows: usize, stride: usize) -> f64 {
+    y.iter()
+        .map(|axis| {
+            axis[..rows]
+                .iter()
+                .step_by(stride)
+                .map(|v| v * v)
+                .sum::<f64>()
+        })
+        .sum()
+}
+
 /// How the dynamic base model's restoring force is written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stiffness {
@@ -397,15 +410,7 @@ impl<'a> Loop<'a> {
         } else {
             let stride = shape_stride(self.p.dt_s);
             let rows = 0..self.p.split;
-            let yty: f64 = (0..2)
-                .map(|a| {
-                    y[a][rows.clone()]
-                        .iter()
-                        .step_by(stride)
-                        .map(|v| v * v)
-                        .sum::<f64>()
-                })
-                .sum();
+            let yty = strided_sum_of_squares(y, self.p.split, stride);
             let mut best = (f64::INFINITY, Shape::default());
             for s in shapes {
                 for v in 0..self.base_variants.len() {
@@ -899,17 +904,9 @@ fn choose_pneumatic(
     stiffness: Stiffness,
 ) -> Option<(Vec<Column>, (f64, f64))> {
     let y = msd::target(p);
-    let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
+    let stride = shape_stride(p.dt_s);
     let rows = 0..p.split;
-    let yty: f64 = (0..2)
-        .map(|a| {
-            y[a][rows.clone()]
-                .iter()
-                .step_by(stride)
-                .map(|v| v * v)
-                .sum::<f64>()
-        })
-        .sum();
+    let yty = strided_sum_of_squares(&y, p.split, stride);
     let wn0 = model.params.ip.natural_freq_rad_s;
     let ctx = DynCtx::new(p, model);
     let z0 = model.params.ip.damping_ratio;

@@ -477,19 +477,7 @@ pub fn dynamic_trial(
     if !(duration_s.is_finite() && duration_s > 0.0) {
         return Err(err(format!("duration {duration_s} s must be positive")));
     }
-    let model = RobotModel::new(cfg.controller_params);
-    let k = trial_stiffness(&model, alpha, level);
-    let mut rig = Rig::new(cfg, alpha, false, true)?;
-    let centre = rig.twin.model().kinematics.forward_user(alpha);
-    rig.arm(Mode::Joint {
-        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
-        torque_nm: [0.0; 2],
-        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
-    })?;
-    let hold = HandleCondition::held_at(centre);
-    for _ in 0..rig.periods(cfg.settle_s) {
-        rig.period(|_| hold, None, None, false)?;
-    }
+    let (mut rig, centre, k) = settle_at_point(cfg, alpha, level)?;
     let path = OperatorPath::new(
         centre,
         cfg.path_amplitude_m,
@@ -518,6 +506,30 @@ pub fn dynamic_trial(
     ))
 }
 
+/// The start of a static or dynamic trial (§4.2): joint mode at the point with the trial's
+/// stiffness and zero torque, the hand holding the handle there for the settling time.
+/// Returns the rig, the point in the user frame and the joint stiffness.
+fn settle_at_point(
+    cfg: &ExperimentConfig,
+    alpha: Vec2<f64>,
+    level: StiffnessLevel,
+) -> Result<(Rig, Vec2<f64>, Vec2<f64>), ExperimentError> {
+    let model = RobotModel::new(cfg.controller_params);
+    let k = trial_stiffness(&model, alpha, level);
+    let mut rig = Rig::new(cfg, alpha, false, true)?;
+    let centre = rig.twin.model().kinematics.forward_user(alpha);
+    rig.arm(Mode::Joint {
+        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+    })?;
+    let hold = HandleCondition::held_at(centre);
+    for _ in 0..rig.periods(cfg.settle_s) {
+        rig.period(|_| hold, None, None, false)?;
+    }
+    Ok((rig, centre, k))
+}
+
 /// The nine hold points of a static trial around `centre`: centre, then the square's corners
 /// and edge midpoints (8 cm square, Fig. 4.2b).
 pub fn static_points(centre: Vec2<f64>, half_side_m: f64) -> [Vec2<f64>; 9] {
@@ -543,19 +555,7 @@ pub fn static_trial(
     level: StiffnessLevel,
 ) -> Result<Log, ExperimentError> {
     let alpha = point_alpha(point)?;
-    let model = RobotModel::new(cfg.controller_params);
-    let k = trial_stiffness(&model, alpha, level);
-    let mut rig = Rig::new(cfg, alpha, false, true)?;
-    let centre = rig.twin.model().kinematics.forward_user(alpha);
-    rig.arm(Mode::Joint {
-        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
-        torque_nm: [0.0; 2],
-        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
-    })?;
-    let hold = HandleCondition::held_at(centre);
-    for _ in 0..rig.periods(cfg.settle_s) {
-        rig.period(|_| hold, None, None, false)?;
-    }
+    let (mut rig, centre, k) = settle_at_point(cfg, alpha, level)?;
     let points = static_points(centre, 0.04);
     let (move_s, hold_s) = (1.5, 5.0);
     let mut from = centre;

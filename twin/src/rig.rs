@@ -25,6 +25,8 @@
 use pam_model::mat2::Mat2;
 use pam_model::{RobotModel, RobotParams};
 
+use crate::experiments::{trial_stiffness, StiffnessLevel};
+
 /// Thesis §4.3, static trial, point 1, K_low: pure-spring fit (eq. 4.28), N/m, user frame.
 pub const KC_STATIC_LOW_POINT1_N_PER_M: [[f64; 2]; 2] = [[145.9, 73.5], [73.5, 387.0]];
 /// Thesis §4.3, dynamic trial, point 1, K_high: temporal MSD fit, N/m.
@@ -32,20 +34,6 @@ pub const KC_DYNAMIC_HIGH_POINT1_N_PER_M: [[f64; 2]; 2] = [[304.1, 166.7], [166.
 /// Thesis §4.3, dynamic trial, point 1, K_low: temporal MSD fit, N/m. Held out of the
 /// calibration.
 pub const KC_DYNAMIC_LOW_POINT1_N_PER_M: [[f64; 2]; 2] = [[253.7, 107.1], [107.1, 364.0]];
-
-/// The joint-space stiffness the model gives in the thesis's trials at a pose: K_low = K_min
-/// and K_high = K_max − 0.2 (K_max − K_min) at zero torque (Table 4.1).
-pub fn trial_joint_stiffness(model: &RobotModel<f64>, alpha_rad: [f64; 2], high: bool) -> [f64; 2] {
-    let level = |j: usize| {
-        let (low, high_level) = model.capability(j, alpha_rad[j]).trial_stiffness_levels();
-        if high {
-            high_level
-        } else {
-            low
-        }
-    };
-    [level(0), level(1)]
-}
 
 /// The parallel joint stiffness (N·m/rad) that explains the identified matrices at point 1:
 /// the mean over the static-low and dynamic-high trials of diag(Jᵀ K_C J) − K_model.
@@ -55,12 +43,12 @@ pub fn parallel_stiffness_from_thesis(params: &RobotParams<f64>) -> [f64; 2] {
     let jacobian = model.kinematics.jacobian(alpha);
     let mut excess = [0.0; 2];
     let trials = [
-        (KC_STATIC_LOW_POINT1_N_PER_M, false),
-        (KC_DYNAMIC_HIGH_POINT1_N_PER_M, true),
+        (KC_STATIC_LOW_POINT1_N_PER_M, StiffnessLevel::Low),
+        (KC_DYNAMIC_HIGH_POINT1_N_PER_M, StiffnessLevel::High),
     ];
-    for (k_c, high) in trials {
+    for (k_c, level) in trials {
         let k_joint = Mat2(k_c).congruence(&jacobian);
-        let k_model = trial_joint_stiffness(&model, alpha, high);
+        let k_model = trial_stiffness(&model, alpha, level);
         for j in 0..2 {
             excess[j] += (k_joint.0[j][j] - k_model[j]) / trials.len() as f64;
         }
