@@ -6,6 +6,7 @@
 use crate::effects::{DynCtx, Experiment, ModelEffect, Shape};
 use crate::lsq::{self, Column};
 use crate::msd::{self, MSD_POSITIVE};
+use crate::response::{self, Drive, Response};
 use crate::spectrum::{amplitude_spectrum, narrow_peaks};
 use crate::step::{self, StepExtra, StepParams};
 use crate::trial::{rms, std_dev, FilterSettings, Prepared, Trial};
@@ -122,13 +123,15 @@ pub struct Loop<'a> {
     pub settings: Settings,
     /// Chosen shape per effect id (cached by the single-effect fits).
     shapes: std::cell::RefCell<BTreeMap<&'static str, Shape>>,
-    base_step: std::cell::RefCell<Option<[StepParams; 2]>>,
+    base_step: std::cell::RefCell<Option<Response>>,
+    /// What drives a step trial's model (the converters' set-points, or the reference).
+    drive: Option<Drive>,
     /// The variants of the dynamic base model (Cartesian, joint-space or force-law
     /// stiffness, see [`base_columns`]), each without and with the pneumatic regulator
     /// dynamics (ωn rad/s, ζ) that fit it best. Every fit uses the variant that its training
     /// part prefers by the information criterion.
     base_variants: Vec<BaseVariant>,
-    step_init: Option<[StepParams; 2]>,
+    step_init: Option<Response>,
     /// Effective number of independent training residual samples of the plain base.
     n_eff: f64,
     /// Σ y² over the training rows (dynamic trials).
@@ -260,15 +263,32 @@ impl<'a> Loop<'a> {
         // step trials: graphical starting values from the reference's steps, then the
         // commanded force as the model's input (see `commanded_force`)
         let mut step_init = None;
+        let mut drive = None;
         if experiment == Experiment::Step {
             let steps = step::analyse_steps(&p, settings.step_threshold_n);
-            step_init = Some([
-                step::initial_params(&steps, 0),
-                step::initial_params(&steps, 1),
-            ]);
-            if let Some(u) = commanded_force(&p, model) {
-                p.force_ref_n = Some(u);
-            }
+            let init = [0, 1].map(|a| step::initial_params(&steps, a));
+            // one ζ, ωn for the four converters: the graphical estimates of the axes that step
+            let moving: Vec<&StepParams> = (0..2)
+                .filter(|&a| steps.iter().any(|s| s.axis == a))
+                .map(|a| &init[a])
+                .collect();
+            let avg = |f: &dyn Fn(&StepParams) -> f64, d: f64| {
+                if moving.is_empty() {
+                    d
+                } else {
+                    moving.iter().map(|q| f(q)).sum::<f64>() / moving.len() as f64
+                }
+            };
+            step_init = Some(Response::base(
+                avg(&|q| q.zeta, 0.7),
+                avg(&|q| q.omega_n_rad_s, 20.0),
+                [init[0].gain, init[1].gain],
+            ));
+            let d = Drive::new(&p, model).expect("checked above");
+            // the other views of a step trial (residual spectra, error over the command)
+            // use the force the set-points command
+            p.force_ref_n = Some([d.commanded(0), d.commanded(1)]);
+            drive = Some(d);
         }
         // the base model's variants: stiffness in Cartesian or joint space, with or without
         // the pneumatic term; every fit (base alone or with effects) uses the variant that
@@ -323,6 +343,7 @@ impl<'a> Loop<'a> {
         };
         Ok(Loop {
             step_init,
+            drive,
             n_eff,
             yty_train,
             base_rss: Default::default(),
@@ -599,21 +620,22 @@ impl<'a> Loop<'a> {
         (0..2).filter(|&a| std_dev(&r[a]) > 1e-9).collect()
     }
 
-    fn base_step_params(&self) -> [StepParams; 2] {
+    fn base_step_params(&self) -> Response {
         if let Some(b) = *self.base_step.borrow() {
             return b;
         }
-        let mut out = [StepParams::base(1.0, 0.7, 20.0); 2];
-        for a in self.stepping_axes() {
-            let init = self.step_init.map(|s| s[a]).unwrap_or(out[a]);
-            out[a] = step::fit_axis(&self.p, a, &init, &[], self.p.split).unwrap_or(init);
-        }
-        *self.base_step.borrow_mut() = Some(out);
-        out
+        let init = self
+            .step_init
+            .unwrap_or(Response::base(0.7, 20.0, [1.0, 1.0]));
+        let d = self.drive.as_ref().expect("step trials have a drive");
+        let fitted = response::fit(&self.p, d, &init, &[], &self.stepping_axes(), self.p.split);
+        *self.base_step.borrow_mut() = Some(fitted);
+        fitted
     }
 
     fn fit_step(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
         let p = &self.p;
+        let d = self.drive.as_ref().expect("step trials have a drive");
         let base = self.base_step_params();
         let chosen: Vec<&dyn ModelEffect> = effects
             .iter()
@@ -629,75 +651,31 @@ impl<'a> Loop<'a> {
             }
         }
         let axes = self.stepping_axes();
-        let fitted_axes = axes.clone();
-        let u = p.force_ref_n.as_ref().expect("checked in new");
-        let mut fitted = base;
+        let fitted = if extras.is_empty() {
+            base
+        } else {
+            response::fit(p, d, &base, &extras, &axes, p.split)
+        };
+        let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
         let mut pred = [vec![0.0; p.len()], vec![0.0; p.len()]];
-        for a in 0..2 {
-            if fitted_axes.contains(&a) && !extras.is_empty() {
-                fitted[a] = step::fit_axis(p, a, &base[a], &extras, p.split).unwrap_or(base[a]);
-            }
-            step::simulate(
-                &fitted[a],
-                &p.t_s,
-                &u[a],
-                [&p.alpha_rad[0], &p.alpha_rad[1]],
-                p.force_n[a][0],
-                &mut pred[a],
-            );
-        }
+        response::simulate(&fitted, d, &p.t_s, alpha, p.len(), &mut pred);
         let y = p.force_n.clone();
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
         let mut params = BTreeMap::new();
         let axis_name = ["x", "y"];
         let mut b = BTreeMap::new();
-        for &a in &fitted_axes {
-            b.insert(format!("gain_{}", axis_name[a]), base[a].gain);
-            b.insert(format!("zeta_{}", axis_name[a]), base[a].zeta);
-            b.insert(
-                format!("omega_n_rad_s_{}", axis_name[a]),
-                base[a].omega_n_rad_s,
-            );
+        b.insert("zeta".to_string(), base.zeta);
+        b.insert("omega_n_rad_s".to_string(), base.omega_n_rad_s);
+        for &a in &axes {
+            b.insert(format!("gain_{}", axis_name[a]), base.gain[a]);
         }
         params.insert("base".to_string(), b);
         for e in &chosen {
-            let mut m = BTreeMap::new();
-            for &a in &fitted_axes {
-                let q = &fitted[a];
-                let s = axis_name[a];
-                for x in e.step_extras() {
-                    match x {
-                        StepExtra::Delay => {
-                            m.insert(format!("delay_s_{s}"), q.delay_s);
-                        }
-                        StepExtra::SlewRate => {
-                            m.insert(format!("rise_n_per_s_{s}"), q.rise_n_per_s);
-                            m.insert(format!("fall_n_per_s_{s}"), q.fall_n_per_s);
-                        }
-                        StepExtra::Saturation => {
-                            m.insert(format!("force_limit_n_{s}"), q.force_limit_n);
-                        }
-                        StepExtra::PoseGain => {
-                            // relative slopes, comparable with a gain plane normalised by G
-                            m.insert(
-                                format!("gain_per_rad_1_{s}"),
-                                q.gain_slope_per_rad[0] / q.gain,
-                            );
-                            m.insert(
-                                format!("gain_per_rad_2_{s}"),
-                                q.gain_slope_per_rad[1] / q.gain,
-                            );
-                        }
-                        StepExtra::Hysteresis => {
-                            m.insert(format!("hysteresis_n_{s}"), q.hysteresis_n);
-                        }
-                        StepExtra::Drift => {
-                            m.insert(format!("offset_n_{s}"), q.offset_n);
-                            m.insert(format!("drift_n_per_s_{s}"), q.drift_n_per_s);
-                        }
-                    }
-                }
-            }
+            let m: BTreeMap<String, f64> = e
+                .step_extras()
+                .iter()
+                .flat_map(|x| fitted.extra_params(*x, d.units, &axes))
+                .collect();
             params.insert(e.id().to_string(), m);
         }
         let train = |pr: &[Vec<f64>; 2], a: usize| {
@@ -709,21 +687,12 @@ impl<'a> Loop<'a> {
             0.0
         } else {
             let mut bp = [vec![0.0; p.len()], vec![0.0; p.len()]];
-            for a in 0..2 {
-                step::simulate(
-                    &base[a],
-                    &p.t_s,
-                    &u[a],
-                    [&p.alpha_rad[0], &p.alpha_rad[1]],
-                    p.force_n[a][0],
-                    &mut bp[a],
-                );
-            }
+            response::simulate(&base, d, &p.t_s, alpha, p.len(), &mut bp);
             let rb: f64 = axes.iter().map(|&a| train(&bp, a)).sum();
             let re: f64 = axes.iter().map(|&a| train(&pred, a)).sum();
             1.0 - re / rb.max(1e-300)
         };
-        let added = step::extra_param_count(&extras) * fitted_axes.len();
+        let added = response::extra_param_count(&extras, &axes);
         ModelFit {
             experiment: Experiment::Step,
             effect_ids: chosen.iter().map(|e| e.id().to_string()).collect(),
@@ -773,7 +742,7 @@ pub fn commanded_force(p: &Prepared, model: &RobotModel<f64>) -> Option<[Vec<f64
     Some(u)
 }
 
-fn correlation(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn correlation(a: &[f64], b: &[f64]) -> f64 {
     let (ma, mb) = (
         a.iter().sum::<f64>() / a.len() as f64,
         b.iter().sum::<f64>() / b.len() as f64,

@@ -15,6 +15,7 @@ pub mod freq;
 pub mod lm;
 pub mod lsq;
 pub mod msd;
+pub mod response;
 pub mod spectrum;
 pub mod step;
 pub mod trial;

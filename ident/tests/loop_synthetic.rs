@@ -317,7 +317,7 @@ fn step_effects_are_found_with_their_parameters() {
                 &d,
                 "transport_delay",
                 &format!("step dt {dt} delay {delay}"),
-                |p| near(p, "delay_s_x", truth, 0.2),
+                |p| near(p, "delay_s", truth, 0.2),
             );
         }
         for rate in [30.0, 60.0] {
@@ -333,8 +333,8 @@ fn step_effects_are_found_with_their_parameters() {
                 "asymmetric_ip_rates",
                 &format!("step dt {dt} rate {rate}"),
                 |p| {
-                    near(p, "rise_n_per_s_x", rate, 0.2)?;
-                    near(p, "fall_n_per_s_x", 1.3 * rate, 0.2)
+                    near(p, "rise_n_per_s", rate, 0.2)?;
+                    near(p, "fall_n_per_s", 1.3 * rate, 0.2)
                 },
             );
         }
@@ -350,7 +350,7 @@ fn step_effects_are_found_with_their_parameters() {
                 &d,
                 "pressure_saturation",
                 &format!("step dt {dt} max {max}"),
-                |p| near(p, "force_limit_n_x", max, 0.15),
+                |p| near(p, "max_n", max, 0.15),
             );
         }
         for (o, r) in [(1.0, 0.01), (2.0, 0.03)] {
