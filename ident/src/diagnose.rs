@@ -6,9 +6,9 @@
 use crate::effects::{DynCtx, Experiment, ModelEffect, Shape};
 use crate::lsq::{self, Column};
 use crate::msd::{self, MSD_POSITIVE};
-use crate::response::{self, Drive, Response};
+use crate::response::{self, Drive, Response, StepExtra};
 use crate::spectrum::{amplitude_spectrum, narrow_peaks};
-use crate::step::{self, StepExtra, StepParams};
+use crate::step::{self, StepParams};
 use crate::trial::{rms, std_dev, FilterSettings, Prepared, Trial};
 use pam_model::RobotModel;
 use serde::Serialize;
@@ -260,8 +260,8 @@ impl<'a> Loop<'a> {
                 "a step experiment needs the force reference columns fx_ref_n, fy_ref_n".into(),
             );
         }
-        // step trials: graphical starting values from the reference's steps, then the
-        // commanded force as the model's input (see `commanded_force`)
+        // step trials: graphical starting values from the reference's steps, and the
+        // converters' set-points as the model's input (see `response::Drive`)
         let mut step_init = None;
         let mut drive = None;
         if experiment == Experiment::Step {
@@ -710,38 +710,6 @@ impl<'a> Loop<'a> {
     }
 }
 
-/// The force the controller commanded, from the logged I/P currents: converter law (eq.
-/// 2.2) → muscle pressures → joint torques of the model (eq. 3.2) → handle force J⁻ᵀτ.
-/// It carries what the controller did to the reference (slew limits, clamping), so the
-/// second-order model only has to describe the converters and the muscles. `None` without
-/// currents, or when the currents do not follow the reference (correlation < 0.5).
-pub fn commanded_force(p: &Prepared, model: &RobotModel<f64>) -> Option<[Vec<f64>; 2]> {
-    let pr = crate::effects::joint_pressures(p, model)?;
-    let n = p.len();
-    let mut u = [Vec::with_capacity(n), Vec::with_capacity(n)];
-    for i in 0..n {
-        let alpha = [p.alpha_rad[0][i], p.alpha_rad[1][i]];
-        let tau = [
-            model.pose(0, alpha[0]).torque_nm(pr[i][0]),
-            model.pose(1, alpha[1]).torque_nm(pr[i][1]),
-        ];
-        let jt = model.kinematics.jacobian(alpha).transpose();
-        let f = jt.inverse()?.mul_vec(tau);
-        u[0].push(f[0]);
-        u[1].push(f[1]);
-    }
-    let reference = p.force_ref_n.as_ref()?;
-    for a in 0..2 {
-        if std_dev(&reference[a]) > 1e-9 {
-            let c = correlation(&reference[a], &u[a]);
-            if !(c > 0.5) {
-                return None;
-            }
-        }
-    }
-    Some(u)
-}
-
 pub(crate) fn correlation(a: &[f64], b: &[f64]) -> f64 {
     let (ma, mb) = (
         a.iter().sum::<f64>() / a.len() as f64,
@@ -782,14 +750,7 @@ pub fn pneumatic_columns(
             p.dx_m[j].clone()
         };
         let mut lp = vec![0.0; n];
-        step::simulate(
-            &sp,
-            &p.t_s,
-            &d,
-            [&p.alpha_rad[0], &p.alpha_rad[1]],
-            d[0],
-            &mut lp,
-        );
+        step::simulate(&sp, &p.t_s, &d, d[0], &mut lp);
         for i in 0..n {
             h[j][i] = d[i] - lp[i];
         }

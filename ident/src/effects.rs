@@ -13,7 +13,7 @@
 //! list to [`crate::diagnose::diagnose_with`]); see `docs/model-loop.md`.
 
 use crate::lsq::Column;
-use crate::step::StepExtra;
+use crate::response::StepExtra;
 use crate::trial::Prepared;
 use pam_model::RobotModel;
 

@@ -14,12 +14,22 @@
 //! and N.
 
 use crate::lm;
-use crate::step::StepExtra;
 use crate::trial::Prepared;
 use pam_model::RobotModel;
 
 /// Pressure span of Table 5.1's fill times (full inflation 0 → 5 bar, deflation 5 → 0).
 pub const FILL_SPAN_BAR: f64 = 5.0;
+
+/// What an effect adds to the step-trial model (the base ζ, ωn and gains are always free).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepExtra {
+    Delay,
+    SlewRate,
+    Saturation,
+    PoseGain,
+    Hysteresis,
+    Drift,
+}
 
 /// Integration step of the converters: a set-point is held over a whole sample, so a
 /// 50 ms log is integrated in 2 ms steps and a 1 kHz log in 1 ms steps.

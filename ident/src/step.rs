@@ -183,28 +183,12 @@ pub fn fit_gain_plane(poses: &[PoseAverage]) -> Result<[[f64; 3]; 2], String> {
     Ok(out)
 }
 
-/// Parameters of the second-order response of one axis, base and extras. Extras at their
-/// neutral value leave the base model unchanged.
+/// The second-order response of one axis from reference to force (§5.3, Table 5.2).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct StepParams {
     pub gain: f64,
     pub zeta: f64,
     pub omega_n_rad_s: f64,
-    /// Transport delay of the reference.
-    pub delay_s: f64,
-    /// Largest rates at which the driving force may rise and fall (flow-limited I/P
-    /// converters), N/s.
-    pub rise_n_per_s: f64,
-    pub fall_n_per_s: f64,
-    /// The driving force saturates softly, L·tanh(target/L) (pressure saturation).
-    pub force_limit_n: f64,
-    /// dG/dα1, dG/dα2 (pose-dependent gain, eq. 5.2).
-    pub gain_slope_per_rad: [f64; 2],
-    /// Offset that follows the direction of the last reference change (hysteresis).
-    pub hysteresis_n: f64,
-    /// Load-cell offset and drift.
-    pub offset_n: f64,
-    pub drift_n_per_s: f64,
 }
 
 impl StepParams {
@@ -213,29 +197,14 @@ impl StepParams {
             gain,
             zeta,
             omega_n_rad_s,
-            delay_s: 0.0,
-            rise_n_per_s: f64::INFINITY,
-            fall_n_per_s: f64::INFINITY,
-            force_limit_n: f64::INFINITY,
-            gain_slope_per_rad: [0.0; 2],
-            hysteresis_n: 0.0,
-            offset_n: 0.0,
-            drift_n_per_s: 0.0,
         }
     }
 }
 
-/// Simulates one axis: y'' + 2ζωn y' + ωn² y = ωn² target(t), target = G(α)·u(t − d) (+
-/// hysteresis offset) clipped to the saturation band, integrated with the exact
-/// zero-order-hold solution per sample. Starts at the first measured value, at rest.
-pub fn simulate(
-    p: &StepParams,
-    t_s: &[f64],
-    u: &[f64],
-    alpha: [&[f64]; 2],
-    y_start: f64,
-    out: &mut [f64],
-) {
+/// Simulates y'' + 2ζωn y' + ωn² y = ωn² G u(t), integrated with the exact zero-order-hold
+/// solution per sample, from `y_start` at rest. (The model loop's step model, with the
+/// catalog's effects, is [`crate::response`].)
+pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], y_start: f64, out: &mut [f64]) {
     let n = t_s.len();
     if n == 0 {
         return;
@@ -245,51 +214,12 @@ pub fn simulate(
     } else {
         1.0
     };
-    let t0 = t_s[0];
-    let delay_samples = p.delay_s.max(0.0) / dt;
     let mut y = y_start;
     let mut yd = 0.0;
-    let mut last_dir = 0.0;
-    let mut prev_u = u[0];
     let zoh = Zoh::new(p.zeta, p.omega_n_rad_s, dt);
-    let mut driven: Option<f64> = None;
     for i in 0..n {
-        let offset = p.offset_n + p.drift_n_per_s * (t_s[i] - t0);
-        out[i] = y + offset;
-        // delayed reference, linear interpolation
-        let pos = i as f64 - delay_samples;
-        let ud = if pos <= 0.0 {
-            u[0]
-        } else {
-            let k = pos.floor() as usize;
-            let fr = pos - k as f64;
-            if k + 1 < n {
-                u[k] * (1.0 - fr) + u[k + 1] * fr
-            } else {
-                u[n - 1]
-            }
-        };
-        if (ud - prev_u).abs() > 1e-9 {
-            last_dir = (ud - prev_u).signum();
-        }
-        prev_u = ud;
-        let g =
-            p.gain + p.gain_slope_per_rad[0] * alpha[0][i] + p.gain_slope_per_rad[1] * alpha[1][i];
-        let mut target = g * ud + p.hysteresis_n * last_dir;
-        if p.force_limit_n.is_finite() {
-            let l = p.force_limit_n.abs().max(1e-6);
-            target = l * (target / l).tanh();
-        }
-        // the driving force follows the target no faster than the rate limits
-        let d = match driven {
-            None => target,
-            Some(prev) => target.clamp(
-                prev - p.fall_n_per_s.max(1e-9) * dt,
-                prev + p.rise_n_per_s.max(1e-9) * dt,
-            ),
-        };
-        driven = Some(d);
-        let target = d;
+        out[i] = y;
+        let target = p.gain * u[i];
         let (ny, nyd) = zoh.step(y - target, yd);
         y = ny + target;
         yd = nyd;
@@ -350,79 +280,11 @@ fn mat_mul(a: &[[f64; 2]; 2], b: &[[f64; 2]; 2]) -> [[f64; 2]; 2] {
     ]
 }
 
-/// Which extra parameters a fit frees (the base G, ζ, ωn are always free).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StepExtra {
-    Delay,
-    SlewRate,
-    Saturation,
-    PoseGain,
-    Hysteresis,
-    Drift,
-}
-
-fn pack(p: &StepParams, extras: &[StepExtra]) -> Vec<f64> {
-    let mut v = vec![p.gain, p.zeta, p.omega_n_rad_s];
-    for e in extras {
-        match e {
-            StepExtra::Delay => v.push(p.delay_s),
-            StepExtra::SlewRate => {
-                v.push(p.rise_n_per_s);
-                v.push(p.fall_n_per_s)
-            }
-            StepExtra::Saturation => v.push(p.force_limit_n),
-            StepExtra::PoseGain => v.extend_from_slice(&p.gain_slope_per_rad),
-            StepExtra::Hysteresis => v.push(p.hysteresis_n),
-            StepExtra::Drift => {
-                v.push(p.offset_n);
-                v.push(p.drift_n_per_s)
-            }
-        }
-    }
-    v
-}
-
-fn unpack(v: &[f64], extras: &[StepExtra], template: &StepParams) -> StepParams {
-    let mut p = *template;
-    p.gain = v[0];
-    p.zeta = v[1];
-    p.omega_n_rad_s = v[2];
-    let mut i = 3;
-    for e in extras {
-        match e {
-            StepExtra::Delay => p.delay_s = v[i],
-            StepExtra::SlewRate => {
-                p.rise_n_per_s = v[i];
-                p.fall_n_per_s = v[i + 1];
-                i += 1
-            }
-            StepExtra::Saturation => p.force_limit_n = v[i],
-            StepExtra::PoseGain => {
-                p.gain_slope_per_rad = [v[i], v[i + 1]];
-                i += 1
-            }
-            StepExtra::Hysteresis => p.hysteresis_n = v[i],
-            StepExtra::Drift => {
-                p.offset_n = v[i];
-                p.drift_n_per_s = v[i + 1];
-                i += 1
-            }
-        }
-        i += 1;
-    }
-    p
-}
-
-pub fn extra_param_count(extras: &[StepExtra]) -> usize {
-    pack(&StepParams::base(1.0, 0.5, 10.0), extras).len() - 3
-}
-
-/// Least-squares fit of one axis on rows [0, fit_end), started from `start`.
+/// Least-squares fit of one axis (G, ζ, ωn) on rows [0, fit_end), from `start`.
 pub fn fit_axis(
     p: &Prepared,
     axis: usize,
     start: &StepParams,
-    extras: &[StepExtra],
     fit_end: usize,
 ) -> Option<StepParams> {
     let u = &p.force_ref_n.as_ref()?[axis];
@@ -431,86 +293,23 @@ pub fn fit_axis(
     // the simulation runs on every sample; the residuals are taken every ≥ 5 ms so a
     // 1 kHz log costs no more to fit than a 200 Hz one
     let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
-    let mut first = *start;
-    let mut init = pack(&first, extras);
-    // start saturation at the measured extremes so it begins inactive
-    if extras.contains(&StepExtra::Saturation) {
-        let peak = y[..n].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        first.force_limit_n = 2.0 * peak.max(0.5);
-        init = pack(&first, extras);
-    }
-    // start the rate limits at the fastest slope seen, so they begin just active
-    if extras.contains(&StepExtra::SlewRate) {
-        let w = ((0.01 / p.dt_s).round() as usize).max(1);
-        let max_slope = (w..n)
-            .map(|i| (y[i] - y[i - w]).abs() / (w as f64 * p.dt_s))
-            .fold(1.0, f64::max);
-        first.rise_n_per_s = max_slope;
-        first.fall_n_per_s = max_slope;
-        init = pack(&first, extras);
-    }
-    let sel: Vec<usize> = (0..n).step_by(stride.max(1)).collect();
+    let sel: Vec<usize> = (0..n).step_by(stride).collect();
     let mut buf = vec![0.0; n];
     let t = &p.t_s[..n];
-    let a = [&p.alpha_rad[0][..n], &p.alpha_rad[1][..n]];
-    let lower = lower_bounds(extras);
-    // rate limits start at the fastest slope seen and at fractions of it (the cost surface
-    // is flat where a limit is inactive, so one start can stall there)
-    let starts: Vec<Vec<f64>> = if extras.contains(&StepExtra::SlewRate) {
-        // and with the base's own dynamics as well as faster ones: a base fitted without
-        // the limit has slowed itself down to mimic it
-        let mut v = Vec::new();
-        for f in [1.0, 0.4, 0.15] {
-            for fast in [false, true] {
-                let mut q = first;
-                q.rise_n_per_s *= f;
-                q.fall_n_per_s *= f;
-                if fast {
-                    q.zeta = 0.5;
-                    q.omega_n_rad_s *= 2.0;
-                }
-                v.push(pack(&q, extras));
-            }
+    let init = [start.gain, start.zeta, start.omega_n_rad_s];
+    let (theta, _) = lm::minimize(&init, &[(1, 0.02), (2, 0.1)], sel.len(), 30, |v, r| {
+        simulate(
+            &StepParams::base(v[0], v[1], v[2]),
+            t,
+            &u[..n],
+            y[0],
+            &mut buf,
+        );
+        for (j, &i) in sel.iter().enumerate() {
+            r[j] = buf[i] - y[i];
         }
-        v
-    } else {
-        vec![init]
-    };
-    let mut best: Option<(Vec<f64>, f64)> = None;
-    for s0 in starts {
-        let (theta, cost) = lm::minimize(&s0, &lower, sel.len(), 30, |v, r| {
-            let q = unpack(v, extras, &first);
-            simulate(&q, t, &u[..n], a, y[0], &mut buf);
-            for (j, &i) in sel.iter().enumerate() {
-                r[j] = buf[i] - y[i];
-            }
-        });
-        if best.as_ref().is_none_or(|b| cost < b.1) {
-            best = Some((theta, cost));
-        }
-    }
-    Some(unpack(&best?.0, extras, &first))
-}
-
-fn lower_bounds(extras: &[StepExtra]) -> Vec<(usize, f64)> {
-    let mut v = vec![(1, 0.02), (2, 0.1)];
-    let mut i = 3;
-    for e in extras {
-        match e {
-            StepExtra::Delay => v.push((i, 0.0)),
-            StepExtra::Saturation => v.push((i, 0.1)),
-            StepExtra::SlewRate => {
-                v.push((i, 0.1));
-                v.push((i + 1, 0.1))
-            }
-            _ => {}
-        }
-        i += match e {
-            StepExtra::PoseGain | StepExtra::Drift | StepExtra::SlewRate => 2,
-            _ => 1,
-        };
-    }
-    v
+    });
+    Some(StepParams::base(theta[0], theta[1], theta[2]))
 }
 
 /// A starting point for the whole-response fit from the graphical estimates.

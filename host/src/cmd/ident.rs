@@ -220,7 +220,7 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
                 continue;
             }
             let init = step::initial_params(&steps, axis);
-            let f = step::fit_axis(&p, axis, &init, &[], p.len()).unwrap_or(init);
+            let f = step::fit_axis(&p, axis, &init, p.len()).unwrap_or(init);
             let w = f.omega_n_rad_s;
             tfs.push(format!(
                 "{}: H(s) = {:.1} / (s² + {:.2} s + {:.1})  (G {:.3}, ζ {:.3}, ωn {:.2} rad/s)",
