@@ -2,14 +2,16 @@
 # The loop against twin logs stripped to the log-format-v1 columns (no metadata): one line per
 # (experiment, hidden effect, period) with the verdict and the effect named first. Build first:
 #   cargo build --release -p pamctl -p pam-twin --examples --bins
-# then: bash ident/eval/matrix.sh   (OUT=dir for the logs, default /tmp/eval; needs python3)
+# then: bash ident/eval/matrix.sh   (OUT=dir for the logs, default /tmp/eval; KEEP=comma list of
+# the columns kept, default all eleven; needs python3)
 cd "${REPO:-$(dirname "$0")/../..}"
 SIM=target/release/examples/simulate
 PAM=target/release/pamctl
 strip() { python3 - "$1" "$2" <<'PY'
 import csv,sys
 src,dst=sys.argv[1],sys.argv[2]
-keep=["t_s","alpha1_rad","alpha2_rad","fx_n","fy_n","i1_ma","i2_ma","i3_ma","i4_ma","fx_ref_n","fy_ref_n"]
+import os
+keep=os.environ.get("KEEP","t_s,alpha1_rad,alpha2_rad,fx_n,fy_n,i1_ma,i2_ma,i3_ma,i4_ma,fx_ref_n,fy_ref_n").split(",")
 lines=[l for l in open(src) if not l.startswith('#')]
 r=csv.reader(lines); h=next(r); idx=[h.index(k) for k in keep if k in h]
 with open(dst,'w',newline='') as f:
