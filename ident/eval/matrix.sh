@@ -23,7 +23,7 @@ one() { # exp spec period seed
   local exp=$1 spec=$2 per=$3 seed=$4
   local f=${OUT:-/tmp/eval}/$exp-${spec//[:=,]/_}-$per-$seed.csv
   local args=(--experiment $exp --period $per --seed $seed --out $f.full)
-  [ "$exp" = dynamic ] && args+=(--point 1 --stiffness low)
+  [ "$exp" = dynamic ] && args+=(--point ${POINT:-1} --stiffness ${STIFFNESS:-low})
   [ "$exp" = force_step ] && args+=(--pose ${POSE:-0})
   [ "$spec" != none ] && args+=(--with "$spec")
   $SIM "${args[@]}" >/dev/null 2>&1 || { echo "SIMFAIL $exp $spec $per"; return; }

@@ -133,6 +133,9 @@ pub struct MatrixReport {
     pub area: f64,
     pub aspect_ratio: f64,
     pub orientation_deg: f64,
+    /// An ellipse (§4.6) exists only for a positive definite matrix; otherwise area,
+    /// aspect and orientation mean nothing.
+    pub positive_definite: bool,
 }
 
 pub fn matrix_report(name: &str, m: Mat2<f64>) -> MatrixReport {
@@ -144,6 +147,7 @@ pub fn matrix_report(name: &str, m: Mat2<f64>) -> MatrixReport {
         area: e.area,
         aspect_ratio: e.aspect_ratio,
         orientation_deg: e.orientation_rad.to_degrees(),
+        positive_definite: e.is_positive_definite(),
     }
 }
 
@@ -282,5 +286,20 @@ pub fn fit_static(p: &Prepared) -> TimeFit {
         warnings,
         predicted: pred,
         theta,
+    }
+}
+
+#[cfg(test)]
+mod report_tests {
+    use super::*;
+
+    /// A fitted mass with a zero diagonal has no ellipse; a stiffness does.
+    #[test]
+    fn matrix_report_flags_matrices_without_an_ellipse() {
+        let m = matrix_report("M", Mat2::new(1.2, 0.4, 0.4, 0.0));
+        assert!(!m.positive_definite, "{m:?}");
+        assert!(m.eigenvalues[0] < 0.0);
+        let k = matrix_report("K", Mat2::new(254.0, 107.0, 107.0, 364.0));
+        assert!(k.positive_definite, "{k:?}");
     }
 }

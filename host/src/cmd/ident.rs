@@ -68,6 +68,14 @@ fn io(e: std::io::Error) -> String {
 }
 
 fn print_matrix(out: &mut impl Write, m: &MatrixReport) -> Result<(), String> {
+    if !m.positive_definite {
+        return writeln!(
+            out,
+            "  {} = [[{:9.3}, {:9.3}], [{:9.3}, {:9.3}]]  no ellipse: not positive definite (λ {:.3}, {:.3})",
+            m.name, m.matrix[0][0], m.matrix[0][1], m.matrix[1][0], m.matrix[1][1], m.eigenvalues[0], m.eigenvalues[1]
+        )
+        .map_err(io);
+    }
     writeln!(
         out,
         "  {} = [[{:9.3}, {:9.3}], [{:9.3}, {:9.3}]]  ellipse: λ {:.3}, {:.3}; area {:.4e}; aspect {:.2}; orientation {:.1}°",
