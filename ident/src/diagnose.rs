@@ -22,6 +22,10 @@ pub struct Settings {
     pub min_improvement: f64,
     /// ...after subtracting this much per parameter it adds.
     pub penalty_per_param: f64,
+    /// An effect must change the held-out prediction by at least this share of the
+    /// measured signal's spread: a statistically clear but physically negligible correction
+    /// (a few hundredths of a newton of model bias) is not a missing effect.
+    pub min_effect_size: f64,
     /// Step detection threshold |ΔF| (§5.3).
     pub step_threshold_n: f64,
     /// Spectral peaks: power ≥ this × the local median...
@@ -38,6 +42,7 @@ impl Default for Settings {
             filter: FilterSettings::default(),
             min_improvement: 0.01,
             penalty_per_param: 0.001,
+            min_effect_size: 0.005,
             step_threshold_n: 3.0,
             peak_prominence: 40.0,
             peak_min_share: 0.03,
@@ -668,6 +673,7 @@ impl<'a> Loop<'a> {
         b.insert("omega_n_rad_s".to_string(), base.omega_n_rad_s);
         for &a in &axes {
             b.insert(format!("gain_{}", axis_name[a]), base.gain[a]);
+            b.insert(format!("offset_n_{}", axis_name[a]), base.offset_n[a]);
         }
         params.insert("base".to_string(), b);
         for e in &chosen {
@@ -902,6 +908,9 @@ pub struct EffectReport {
     pub added_params: usize,
     /// improvement − penalty × added_params.
     pub score: f64,
+    /// How much the effect changes the held-out prediction, RMS over the scored axes as a
+    /// share of the measured signal's spread over the whole trial (largest axis).
+    pub effect_size: f64,
     pub accepted: bool,
 }
 
@@ -936,6 +945,20 @@ pub struct Diagnosis {
     /// The error falling as the accepted effects are added one by one.
     pub steps: Vec<StepReport>,
     pub warnings: Vec<String>,
+}
+
+/// RMS of the change an effect makes to the held-out prediction, over the measured signal's
+/// standard deviation on the whole trial; the largest over the scored axes.
+fn effect_size(base: &ModelFit, f: &ModelFit) -> f64 {
+    f.axes
+        .iter()
+        .map(|&a| {
+            let d: Vec<f64> = (f.split..f.predicted[a].len())
+                .map(|i| f.predicted[a][i] - base.predicted[a][i])
+                .collect();
+            rms(&d) / std_dev(&f.measured[a]).max(1e-12)
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Diagnoses a trial against the standard catalog.
@@ -983,13 +1006,16 @@ pub fn diagnose_with(
         // (steps: the training part holds few, strongly autocorrelated step responses, and
         // the held-out steps carry the evidence; there the held-out gain decides alone)
         let train_ok = experiment == Experiment::Step || (f.train_gain > 0.0 && bic < 0.0);
-        let accepted = score > settings.min_improvement && train_ok;
+        let size = effect_size(&base, &f);
+        let accepted =
+            score > settings.min_improvement && train_ok && size >= settings.min_effect_size;
         let params = f.params.get(e.id()).cloned().unwrap_or_default();
         let evidence = format!(
-            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the held-out error ({} parameter{}; score {:.3}, needed > {:.3}; ΔBIC {:.0} on {:.0} effective samples)",
+            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the held-out error, changing the prediction by {:.2} % of the signal ({} parameter{}; score {:.3}, needed > {:.3}; ΔBIC {:.0} on {:.0} effective samples)",
             e.signature(),
             100.0 * f.train_gain,
             100.0 * improvement,
+            100.0 * size,
             f.added_params,
             if f.added_params == 1 { "" } else { "s" },
             score,
@@ -1008,6 +1034,7 @@ pub fn diagnose_with(
                 improvement,
                 added_params: f.added_params,
                 score,
+                effect_size: size,
                 accepted,
             },
             e,

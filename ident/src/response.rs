@@ -202,7 +202,7 @@ pub struct Response {
     pub gain_slope_per_rad: [[f64; 2]; 2],
     /// Force offset that follows the direction of the last reference change (hysteresis).
     pub hysteresis_n: [f64; 2],
-    /// Load-cell offset and drift.
+    /// Force offset (in the base: the load cell's tare and the pose's bias) and drift.
     pub offset_n: [f64; 2],
     pub drift_n_per_s: [f64; 2],
 }
@@ -283,15 +283,19 @@ pub fn extra_param_count(extras: &[StepExtra], axes: &[usize]) -> usize {
             StepExtra::SlewRate | StepExtra::Saturation => 2,
             StepExtra::PoseGain => 2 * axes.len(),
             StepExtra::Hysteresis => axes.len(),
-            StepExtra::Drift => 2 * axes.len(),
+            StepExtra::Drift => axes.len(),
         })
         .sum()
 }
 
-/// The parameter vector of a fit: ζ, ωn, the gains of `axes`, then each extra's.
+/// The parameter vector of a fit: ζ, ωn, the gains and force offsets of `axes`, then each
+/// extra's. The offset is in the base: at a blocked handle a force bias of a few hundredths
+/// of a newton comes from the encoders' resolution and zero alone (the force law evaluated a
+/// fraction of a count away from the true pose), so only a drift tells a load cell apart.
 fn pack(r: &Response, extras: &[StepExtra], axes: &[usize]) -> Vec<f64> {
     let mut v = vec![r.zeta, r.omega_n_rad_s];
     v.extend(axes.iter().map(|&a| r.gain[a]));
+    v.extend(axes.iter().map(|&a| r.offset_n[a]));
     for x in extras {
         match x {
             StepExtra::Delay => v.push(r.delay_s),
@@ -303,11 +307,7 @@ fn pack(r: &Response, extras: &[StepExtra], axes: &[usize]) -> Vec<f64> {
                 }
             }
             StepExtra::Hysteresis => v.extend(axes.iter().map(|&a| r.hysteresis_n[a])),
-            StepExtra::Drift => {
-                for &a in axes {
-                    v.extend([r.offset_n[a], r.drift_n_per_s[a]])
-                }
-            }
+            StepExtra::Drift => v.extend(axes.iter().map(|&a| r.drift_n_per_s[a])),
         }
     }
     v
@@ -321,6 +321,9 @@ fn unpack(v: &[f64], extras: &[StepExtra], axes: &[usize], template: &Response) 
     r.omega_n_rad_s = next();
     for &a in axes {
         r.gain[a] = next();
+    }
+    for &a in axes {
+        r.offset_n[a] = next();
     }
     for x in extras {
         match x {
@@ -345,7 +348,6 @@ fn unpack(v: &[f64], extras: &[StepExtra], axes: &[usize], template: &Response) 
             }
             StepExtra::Drift => {
                 for &a in axes {
-                    r.offset_n[a] = next();
                     r.drift_n_per_s[a] = next();
                 }
             }
@@ -358,7 +360,7 @@ fn unpack(v: &[f64], extras: &[StepExtra], axes: &[usize], template: &Response) 
 /// stay physical).
 fn lower_bounds(extras: &[StepExtra], axes: &[usize], rate_floor: f64) -> Vec<(usize, f64)> {
     let mut v = vec![(0, 0.02), (1, 0.1)];
-    let mut i = 2 + axes.len();
+    let mut i = 2 + 2 * axes.len();
     for x in extras {
         match x {
             StepExtra::Delay => v.push((i, 0.0)),
