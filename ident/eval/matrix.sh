@@ -3,7 +3,8 @@
 # (experiment, hidden effect, period) with the verdict and the effect named first. Build first:
 #   cargo build --release -p pamctl -p pam-twin --examples --bins
 # then: bash ident/eval/matrix.sh   (OUT=dir for the logs, default /tmp/eval; KEEP=comma list of
-# the columns kept, default all eleven; needs python3)
+# the columns kept, default all eleven; PERIODS, POINT, POSE, STIFFNESS, STEPS_ONLY=1 and
+# SIMARGS (e.g. "--noise 1 --duration 45") vary the cases; needs python3)
 cd "${REPO:-$(dirname "$0")/../..}"
 SIM=target/release/examples/simulate
 PAM=target/release/pamctl
@@ -22,7 +23,7 @@ PY
 one() { # exp spec period seed
   local exp=$1 spec=$2 per=$3 seed=$4
   local f=${OUT:-/tmp/eval}/$exp-${spec//[:=,]/_}-$per-$seed.csv
-  local args=(--experiment $exp --period $per --seed $seed --out $f.full)
+  local args=(--experiment $exp --period $per --seed $seed --out $f.full $SIMARGS)
   [ "$exp" = dynamic ] && args+=(--point ${POINT:-1} --stiffness ${STIFFNESS:-low})
   [ "$exp" = force_step ] && args+=(--pose ${POSE:-0})
   [ "$spec" != none ] && args+=(--with "$spec")
@@ -50,7 +51,7 @@ print(f"{exp:10} {spec:45} {per:6} {j['verdict']:11} top={top:22} base=({b['fx']
 PY
 }
 seed=11
-for per in 0.001 0.01 0.05; do
+for per in ${PERIODS:-0.001 0.01 0.05}; do
  [ -n "$STEPS_ONLY" ] || for spec in none carrier_ball_friction carrier_ball_friction:coulomb_n=5 velocity_squared:coeff_n_s2_per_m2=150 nonlinear_stiffness nonlinear_stiffness:cubic_n=40 muscle_hysteresis muscle_hysteresis:fraction=0.08 pose_dependence:gain_per_rad_1=0.6,gain_per_rad_2=-0.4 cable_slip cable_slip:backlash_rad=0.01 loadcell_drift loadcell_drift:offset_x_n=-3,drift_x_n_per_s=0.03 mains_hum mains_hum:amplitude_n=0.3,frequency_hz=60; do
   seed=$((seed+1)); one dynamic $spec $per $seed
  done

@@ -26,6 +26,9 @@ pub struct Settings {
     /// measured signal's spread: a statistically clear but physically negligible correction
     /// (a few hundredths of a newton of model bias) is not a missing effect.
     pub min_effect_size: f64,
+    /// Below `min_improvement`, an effect still counts when it removes at least this share
+    /// and its held-out gain passes the BIC on the held-out part's effective samples.
+    pub min_significant_improvement: f64,
     /// Step detection threshold |ΔF| (§5.3).
     pub step_threshold_n: f64,
     /// Spectral peaks: power ≥ this × the local median...
@@ -43,6 +46,7 @@ impl Default for Settings {
             min_improvement: 0.01,
             penalty_per_param: 0.001,
             min_effect_size: 0.005,
+            min_significant_improvement: 0.002,
             step_threshold_n: 3.0,
             peak_prominence: 40.0,
             peak_min_share: 0.03,
@@ -990,6 +994,12 @@ pub fn diagnose_with(
     let base = lp.fit(&[]);
     let e_base = base.relative_mse();
     let n_eff = effective_samples(&lp, &base);
+    let held_out: Vec<Vec<f64>> = base
+        .axes
+        .iter()
+        .map(|&a| base.residual(a)[base.split..].to_vec())
+        .collect();
+    let n_eff_test = effective_samples_of(&held_out);
     let mut reports = Vec::new();
     for e in catalog.iter().copied().filter(|e| e.applies(experiment)) {
         if experiment == Experiment::Step && e.step_extras().is_empty() {
@@ -1007,11 +1017,16 @@ pub fn diagnose_with(
         // the held-out steps carry the evidence; there the held-out gain decides alone)
         let train_ok = experiment == Experiment::Step || (f.train_gain > 0.0 && bic < 0.0);
         let size = effect_size(&base, &f);
-        let accepted =
-            score > settings.min_improvement && train_ok && size >= settings.min_effect_size;
+        // a noisy log: a material effect may remove little of an error that is mostly
+        // noise; it still counts when the held-out gain is significant by the same criterion
+        let held_bic = n_eff_test * (1.0 - improvement).max(1e-300).ln()
+            + f.added_params as f64 * n_eff_test.ln();
+        let held_ok = score > settings.min_improvement
+            || (improvement > settings.min_significant_improvement && held_bic < 0.0);
+        let accepted = held_ok && train_ok && size >= settings.min_effect_size;
         let params = f.params.get(e.id()).cloned().unwrap_or_default();
         let evidence = format!(
-            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the held-out error, changing the prediction by {:.2} % of the signal ({} parameter{}; score {:.3}, needed > {:.3}; ΔBIC {:.0} on {:.0} effective samples)",
+            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the held-out error, changing the prediction by {:.2} % of the signal ({} parameter{}; score {:.3}, needed > {:.3} or a held-out ΔBIC < 0: {:.0} on {:.0} effective samples; training ΔBIC {:.0} on {:.0})",
             e.signature(),
             100.0 * f.train_gain,
             100.0 * improvement,
@@ -1020,6 +1035,8 @@ pub fn diagnose_with(
             if f.added_params == 1 { "" } else { "s" },
             score,
             settings.min_improvement,
+            held_bic,
+            n_eff_test,
             bic,
             n_eff
         );
@@ -1136,25 +1153,12 @@ fn effective_samples_of(res: &[Vec<f64>]) -> f64 {
 /// Number of independent samples the training residual is worth: n (1 − ρ)/(1 + ρ) with ρ
 /// the lag-one autocorrelation, averaged over the axes.
 fn effective_samples(lp: &Loop, base: &ModelFit) -> f64 {
-    let s = lp.p.split;
-    let mut rho = Vec::new();
-    for &a in &base.axes {
-        let r = base.residual(a);
-        let r = &r[..s];
-        let m = r.iter().sum::<f64>() / s.max(1) as f64;
-        let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
-        if var > 0.0 {
-            let c: f64 = r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum();
-            rho.push((c / var).clamp(-0.99, 0.999));
-        }
-    }
-    let rho = if rho.is_empty() {
-        0.0
-    } else {
-        rho.iter().sum::<f64>() / rho.len() as f64
-    };
-    let n = (s * base.axes.len().max(1)) as f64;
-    (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n)
+    let train: Vec<Vec<f64>> = base
+        .axes
+        .iter()
+        .map(|&a| base.residual(a)[..lp.p.split].to_vec())
+        .collect();
+    effective_samples_of(&train)
 }
 
 /// Structure left in the residual of `fit` that no effect accounts for: narrow spectral

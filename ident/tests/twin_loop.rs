@@ -146,11 +146,7 @@ fn twin_carrier_ball_friction() {
                 "carrier_ball_friction",
                 &label,
             );
-            // at 50 ms the friction's sign changes fall between samples and the size is
-            // not recovered (see the report); at 1 ms it is
-            if r.period_s < 0.01 {
-                near(&p, "coulomb_n", c, 0.25, &label);
-            }
+            near(&p, "coulomb_n", c, 0.25, &label);
         }
     }
 }
@@ -170,10 +166,7 @@ fn twin_velocity_squared() {
                 "velocity_squared",
                 &label,
             );
-            // underestimated at 50 ms (see the report)
-            if r.period_s < 0.01 {
-                near(&p, "coeff_n_s2_per_m2", c, 0.3, &label);
-            }
+            near(&p, "coeff_n_s2_per_m2", c, 0.3, &label);
         }
     }
 }
@@ -214,11 +207,8 @@ fn twin_muscle_hysteresis() {
                 &label,
             );
             near(&p, "width", 0.002, 0.6, &label);
-            // the fraction comes from the model's muscle forces at the logged currents;
-            // underestimated at 50 ms (see the report)
-            if r.period_s < 0.01 {
-                near(&p, "fraction", f, 0.25, &label);
-            }
+            // the fraction comes from the model's muscle forces at the logged currents
+            near(&p, "fraction", f, 0.25, &label);
         }
     }
 }
@@ -498,4 +488,30 @@ fn twin_pose_dependence_away_from_the_centre() {
             near(&p, "gain_per_rad_2", -0.4, 0.4, &label);
         }
     }
+}
+
+/// A noisy log (0.6 N at 2 ms): effects that move the prediction by several per cent of the
+/// signal remove only about 1 % of an error that is mostly noise; they are still named (the
+/// held-out gain is significant), and the control stays "none".
+#[test]
+fn twin_noisy_logs() {
+    let r = Regime {
+        period_s: 0.002,
+        noise_n: 0.6,
+        duration_s: 60.0,
+    };
+    for (spec, id) in [
+        (
+            "pose_dependence:gain_per_rad_1=0.6,gain_per_rad_2=-0.4",
+            "pose_dependence",
+        ),
+        ("cable_slip", "cable_slip"),
+    ] {
+        let d = run(Experiment::Dynamic, spec, r, 140);
+        found(&d, id, spec);
+        let top = &d.effects[0];
+        assert!(top.effect_size > 0.01, "{spec}: {}", top.effect_size);
+    }
+    let d = run(Experiment::Dynamic, "", r, 140);
+    assert_eq!(d.verdict, "none", "{:?}", d.effects);
 }

@@ -18,7 +18,7 @@ use pam_twin::TwinConfig;
 
 fn usage() -> &'static str {
     "usage: simulate --experiment dynamic|static|force_step [--point N] [--pose N] [--stiffness low|high] \
-     [--duration S] [--period S] [--seed N] [--with EFFECT_SPEC]... [--feed-forward] [--identified-rig] --out FILE\n       simulate --list-effects"
+     [--duration S] [--period S] [--seed N] [--noise N] [--with EFFECT_SPEC]... [--feed-forward] [--identified-rig] --out FILE\n       simulate --list-effects"
 }
 
 fn run() -> Result<(), String> {
@@ -30,6 +30,7 @@ fn run() -> Result<(), String> {
     let mut out = None;
     let mut feed_forward = false;
     let mut identified_rig = false;
+    let mut noise_n: Option<f64> = None;
     let mut i = 0;
     let value = |i: &mut usize| -> Result<String, String> {
         *i += 1;
@@ -64,6 +65,7 @@ fn run() -> Result<(), String> {
             "--duration" => duration = num(value(&mut i)?, "--duration")?,
             "--period" => period = num(value(&mut i)?, "--period")?,
             "--seed" => seed = num(value(&mut i)?, "--seed")? as u64,
+            "--noise" => noise_n = Some(num(value(&mut i)?, "--noise")?),
             "--with" => specs.push(value(&mut i)?),
             "--feed-forward" => feed_forward = true,
             "--identified-rig" => identified_rig = true,
@@ -84,6 +86,9 @@ fn run() -> Result<(), String> {
         TwinConfig::thesis()
     };
     twin.seed = seed;
+    if let Some(n) = noise_n {
+        twin.sensors.loadcell_noise_n = [n; 2];
+    }
     twin.effects = EffectSet::parse_list(&specs).map_err(|e| e.to_string())?;
     let mut cfg = ExperimentConfig::new(twin);
     cfg.period_s = period;
