@@ -3,7 +3,7 @@
 //! held-out error they remove (with a penalty per added parameter), and name the residual
 //! structure no effect explains.
 
-use crate::effects::{DynCtx, Experiment, ModelEffect, Shape};
+use crate::effects::{DynCtx, DynTerm, Experiment, ModelEffect, Shape};
 use crate::lsq::{self, Column};
 use crate::msd::{self, MSD_POSITIVE};
 use crate::response::{self, Drive, Response, StepExtra};
@@ -383,14 +383,24 @@ impl<'a> Loop<'a> {
         variant: usize,
         effects: &[(&dyn ModelEffect, Shape)],
     ) -> Option<DynColumns> {
+        let terms: Vec<DynTerm> = effects
+            .iter()
+            .map(|(e, s)| e.dynamic_term(ctx, s))
+            .collect();
+        self.assemble(variant, &terms)
+    }
+
+    /// The columns of a fit with variant `variant` and the effects' terms (computed once and
+    /// shared by every variant: their columns are shared, not copied).
+    fn assemble(&self, variant: usize, terms: &[DynTerm]) -> Option<DynColumns> {
         let base_cols = &self.base_variants[variant].cols;
         let preload = self.base_variants[variant].stiffness == Stiffness::ForceLawWithPreload;
         let mut positive: Vec<usize> = self.base_variants[variant].stiffness.positive().to_vec();
         let mut delay = 0.0f64;
         let mut extra = Vec::new();
         let mut ranges = Vec::new();
-        for (e, s) in effects {
-            let term = e.dynamic_term(ctx, s);
+        for term in terms {
+            let term = term.clone();
             if preload && term.carries_constant {
                 return None;
             }
@@ -414,7 +424,7 @@ impl<'a> Loop<'a> {
                             a * (1.0 - frac) + b * frac
                         })
                         .collect();
-                    *v = shifted;
+                    *v = std::sync::Arc::new(shifted);
                 }
             }
         }
@@ -443,10 +453,9 @@ impl<'a> Loop<'a> {
             let yty = strided_sum_of_squares(y, self.p.split, stride);
             let mut best = (f64::INFINITY, Shape::default());
             for s in shapes {
+                let term = [e.dynamic_term(ctx, &s)];
                 for v in 0..self.base_variants.len() {
-                    let Some((cols, _, positive, shifted)) =
-                        self.dyn_columns(ctx, v, &[(e, s.clone())])
-                    else {
+                    let Some((cols, _, positive, shifted)) = self.assemble(v, &term) else {
                         continue;
                     };
                     let target = [y[0].as_slice(), y[1].as_slice()];
