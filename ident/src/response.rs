@@ -58,6 +58,8 @@ pub struct Drive {
     /// Sign of the last change of each axis's force reference (−1, 0, 1) at each sample.
     pub direction: [Vec<f64>; 2],
     pub dt_s: f64,
+    /// The converters' ζ and ωn of the robot's parameters (Table 5.2): a starting point.
+    pub prior_zeta_omega: (f64, f64),
 }
 
 impl Drive {
@@ -92,6 +94,7 @@ impl Drive {
             force_law: None,
             direction,
             dt_s: p.dt_s,
+            prior_zeta_omega: prior(model),
         })
     }
 
@@ -156,6 +159,7 @@ impl Drive {
             force_law: Some(law),
             direction,
             dt_s: p.dt_s,
+            prior_zeta_omega: prior(model),
         })
     }
 
@@ -180,6 +184,11 @@ impl Drive {
             .map(|i| self.handle_force(i, axis, &self.set[i]))
             .collect()
     }
+}
+
+fn prior(model: &RobotModel<f64>) -> (f64, f64) {
+    let ip = &model.params.ip;
+    (ip.damping_ratio, ip.natural_freq_rad_s)
 }
 
 /// Parameters of the step-trial model. Extras at their neutral values leave the base
@@ -546,24 +555,29 @@ pub fn fit(
     if extras.contains(&StepExtra::SlewRate) && rates_inactive {
         // the cost is flat where a limit is inactive: start at fractions of the fastest
         // rate the base reaches, alike and unlike up and down, with the base's dynamics and
-        // with faster ones (a base fitted without the limit has slowed itself down)
+        // with the converters' own (a base fitted without the limit has slowed itself down)
+        let (zeta0, omega0) = d.prior_zeta_omega;
+        let own = Response {
+            zeta: zeta0,
+            omega_n_rad_s: omega0,
+            ..*start
+        };
         let peak = peak_rate(start, d, n).max(1e-6);
+        let peak_own = peak_rate(&own, d, n).max(1e-6);
         let mut v = Vec::new();
         for fast in [false, true] {
-            for (fr, ff) in [
-                (0.7, 0.7),
-                (0.35, 0.35),
-                (0.15, 0.15),
-                (0.35, 0.7),
-                (0.7, 0.35),
-            ] {
+            // down to 1 %: a converter that needs 20 s to fill never reaches its set-point
+            let pairs = [0.7, 0.35, 0.15, 0.06, 0.025, 0.01]
+                .into_iter()
+                .flat_map(|f: f64| [(f, f), (f, f * 0.5), (f * 0.5, f)]);
+            for (fr, ff) in pairs {
                 for s in &starts {
                     let mut q = *s;
                     if fast {
-                        q.zeta = (q.zeta * 0.8).max(0.05);
-                        q.omega_n_rad_s *= 1.5;
+                        q.zeta = zeta0;
+                        q.omega_n_rad_s = omega0;
                     }
-                    let pk = if fast { peak * 1.5 } else { peak };
+                    let pk = if fast { peak_own } else { peak };
                     q.rise_per_s = fr * pk;
                     q.fall_per_s = ff * pk;
                     v.push(q);
@@ -573,7 +587,7 @@ pub fn fit(
         starts = v;
     }
     if extras.contains(&StepExtra::Saturation) && knee_inactive {
-        // knees at high quantiles of the set-points, from just active to strong
+        // knees at quantiles of the set-points, from just active to strong
         let mut all: Vec<f64> = d.set[..n]
             .iter()
             .flat_map(|s| s[..d.channels].iter().map(|v| v.abs()))
@@ -583,8 +597,12 @@ pub fn fit(
         let top = q(1.0);
         let mut v = Vec::new();
         // the cost has several basins in (knee, span): a grid, screened below
-        for f in [0.99, 0.95, 0.9, 0.8, 0.65, 0.5, 0.35, 0.2, 0.05] {
-            let knee = q(f);
+        // (and below the lowest set-point: a supply that caps every command)
+        let knees = [0.99, 0.95, 0.9, 0.8, 0.65, 0.5, 0.35, 0.2, 0.05]
+            .into_iter()
+            .map(q)
+            .chain([0.8, 0.5].map(|f| f * q(0.0)));
+        for knee in knees {
             for span_f in [0.1, 0.2, 0.35, 0.6, 1.0, 1.7, 3.0] {
                 for s in &starts {
                     let mut r = *s;
@@ -598,33 +616,47 @@ pub fn fit(
     }
     let rate_floor = 1e-3 * peak_rate(start, d, n).max(1e-6);
     let lower = lower_bounds(extras, axes, rate_floor);
-    // every start gets its least-squares gains (the output is linear in them), then the
+    // every start gets its least-squares gains and offsets (the output is linear in them),
+    // then the
     // starts are screened by their cost and the best few refined
     let mut buf0 = [vec![0.0; n], vec![0.0; n]];
     let mut screen = |r: &Response| -> (f64, Response) {
         let mut r = *r;
         let slopes = r.gain_slope_per_rad;
         r.gain_slope_per_rad = [[0.0; 2]; 2];
+        r.offset_n = [0.0; 2];
         r.gain = [1.0; 2];
         simulate(&r, d, t, alpha, n, &mut buf);
         r.gain = [0.0; 2];
         simulate(&r, d, t, alpha, n, &mut buf0);
         let mut cost = 0.0;
-        let mut gain = start.gain;
+        let (mut gain, mut offset) = (start.gain, start.offset_n);
         for &a in axes {
-            let (mut fy, mut ff) = (0.0, 0.0);
+            // y − rest = G·f + offset, least squares in (G, offset)
+            let (mut sf, mut sff, mut sy, mut sfy, mut m) = (0.0, 0.0, 0.0, 0.0, 0.0);
             for &i in &rows {
                 let f = buf[a][i] - buf0[a][i];
-                fy += f * (p.force_n[a][i] - buf0[a][i]);
-                ff += f * f;
+                let y = p.force_n[a][i] - buf0[a][i];
+                sf += f;
+                sff += f * f;
+                sy += y;
+                sfy += f * y;
+                m += 1.0;
             }
-            let g = if ff > 0.0 { fy / ff } else { 1.0 };
+            let det = m * sff - sf * sf;
+            let (g, o) = if det.abs() > 1e-12 * (m * sff).max(1e-300) {
+                ((m * sfy - sf * sy) / det, (sff * sy - sf * sfy) / det)
+            } else {
+                (1.0, 0.0)
+            };
             gain[a] = g;
+            offset[a] = o;
             for &i in &rows {
-                cost += (buf0[a][i] + g * (buf[a][i] - buf0[a][i]) - p.force_n[a][i]).powi(2);
+                cost += (buf0[a][i] + g * (buf[a][i] - buf0[a][i]) + o - p.force_n[a][i]).powi(2);
             }
         }
         r.gain = gain;
+        r.offset_n = offset;
         r.gain_slope_per_rad = slopes;
         (cost, r)
     };
@@ -683,6 +715,7 @@ mod tests {
                 force_law: None,
                 direction: [dir, vec![0.0; n]],
                 dt_s: dt,
+                prior_zeta_omega: (0.42, 23.04),
             },
             t,
         )

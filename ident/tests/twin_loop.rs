@@ -439,6 +439,20 @@ fn twin_steps_away_from_the_centre() {
             near(&p, "knee_bar", 3.2, 0.1, &label);
             near(&p, "max_bar", 4.0, 0.1, &label);
         }
+        // slow converters at (15°, −15°), where the muscles' set-points differ by 1.4 bar
+        let label = format!("(15°, −15°), {} s, 20/12 s", r.period_s);
+        let p = found(
+            &run_step_at(
+                [15.0, -15.0],
+                "asymmetric_ip_rates:inflation_s=20,deflation_s=12",
+                *r,
+                150 + k as u64,
+            ),
+            "asymmetric_ip_rates",
+            &label,
+        );
+        near(&p, "inflation_s", 20.0, 0.1, &label);
+        near(&p, "deflation_s", 12.0, 0.1, &label);
     }
 }
 

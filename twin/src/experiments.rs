@@ -281,6 +281,8 @@ struct Rig {
     with_hand_ref: bool,
     seq: u64,
     t0: Option<f64>,
+    /// Largest |dp/dt| over the channels during the last period (bar/s).
+    pressure_rate_bar_s: f64,
 }
 
 fn columns(with_ref: bool, with_hand_ref: bool) -> Vec<&'static str> {
@@ -353,6 +355,7 @@ impl Rig {
             with_hand_ref,
             seq: 0,
             t0: None,
+            pressure_rate_bar_s: f64::INFINITY,
         })
     }
 
@@ -426,9 +429,13 @@ impl Rig {
         }
         let sub = (self.period_s / 0.001).round().max(1.0) as usize;
         let h = self.period_s / sub as f64;
+        let before = self.last.pressure_bar;
         for k in 0..sub {
             self.last = self.twin.step(h, currents, &handle_at(k as f64 * h));
         }
+        self.pressure_rate_bar_s = (0..4)
+            .map(|c| (self.last.pressure_bar[c] - before[c]).abs() / self.period_s)
+            .fold(0.0, f64::max);
         Ok(())
     }
 
@@ -646,6 +653,14 @@ pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log
     })?;
     let blocked = HandleCondition::Blocked;
     for _ in 0..rig.periods(cfg.settle_s) {
+        rig.period(|_| blocked, Some([0.0; 2]), None, false)?;
+    }
+    // as an experimenter would: the test starts once the pressures have settled (slow,
+    // flow-limited converters need longer than `settle_s`), at most a minute later
+    for _ in 0..rig.periods(60.0) {
+        if rig.pressure_rate_bar_s < 0.01 {
+            break;
+        }
         rig.period(|_| blocked, Some([0.0; 2]), None, false)?;
     }
     for axis in 0..2 {
