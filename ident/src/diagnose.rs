@@ -1404,12 +1404,23 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
     let split = (lp.experiment == Experiment::Dynamic)
         .then(|| msd::frequency_split(p, &fit.measured, &fit.predicted));
     let mut warnings = fit.warnings.clone();
-    for a in fit.axes.iter() {
-        if fit.r2[*a] < 0.5 {
+    let still = |a: usize| {
+        lp.experiment == Experiment::Step
+            && p.force_ref_n
+                .as_ref()
+                .is_some_and(|r| std_dev(&r[a][p.split..]) < 1e-3)
+    };
+    for &a in fit.axes.iter() {
+        if still(a) {
+            warnings.push(format!(
+                "{}'s reference does not step in the held-out part: its NRMSE and R² there measure the noise",
+                ["fx", "fy"][a]
+            ));
+        } else if fit.r2[a] < 0.5 {
             warnings.push(format!(
                 "held-out R² of {} is {:.2}: the model explains little of this axis",
-                ["fx", "fy"][*a],
-                fit.r2[*a]
+                ["fx", "fy"][a],
+                fit.r2[a]
             ));
         }
     }
