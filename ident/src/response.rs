@@ -497,9 +497,7 @@ fn peak_rate(r: &Response, d: &Drive, n: usize) -> f64 {
     let c2 = 2.0 * r.zeta * r.omega_n_rad_s;
     let mut x = [0.0; 4];
     let mut v = [0.0; 4];
-    for c in 0..d.channels {
-        x[c] = d.set[0][c];
-    }
+    x[..d.channels].copy_from_slice(&d.set[0][..d.channels]);
     let mut peak: f64 = 0.0;
     for i in 0..n {
         for _ in 0..sub {
