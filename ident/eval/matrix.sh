@@ -50,7 +50,7 @@ un=",".join(u.get("kind","?")+":"+str(u.get("signal","")) for u in j.get("unexpl
 print(f"{exp:10} {spec:45} {per:6} {j['verdict']:11} top={top:22} base=({b['fx']:.3f},{b['fy']:.3f}) top=({tn.get('fx',0):.3f},{tn.get('fy',0):.3f}) {float(dt):.1f}s imp={imp:.3f} size={size:.4f} {un}")
 PY
 }
-seed=11
+seed=${SEED0:-11}
 for per in ${PERIODS:-0.001 0.01 0.05}; do
  [ -n "$STEPS_ONLY" ] || for spec in none carrier_ball_friction carrier_ball_friction:coulomb_n=5 velocity_squared:coeff_n_s2_per_m2=150 nonlinear_stiffness nonlinear_stiffness:cubic_n=40 muscle_hysteresis muscle_hysteresis:fraction=0.08 pose_dependence:gain_per_rad_1=0.6,gain_per_rad_2=-0.4 cable_slip cable_slip:backlash_rad=0.01 loadcell_drift loadcell_drift:offset_x_n=-3,drift_x_n_per_s=0.03 mains_hum mains_hum:amplitude_n=0.3,frequency_hz=60; do
   seed=$((seed+1)); one dynamic $spec $per $seed
