@@ -425,12 +425,12 @@ pub fn simulate(
     for (c, xc) in x.iter_mut().enumerate().take(k) {
         *xc = set_at(0, c);
     }
-    // the hysteresis offset goes through the same regulation
     // Rate limits: a converter's flow limits how fast its pressure moves; without the
     // converters (force channels) the limit is on the commanded force, as in §5.3's
     // black-box view
     let slew_the_command = force_channels;
     let mut driven = x;
+    // the hysteresis offset goes through the same regulation
     let mut hx = [0, 1].map(|a| r.hysteresis_n[a] * d.direction[a][0]);
     let mut hv = [0.0; 2];
     let delay = r.delay_s.max(0.0) / d.dt_s;
