@@ -549,6 +549,12 @@ pub fn fit(
         let stage = fit(p, d, start, &first, axes, fit_end);
         return fit(p, d, &stage, extras, axes, fit_end);
     }
+    // the fastest rate the base reaches: the scale of the rate limits' starts and floor
+    let peak = if extras.contains(&StepExtra::SlewRate) {
+        peak_rate(start, d, n).max(1e-6)
+    } else {
+        1.0
+    };
     let mut starts = vec![*start];
     if extras.contains(&StepExtra::SlewRate) && rates_inactive {
         // the cost is flat where a limit is inactive: start at fractions of the fastest
@@ -560,7 +566,6 @@ pub fn fit(
             omega_n_rad_s: omega0,
             ..*start
         };
-        let peak = peak_rate(start, d, n).max(1e-6);
         let peak_own = peak_rate(&own, d, n).max(1e-6);
         let mut v = Vec::new();
         for fast in [false, true] {
@@ -612,8 +617,7 @@ pub fn fit(
         }
         starts = v;
     }
-    let rate_floor = 1e-3 * peak_rate(start, d, n).max(1e-6);
-    let lower = lower_bounds(extras, axes, rate_floor);
+    let lower = lower_bounds(extras, axes, 1e-3 * peak);
     // every start gets its least-squares gains and offsets (the output is linear in them),
     // then the
     // starts are screened by their cost and the best few refined
