@@ -367,17 +367,7 @@ pub fn hardware_faults_latch() -> CheckResult {
     )
 }
 
-macro_rules! register {
-    ($($name:ident),* $(,)?) => {
-        pub const CHECKS: &[Check] = &[$(Check { name: stringify!($name), run: $name }),*];
-        #[cfg(test)]
-        mod on_host {
-            $(#[test] fn $name() { if let Err(e) = super::$name() { panic!("{e:?}") } })*
-        }
-    };
-}
-
-register!(
+pam_model::register_checks!(
     boots_disarmed_and_vented,
     pressures_mode_slews_to_target,
     out_of_range_command_refused_and_nothing_changes,

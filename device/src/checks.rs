@@ -720,17 +720,7 @@ pub fn requests_survive_the_wire() -> CheckResult {
 
 use pam_protocol::DeviceMessage;
 
-macro_rules! register {
-    ($($name:ident),* $(,)?) => {
-        pub const CHECKS: &[Check] = &[$(Check { name: stringify!($name), run: $name }),*];
-        #[cfg(test)]
-        mod on_host {
-            $(#[test] fn $name() { if let Err(e) = super::$name() { panic!("{e:?}") } })*
-        }
-    };
-}
-
-register!(
+pam_model::register_checks!(
     boots_disarmed_unhomed_and_vented,
     hello_answers_versions_and_refuses_another_protocol,
     arm_needs_homing_and_disarm_vents,

@@ -45,6 +45,21 @@ pub struct Check {
     pub run: fn() -> CheckResult,
 }
 
+/// Lists non-generic check functions as `pub const CHECKS: &[Check]` (run on the target by
+/// the QEMU suite) and as one host `#[test]` each. Used by the crates above the model
+/// (pam-control, pam-device); the model's own checks are generic over f32/f64.
+#[macro_export]
+macro_rules! register_checks {
+    ($($name:ident),* $(,)?) => {
+        pub const CHECKS: &[$crate::checks::Check] =
+            &[$($crate::checks::Check { name: stringify!($name), run: $name }),*];
+        #[cfg(test)]
+        mod on_host {
+            $(#[test] fn $name() { if let Err(e) = super::$name() { panic!("{e:?}") } })*
+        }
+    };
+}
+
 fn close(what: &'static str, index: u32, got: f64, expected: f64, tolerance: f64) -> CheckResult {
     if (got - expected).abs() <= tolerance && got.is_finite() {
         Ok(())
