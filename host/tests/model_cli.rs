@@ -1,17 +1,7 @@
 //! `pamctl model …` end to end: the binary's output and exit codes.
-use std::process::Command;
+mod cli;
 
-fn pamctl(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_pamctl"))
-        .args(args)
-        .output()
-        .expect("pamctl runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
+use cli::pamctl;
 
 #[test]
 fn capability_at_neutral_pose_reports_thesis_stiffness() {

@@ -1,9 +1,11 @@
 //! The HTML report renders in headless Chromium: a screenshot that is not blank and shows
 //! the plots' colours. The test finds /usr/bin/chromium (or `chromium` on the PATH) and, as
 //! root on Debian, installs it when missing.
+mod cli;
 #[path = "../../ident/tests/common/mod.rs"]
 mod common;
 
+use cli::write_log;
 use common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -36,36 +38,6 @@ fn chromium() -> PathBuf {
     panic!("headless Chromium is needed for this test: apt-get install -y chromium");
 }
 
-fn write_log(path: &Path, t: &pam_ident::Trial) {
-    let cols = [
-        "t_s",
-        "alpha1_rad",
-        "alpha2_rad",
-        "fx_n",
-        "fy_n",
-        "i1_ma",
-        "i2_ma",
-        "i3_ma",
-        "i4_ma",
-    ];
-    let mut w = pam_log::LogWriter::create(path, &cols, &[("experiment", "dynamic")]).unwrap();
-    for i in 0..t.len() {
-        w.write_row(&[
-            t.t_s[i],
-            t.alpha_rad[0][i],
-            t.alpha_rad[1][i],
-            t.force_n[0][i],
-            t.force_n[1][i],
-            12.0,
-            12.0,
-            12.0,
-            12.0,
-        ])
-        .unwrap();
-    }
-    w.flush().unwrap();
-}
-
 #[test]
 fn diagnose_report_renders_in_headless_chromium() {
     let dir = std::env::temp_dir().join(format!("pamctl-report-{}", std::process::id()));
@@ -80,6 +52,7 @@ fn diagnose_report_renders_in_headless_chromium() {
             seed: 4,
             ..Default::default()
         }),
+        "dynamic",
     );
     let html = dir.join("report.html");
     let out = Command::new(env!("CARGO_BIN_EXE_pamctl"))
