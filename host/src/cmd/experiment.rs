@@ -258,6 +258,25 @@ fn levels(l: Level) -> Vec<StiffnessLevel> {
     }
 }
 
+/// A trial at Table 4.1's point `p` (1-based): the joint angles, the joint stiffness of
+/// the level, the handle's centre and the trial's label.
+fn point_trial(
+    model: &RobotModel<f64>,
+    kind: &str,
+    p: usize,
+    level: StiffnessLevel,
+) -> (Vec2<f64>, [f64; 2], Vec2<f64>, String) {
+    let alpha = TABLE_4_1_POINTS_DEG[p - 1].map(f64::to_radians);
+    let k = trial_stiffness(model, alpha, level);
+    let centre = model.kinematics.forward_user(alpha);
+    (
+        alpha,
+        k,
+        centre,
+        format!("{kind} point {p} K_{}", level_name(level)),
+    )
+}
+
 fn level_name(l: StiffnessLevel) -> &'static str {
     match l {
         StiffnessLevel::Low => "low",
@@ -416,10 +435,7 @@ fn run_trials(
             positive("--move-s", *move_s)?;
             for p in points(*point)? {
                 for level in levels(*stiffness) {
-                    let alpha = TABLE_4_1_POINTS_DEG[p - 1].map(f64::to_radians);
-                    let k = trial_stiffness(model, alpha, level);
-                    let centre = model.kinematics.forward_user(alpha);
-                    let label = format!("static point {p} K_{}", level_name(level));
+                    let (alpha, k, centre, label) = point_trial(model, "static", p, level);
                     s.prompt(&format!(
                         "{label}: hold the handle lightly; the arm goes to point {p}"
                     ))?;
@@ -464,10 +480,7 @@ fn run_trials(
             positive("--duration-s", *duration_s)?;
             for p in points(*point)? {
                 for level in levels(*stiffness) {
-                    let alpha = TABLE_4_1_POINTS_DEG[p - 1].map(f64::to_radians);
-                    let k = trial_stiffness(model, alpha, level);
-                    let centre = model.kinematics.forward_user(alpha);
-                    let label = format!("dynamic point {p} K_{}", level_name(level));
+                    let (alpha, k, centre, label) = point_trial(model, "dynamic", p, level);
                     arm(s)?;
                     s.move_to(
                         alpha,
