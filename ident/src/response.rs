@@ -46,7 +46,6 @@ pub enum Units {
 /// What drives a step trial, computed once per trial.
 pub struct Drive {
     pub units: Units,
-    pub channels: usize,
     /// Set-point of each channel at each sample, held over the sample.
     pub set: Vec<[f64; 4]>,
     /// Handle force per unit of each channel's force at each sample:
@@ -86,7 +85,6 @@ impl Drive {
         let n = p.len();
         Some(Drive {
             units: Units::Force,
-            channels: 2,
             set: (0..n)
                 .map(|i| [reference[0][i], reference[1][i], 0.0, 0.0])
                 .collect(),
@@ -153,7 +151,6 @@ impl Drive {
         }
         Some(Drive {
             units: Units::Pressure,
-            channels: 4,
             set,
             coeff,
             force_law: Some(law),
@@ -163,6 +160,14 @@ impl Drive {
         })
     }
 
+    /// Four converters, or two force channels.
+    pub fn channels(&self) -> usize {
+        match self.units {
+            Units::Pressure => 4,
+            Units::Force => 2,
+        }
+    }
+
     /// The handle force at sample `i` with the channels at `x`.
     #[inline]
     fn handle_force(&self, i: usize, axis: usize, x: &[f64; 4]) -> f64 {
@@ -170,11 +175,11 @@ impl Drive {
         match &self.force_law {
             Some(law) => {
                 let l = &law[i];
-                (0..self.channels)
+                (0..self.channels())
                     .map(|k| c[k] * (l[k][0] * x[k] + l[k][1]).max(0.0))
                     .sum()
             }
-            None => (0..self.channels).map(|k| c[k] * x[k]).sum(),
+            None => (0..self.channels()).map(|k| c[k] * x[k]).sum(),
         }
     }
 
@@ -406,7 +411,7 @@ pub fn simulate(
     if n == 0 {
         return;
     }
-    let k = d.channels;
+    let k = d.channels();
     let sub = ((d.dt_s / MAX_SUBSTEP_S).ceil() as usize).max(1);
     let h = d.dt_s / sub as f64;
     let wn2 = r.omega_n_rad_s * r.omega_n_rad_s;
@@ -497,11 +502,11 @@ fn peak_rate(r: &Response, d: &Drive, n: usize) -> f64 {
     let c2 = 2.0 * r.zeta * r.omega_n_rad_s;
     let mut x = [0.0; 4];
     let mut v = [0.0; 4];
-    x[..d.channels].copy_from_slice(&d.set[0][..d.channels]);
+    x[..d.channels()].copy_from_slice(&d.set[0][..d.channels()]);
     let mut peak: f64 = 0.0;
     for i in 0..n {
         for _ in 0..sub {
-            for c in 0..d.channels {
+            for c in 0..d.channels() {
                 v[c] += h * (wn2 * (d.set[i][c] - x[c]) - c2 * v[c]);
                 x[c] += h * v[c];
                 peak = peak.max(v[c].abs());
@@ -593,7 +598,7 @@ pub fn fit(
         // knees at quantiles of the set-points, from just active to strong
         let mut all: Vec<f64> = d.set[..n]
             .iter()
-            .flat_map(|s| s[..d.channels].iter().map(|v| v.abs()))
+            .flat_map(|s| s[..d.channels()].iter().map(|v| v.abs()))
             .collect();
         all.sort_by(f64::total_cmp);
         let q = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
@@ -711,7 +716,6 @@ mod tests {
         (
             Drive {
                 units: Units::Force,
-                channels: 2,
                 set: set.iter().map(|&s| [s, 0.0, 0.0, 0.0]).collect(),
                 coeff: vec![[[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]]; n],
                 force_law: None,
