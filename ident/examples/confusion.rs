@@ -1,0 +1,154 @@
+//! The model loop against an independent generator (`pam-synth`): N balanced cases, each
+//! diagnosed and judged through the diagnosis's JSON; per-case lines, the confusion matrix,
+//! accuracy, false alarms and timings.
+//!
+//! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
+//!  [--experiment dynamic|step] [--jobs 2] [--out DIR] [--json FILE]`
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use pam_ident::diagnose::{diagnose, Settings};
+use pam_ident::effects::Experiment as LoopExperiment;
+use pam_ident::Trial;
+use pam_model::RobotModel;
+use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
+use pam_synth::{generate, CaseSpec, Experiment};
+
+struct Args {
+    logs: usize,
+    seed0: u64,
+    experiment: Option<Experiment>,
+    jobs: usize,
+    out: Option<PathBuf>,
+    json: Option<PathBuf>,
+}
+
+fn parse() -> Result<Args, String> {
+    let mut a = Args {
+        logs: 100,
+        seed0: 1000,
+        experiment: None,
+        jobs: 2,
+        out: None,
+        json: None,
+    };
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut it = args.iter();
+    while let Some(k) = it.next() {
+        let mut v = || it.next().cloned().ok_or(format!("{k} needs a value"));
+        match k.as_str() {
+            "--logs" => a.logs = v()?.parse().map_err(|e| format!("--logs: {e}"))?,
+            "--seed0" => a.seed0 = v()?.parse().map_err(|e| format!("--seed0: {e}"))?,
+            "--experiment" => {
+                a.experiment = Some(Experiment::parse(&v()?).map_err(|e| e.to_string())?)
+            }
+            "--jobs" => a.jobs = v()?.parse().map_err(|e| format!("--jobs: {e}"))?,
+            "--out" => a.out = Some(PathBuf::from(v()?)),
+            "--json" => a.json = Some(PathBuf::from(v()?)),
+            other => return Err(format!("unknown argument `{other}`")),
+        }
+    }
+    Ok(a)
+}
+
+/// Generates, diagnoses (as `pamctl model diagnose` would: log text → pam-log → Trial) and
+/// judges one case.
+pub fn run_case(spec: &CaseSpec, out: Option<&PathBuf>) -> CaseResult {
+    let model = RobotModel::<f64>::thesis();
+    let g = match generate(spec) {
+        Ok(g) => g,
+        Err(e) => panic!("seed {}: generating: {e}", spec.seed),
+    };
+    if let Some(dir) = out {
+        let path = dir.join(format!("synth_{}.csv", spec.seed));
+        let _ = pam_synth::write_files(&g, &path);
+    }
+    let start = Instant::now();
+    let exp = match spec.experiment {
+        Experiment::Dynamic => LoopExperiment::Dynamic,
+        Experiment::Step => LoopExperiment::Step,
+    };
+    let said = pam_log::read_str(&g.log_text, None)
+        .map_err(|e| e.to_string())
+        .and_then(|log| Trial::from_log(&log))
+        .and_then(|trial| diagnose(&trial, &model, exp, Settings::default()))
+        .and_then(|(d, _)| serde_json::to_value(&d).map_err(|e| e.to_string()));
+    let seconds = start.elapsed().as_secs_f64();
+    match said {
+        Ok(v) => {
+            let says = judge::read(&v);
+            CaseResult {
+                outcome: judge::judge(&g.truth, &says),
+                truth: g.truth,
+                says,
+                seconds,
+                error: None,
+            }
+        }
+        Err(e) => CaseResult {
+            truth: g.truth,
+            says: LoopSays {
+                verdict: "error".into(),
+                ..Default::default()
+            },
+            outcome: Outcome::Wrong,
+            seconds,
+            error: Some(e),
+        },
+    }
+}
+
+fn main() {
+    let a = match parse() {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--jobs 2] [--out DIR] [--json FILE]");
+            std::process::exit(2);
+        }
+    };
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir).expect("creating --out");
+    }
+    let specs = judge::plan(a.logs, a.seed0, a.experiment);
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<CaseResult>>> = Mutex::new(vec![None; specs.len()]);
+    let wall = Instant::now();
+    std::thread::scope(|s| {
+        for _ in 0..a.jobs.max(1) {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::SeqCst);
+                if i >= specs.len() {
+                    break;
+                }
+                let r = run_case(&specs[i], a.out.as_ref());
+                let k = done.fetch_add(1, Ordering::SeqCst) + 1;
+                eprintln!("[{k}/{}] {}", specs.len(), judge::case_line(&r));
+                results.lock().unwrap()[i] = Some(r);
+            });
+        }
+    });
+    let results: Vec<CaseResult> = results
+        .into_inner()
+        .unwrap()
+        .into_iter()
+        .flatten()
+        .collect();
+    for r in &results {
+        println!("{}", judge::case_line(r));
+    }
+    println!();
+    print!("{}", judge::report(&results));
+    println!(
+        "wall time {:.1} s on {} threads",
+        wall.elapsed().as_secs_f64(),
+        a.jobs
+    );
+    if let Some(path) = &a.json {
+        let s = serde_json::to_string_pretty(&results).expect("serialising results");
+        std::fs::write(path, s).expect("writing --json");
+    }
+}
