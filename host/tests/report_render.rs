@@ -1,6 +1,8 @@
-//! The HTML report renders in headless Chromium: a screenshot that is not blank and shows
-//! the plots' colours. The test finds /usr/bin/chromium (or `chromium` on the PATH) and, as
-//! root on Debian, installs it when missing.
+//! The HTML report renders in headless Chromium with the network cut off: the zoomable
+//! plotly plots are drawn (the DOM has `.js-plotly-plot` with its SVG), the page references
+//! nothing on the network, and a screenshot is not blank and shows the plots' colours. The
+//! test finds /usr/bin/chromium (or `chromium` on the PATH) and, as root on Debian,
+//! installs it when missing.
 mod cli;
 #[path = "../../ident/tests/common/mod.rs"]
 mod common;
@@ -71,31 +73,70 @@ fn diagnose_report_renders_in_headless_chromium() {
         String::from_utf8_lossy(&out.stderr)
     );
     let page = std::fs::read_to_string(&html).unwrap();
+    assert!(page.contains("<svg"), "the static plots are inline SVG");
     assert!(
-        page.contains("<svg") && !page.contains("http://")
-            || page.contains("xmlns=\"http://www.w3.org/2000/svg\"")
+        page.contains("Plotly.newPlot") && page.contains("plotly.js v"),
+        "plotly.js is embedded in the page"
+    );
+    assert!(page.len() < 6_000_000, "the page is {} bytes", page.len());
+    // nothing outside the scripts' bodies points to the network: no external script,
+    // stylesheet, image or font
+    let markup = without_script_bodies(&page);
+    for needle in [
+        "<script src",
+        "<link",
+        "src=\"http",
+        "src='http",
+        "href=\"http",
+        "url(http",
+        "@import",
+    ] {
+        assert!(
+            !markup.contains(needle),
+            "the report must not load anything: found `{needle}`"
+        );
+    }
+
+    let offline = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--no-first-run",
+        "--hide-scrollbars",
+        // no name resolves: a page that needed the network would not draw its plots
+        "--host-resolver-rules=MAP * ~NOTFOUND",
+        "--virtual-time-budget=5000",
+    ];
+    let dom = Command::new(chromium())
+        .args(offline)
+        .arg(format!(
+            "--user-data-dir={}",
+            dir.join("profile-dom").display()
+        ))
+        .arg("--dump-dom")
+        .arg(format!("file://{}", html.display()))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(
+        dom.contains("js-plotly-plot") && dom.contains("main-svg"),
+        "the plotly plots did not render (DOM of {} bytes)",
+        dom.len()
     );
     assert!(
-        !page.contains("<script"),
-        "the report must not need scripts"
-    );
-    assert!(
-        !page.contains("src=\"http"),
-        "the report must not load anything"
+        dom.matches("class=\"scatterlayer").count() >= 2,
+        "both zoomable plots have their traces"
     );
 
     let png_path = dir.join("shot.png");
     let profile = dir.join("profile");
     let status = Command::new(chromium())
+        .args(offline)
         .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--no-first-run",
-            "--hide-scrollbars",
             "--window-size=1000,2400",
             &format!("--user-data-dir={}", profile.display()),
             &format!("--screenshot={}", png_path.display()),
@@ -146,4 +187,25 @@ fn diagnose_report_renders_in_headless_chromium() {
         blue > 200 && red > 200,
         "plot colours missing: blue {blue}, red {red}"
     );
+}
+
+/// The page with the text between `<script…>` and `</script>` removed (the embedded
+/// library's own strings are not references of the page).
+fn without_script_bodies(page: &str) -> String {
+    let mut out = String::new();
+    let mut rest = page;
+    while let Some(i) = rest.find("<script") {
+        let Some(gt) = rest[i..].find('>') else {
+            break;
+        };
+        out.push_str(&rest[..i + gt + 1]);
+        match rest[i + gt..].find("</script>") {
+            Some(e) => rest = &rest[i + gt + e..],
+            None => {
+                rest = "";
+            }
+        }
+    }
+    out.push_str(rest);
+    out
 }

@@ -98,7 +98,7 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
         let p = trial.prepare(&model, settings(a).filter)?;
         write_report(
             path,
-            &report::diagnosis_page(&d, &fits, &p.t_s, p.split, p.dt_s),
+            &report::diagnosis_page(&d, &fits, &p),
         )?;
     }
     if a.json {
@@ -180,7 +180,7 @@ pub fn compare(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     if let Some(path) = &a.report {
         write_report(
             path,
-            &report::comparison_page(&c, &fit, &lp.p.t_s, lp.p.split, lp.p.dt_s),
+            &report::comparison_page(&c, &fit, &lp.p),
         )?;
     }
     if a.json {
@@ -278,7 +278,7 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     if let Some(path) = &a.report {
         write_report(
             path,
-            &report::fit_page(&before, &after, &lp.p.t_s, lp.p.split, lp.p.dt_s),
+            &report::fit_page(&before, &after, &lp.p),
         )?;
     }
     let j = FitJson {
