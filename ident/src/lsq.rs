@@ -57,6 +57,17 @@ pub struct Normal {
     pub rhs: Vec<f64>,
 }
 
+impl Normal {
+    /// The normal equations of the first `k` columns (the top-left block).
+    pub fn prefix(&self, k: usize) -> Normal {
+        let k = k.min(self.rhs.len());
+        Normal {
+            gram: self.gram[..k].iter().map(|r| r[..k].to_vec()).collect(),
+            rhs: self.rhs[..k].to_vec(),
+        }
+    }
+}
+
 pub fn normal_equations(cols: &[Column], target: &[&[f64]; 2], rows: Range<usize>) -> Normal {
     normal_equations_strided(cols, target, rows, 1)
 }

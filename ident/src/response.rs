@@ -26,6 +26,8 @@ pub enum StepExtra {
     Delay,
     SlewRate,
     Saturation,
+    /// The handle force's magnitude saturates (knee and maximum in N of the measured force).
+    ForceSaturation,
     PoseGain,
     Hysteresis,
     Drift,
@@ -211,6 +213,10 @@ pub struct Response {
     /// Set-points above `knee` are compressed toward `knee + knee_span` (tanh).
     pub knee: f64,
     pub knee_span: f64,
+    /// The handle force (gain × the model's force) is compressed above `force_knee_n`
+    /// toward `force_knee_n + force_span_n` (tanh).
+    pub force_knee_n: f64,
+    pub force_span_n: f64,
     pub gain: [f64; 2],
     /// dG/dα1, dG/dα2 per axis (pose-dependent gain, eq. 5.2).
     pub gain_slope_per_rad: [[f64; 2]; 2],
@@ -231,6 +237,8 @@ impl Response {
             fall_per_s: f64::INFINITY,
             knee: f64::INFINITY,
             knee_span: 1.0,
+            force_knee_n: f64::INFINITY,
+            force_span_n: 1.0,
             gain,
             gain_slope_per_rad: [[0.0; 2]; 2],
             hysteresis_n: [0.0; 2],
@@ -260,6 +268,10 @@ impl Response {
             (StepExtra::Saturation, Units::Force) => {
                 v.push(("knee_n".into(), self.knee));
                 v.push(("max_n".into(), self.knee + self.knee_span));
+            }
+            (StepExtra::ForceSaturation, _) => {
+                v.push(("knee_n".into(), self.force_knee_n));
+                v.push(("max_n".into(), self.force_knee_n + self.force_span_n));
             }
             (StepExtra::PoseGain, _) => {
                 // relative slopes, comparable with a gain plane normalised by G
@@ -294,7 +306,7 @@ pub fn extra_param_count(extras: &[StepExtra], axes: &[usize]) -> usize {
         .iter()
         .map(|x| match x {
             StepExtra::Delay => 1,
-            StepExtra::SlewRate | StepExtra::Saturation => 2,
+            StepExtra::SlewRate | StepExtra::Saturation | StepExtra::ForceSaturation => 2,
             StepExtra::PoseGain => 2 * axes.len(),
             StepExtra::Hysteresis => axes.len(),
             StepExtra::Drift => axes.len(),
@@ -315,6 +327,7 @@ fn pack(r: &Response, extras: &[StepExtra], axes: &[usize]) -> Vec<f64> {
             StepExtra::Delay => v.push(r.delay_s),
             StepExtra::SlewRate => v.extend([r.rise_per_s, r.fall_per_s]),
             StepExtra::Saturation => v.extend([r.knee, r.knee_span]),
+            StepExtra::ForceSaturation => v.extend([r.force_knee_n, r.force_span_n]),
             StepExtra::PoseGain => {
                 for &a in axes {
                     v.extend(r.gain_slope_per_rad[a])
@@ -350,6 +363,10 @@ fn unpack(v: &[f64], extras: &[StepExtra], axes: &[usize], template: &Response) 
                 r.knee = next();
                 r.knee_span = next();
             }
+            StepExtra::ForceSaturation => {
+                r.force_knee_n = next();
+                r.force_span_n = next();
+            }
             StepExtra::PoseGain => {
                 for &a in axes {
                     r.gain_slope_per_rad[a] = [next(), next()];
@@ -379,7 +396,9 @@ fn lower_bounds(extras: &[StepExtra], axes: &[usize], rate_floor: f64) -> Vec<(u
         match x {
             StepExtra::Delay => v.push((i, 0.0)),
             StepExtra::SlewRate => v.extend([(i, rate_floor), (i + 1, rate_floor)]),
-            StepExtra::Saturation => v.extend([(i, 0.0), (i + 1, 1e-3)]),
+            StepExtra::Saturation | StepExtra::ForceSaturation => {
+                v.extend([(i, 0.0), (i + 1, 1e-3)])
+            }
             _ => {}
         }
         i += extra_param_count(&[*x], axes);
@@ -419,6 +438,8 @@ pub fn simulate(
     let (rise, fall) = (r.rise_per_s.max(1e-9), r.fall_per_s.max(1e-9));
     let limited = rise.is_finite() || fall.is_finite();
     let span = r.knee_span.abs().max(1e-6);
+    let force_limited = r.force_knee_n.is_finite();
+    let force_span = r.force_span_n.abs().max(1e-6);
     let sat = |s: f64| saturate(s, r.knee, span);
     // Force channels carry the measured force's scale (gain × reference), so that their
     // rate limit and saturation are in the measured newtons; converter channels are bar.
@@ -457,7 +478,11 @@ pub fn simulate(
             } else {
                 g
             };
-            out[a][i] = g * f + hx[a] + r.offset_n[a] + r.drift_n_per_s[a] * (t_s[i] - t0);
+            let mut force = g * f;
+            if force_limited {
+                force = saturate(force, r.force_knee_n, force_span);
+            }
+            out[a][i] = force + hx[a] + r.offset_n[a] + r.drift_n_per_s[a] * (t_s[i] - t0);
         }
         for m in 0..sub {
             // the delayed sub-step [lo, lo + frac) in samples, spanning at most two samples
@@ -616,6 +641,51 @@ pub fn fit(
                     let mut r = *s;
                     r.knee = knee;
                     r.knee_span = ((top - knee) * span_f).max(1e-3 * top.max(1e-3));
+                    v.push(r);
+                }
+            }
+        }
+        starts = v;
+    }
+    if extras.contains(&StepExtra::ForceSaturation) && !start.force_knee_n.is_finite() {
+        // knees at quantiles of the measured force's magnitude (a force saturation acts on
+        // the largest steps only), spans from sharp to soft
+        let mut all: Vec<f64> = axes
+            .iter()
+            .flat_map(|&a| rows.iter().map(move |&i| (a, i)))
+            .map(|(a, i)| (p.force_n[a][i] - start.offset_n[a]).abs())
+            .collect();
+        all.sort_by(f64::total_cmp);
+        if let Some(&top) = all.last() {
+            let q = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
+            let mut v = Vec::new();
+            for knee in [0.97, 0.9, 0.8, 0.65, 0.5, 0.3].map(q) {
+                for span_f in [0.05, 0.2, 0.6, 2.0] {
+                    for s in &starts {
+                        let mut r = *s;
+                        r.force_knee_n = knee;
+                        r.force_span_n = ((top - knee) * span_f).max(1e-3 * top.max(1e-3));
+                        v.push(r);
+                    }
+                }
+            }
+            starts = v;
+        }
+    }
+    if extras.contains(&StepExtra::Delay) && start.delay_s == 0.0 {
+        // a dead time hides in a base whose dynamics slowed down to absorb it: start at
+        // several delays, with the base's dynamics and with the converters' own
+        let (zeta0, omega0) = d.prior_zeta_omega;
+        let mut v = Vec::new();
+        for delay in [0.0, 0.01, 0.025, 0.045, 0.07, 0.1, 0.14] {
+            for own in [false, true] {
+                for s in &starts {
+                    let mut r = *s;
+                    r.delay_s = delay;
+                    if own {
+                        r.zeta = zeta0;
+                        r.omega_n_rad_s = omega0;
+                    }
                     v.push(r);
                 }
             }

@@ -60,6 +60,8 @@ pub struct Prepared {
     /// The log's sampling was uneven (dropped frames, jitter) and it was resampled to its
     /// median period by linear interpolation.
     pub resampled: bool,
+    /// Cutoff of the derivative filter actually used (≤ 0.45 × the sampling rate).
+    pub cutoff_hz: f64,
 }
 
 impl Trial {
@@ -202,6 +204,7 @@ impl Trial {
             current_ma: self.current_ma.clone(),
             split: (n * 4) / 5,
             resampled: false,
+            cutoff_hz: cutoff,
         })
     }
 }

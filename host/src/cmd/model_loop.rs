@@ -96,10 +96,7 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     let (d, fits) = diagnose::diagnose(&trial, &model, exp, settings(a))?;
     if let Some(path) = &a.report {
         let p = trial.prepare(&model, settings(a).filter)?;
-        write_report(
-            path,
-            &report::diagnosis_page(&d, &fits, &p),
-        )?;
+        write_report(path, &report::diagnosis_page(&d, &fits, &p))?;
     }
     if a.json {
         return json_out(out, &d);
@@ -117,14 +114,29 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     )
     .map_err(io)?;
     writeln!(out, "verdict: {}", d.verdict).map_err(io)?;
-    for e in &d.effects {
+    if !d.ambiguous.is_empty() {
+        let names: Vec<&str> = d.ambiguous.iter().map(|f| f.name()).collect();
         writeln!(
             out,
-            "  {:<22} NRMSE fx {:.4}, fy {:.4}  removes {:>6.1} %  score {:+.3}{}",
-            e.id,
+            "ambiguous: the log cannot tell {} apart (their fold-by-fold difference is within the spread)",
+            names.join(" and ")
+        )
+        .map_err(io)?;
+        if let Some(x) = &d.separating_experiment {
+            writeln!(out, "  to separate them: {x}").map_err(io)?;
+        }
+    }
+    for e in &d.effects {
+        let family = e.family.map(|f| f.name()).unwrap_or(e.id.as_str());
+        writeln!(
+            out,
+            "  {:<22} {:<24} NRMSE fx {:.4}, fy {:.4}  removes {:>6.1} %  t {:>5.1}  score {:+.3}{}",
+            family,
+            e.shape,
             e.nrmse.fx,
             e.nrmse.fy,
             100.0 * e.improvement,
+            e.folds.t,
             e.score,
             if e.accepted {
                 "  <- worth its parameters"
@@ -178,10 +190,7 @@ pub fn compare(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     let fit = lp.fit(&with);
     let c = diagnose::compare(&lp, &fit);
     if let Some(path) = &a.report {
-        write_report(
-            path,
-            &report::comparison_page(&c, &fit, &lp.p),
-        )?;
+        write_report(path, &report::comparison_page(&c, &fit, &lp.p))?;
     }
     if a.json {
         return json_out(out, &c);
@@ -276,10 +285,7 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     let before = lp.fit(&[]);
     let after = lp.fit(&with);
     if let Some(path) = &a.report {
-        write_report(
-            path,
-            &report::fit_page(&before, &after, &lp.p),
-        )?;
+        write_report(path, &report::fit_page(&before, &after, &lp.p))?;
     }
     let j = FitJson {
         experiment: exp.name().into(),

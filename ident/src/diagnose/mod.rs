@@ -3,7 +3,18 @@
 //! held-out error they remove (with a penalty per added parameter), and name the residual
 //! structure no effect explains.
 
-use crate::effects::{DynCtx, DynTerm, Experiment, ModelEffect, Shape};
+mod compare;
+mod cv;
+mod decide;
+mod selection;
+mod unexplained;
+pub use compare::*;
+pub use cv::{FoldScores, FOLDS};
+pub use decide::*;
+pub use selection::{fold_test, paired_test, t_critical, FoldTest};
+pub use unexplained::*;
+
+use crate::effects::{DynCtx, DynTerm, Experiment, Family, ModelEffect, Shape};
 use crate::lsq::{self, Column};
 use crate::msd::{self, MSD_POSITIVE};
 use crate::response::{self, Drive, Response, StepExtra};
@@ -37,6 +48,16 @@ pub struct Settings {
     pub peak_min_share: f64,
     /// Slow wander of the residual: share of its variance in 20 time-bin means.
     pub structure_min_share: f64,
+    /// Level of the fold test that accepts an effect, split over the candidates tested
+    /// (Bonferroni): the share of clean logs allowed a false alarm.
+    pub alpha: f64,
+    /// Two families whose fold-by-fold difference has |t| below this are reported as
+    /// ambiguous.
+    pub ambiguity_t: f64,
+    /// Dynamic trials: try the derivative filter at 1, 0.6 and 0.4 × its cutoff and keep
+    /// the one whose plain base fits the training part best (see
+    /// [`prepare_with_best_cutoff`]).
+    pub adapt_cutoff: bool,
 }
 
 impl Default for Settings {
@@ -51,6 +72,9 @@ impl Default for Settings {
             peak_prominence: 40.0,
             peak_min_share: 0.03,
             structure_min_share: 0.2,
+            alpha: 0.05,
+            ambiguity_t: 2.0,
+            adapt_cutoff: true,
         }
     }
 }
@@ -130,8 +154,10 @@ pub struct Loop<'a> {
     pub model: &'a RobotModel<f64>,
     pub experiment: Experiment,
     pub settings: Settings,
-    /// Chosen shape per effect id (cached by the single-effect fits).
-    shapes: std::cell::RefCell<BTreeMap<&'static str, Shape>>,
+    /// Shapes per effect id, best first by the training part's criterion (cached).
+    shapes: std::cell::RefCell<BTreeMap<&'static str, Vec<Shape>>>,
+    /// Blocks and base normals of the cross-validation (dynamic trials).
+    cv: std::cell::OnceCell<cv::CvCache>,
     base_step: std::cell::RefCell<Option<Response>>,
     /// What drives a step trial's model (the converters' set-points, or the reference).
     drive: Option<Drive>,
@@ -151,19 +177,79 @@ pub struct Loop<'a> {
 
 /// (columns, effect ranges, positive parameters, base columns shifted by a delay) of a
 /// dynamic fit.
-type DynColumns = (Vec<Column>, Vec<(usize, usize)>, Vec<usize>, bool);
+/// The last element is the number of base columns used (the base's force offsets are left
+/// out when an effect carries a constant of its own).
+type DynColumns = (Vec<Column>, Vec<(usize, usize)>, Vec<usize>, bool, usize);
 
 /// (criterion, variant, columns, effect ranges, θ, training RSS) of one base variant's fit.
 type VariantFit = (f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, f64);
 
 struct BaseVariant {
+    /// The base columns; with `offset`, the last two are a constant force per axis.
     cols: Vec<Column>,
+    offset: bool,
     pneumatic: (f64, f64),
     stiffness: Stiffness,
     /// Normal equations of `cols` on the training rows, every row and every
     /// [`shape_stride`]-th: shared by every fit with this variant.
     normal: lsq::Normal,
     normal_strided: lsq::Normal,
+}
+
+impl BaseVariant {
+    /// Parameters kept ≥ 0: the stiffness form's. (The pneumatic term's sign is left
+    /// free: on the twin the converters' regulation makes the force lag the motion, a
+    /// negative effective damping that only a negative term describes. A pure delay is then
+    /// partly absorbed by it too; the delay family must beat it fold by fold.)
+    fn positive(&self) -> Vec<usize> {
+        self.stiffness.positive().to_vec()
+    }
+}
+
+/// Prepares a dynamic trial with the derivative filter's cutoff that suits its data: the
+/// velocities and accelerations come from differentiated encoder angles, and a coarse
+/// encoder (8000 counts a turn) sampled every 10 ms puts quantisation noise between the
+/// operator's motion (≲ 3 Hz) and 8 Hz that the mass and damping terms turn into a
+/// deterministic misfit, which effects then "explain". The cutoff is one of 1, 0.6 and
+/// 0.4 × the setting, the one with the smallest training residual of the plain
+/// mass-spring-damper (the force itself is not filtered, so the residuals compare; a
+/// cutoff below the motion's band raises it).
+pub fn prepare_with_best_cutoff(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    filter: FilterSettings,
+) -> Result<Prepared, String> {
+    let mut best: Option<(f64, Prepared)> = None;
+    for f in [1.0, 0.6, 0.4] {
+        let settings = FilterSettings {
+            cutoff_hz: filter.cutoff_hz * f,
+            ..filter
+        };
+        let p = trial.prepare(model, settings)?;
+        let y = msd::target(&p);
+        let mut cols = msd::msd_columns(&p);
+        cols.extend(offset_columns(p.len()));
+        let ne = lsq::normal_equations(&cols, &[&y[0], &y[1]], 0..p.split);
+        let th = lsq::solve(&ne, &MSD_POSITIVE);
+        let yty: f64 = (0..2)
+            .map(|a| y[a][..p.split].iter().map(|v| v * v).sum::<f64>())
+            .sum();
+        let rss = lsq::rss(&ne, yty, &th);
+        // a lower cutoff must gain more than rounding
+        if best.as_ref().is_none_or(|b| rss < 0.995 * b.0) {
+            best = Some((rss, p));
+        }
+    }
+    Ok(best.expect("three cutoffs").1)
+}
+
+/// A constant force per axis (the parameter is the offset of the measured f; the columns
+/// are in −f).
+fn offset_columns(n: usize) -> [Column; 2] {
+    [
+        Column::on("offset_n_x", 0, vec![-1.0; n]),
+        Column::on("offset_n_y", 1, vec![-1.0; n]),
+    ]
 }
 
 /// Row stride of the cheap fits that choose shape parameters (5 ms).
@@ -224,15 +310,27 @@ impl Stiffness {
         }
     }
 
-    /// Base parameters kept ≥ 0: the damping diagonals and the stiffness diagonals (or
-    /// force-law gains).
-    pub fn positive(self) -> [usize; 4] {
+    /// Base parameters kept ≥ 0: the mass and damping diagonals and the stiffness
+    /// diagonals (or force-law gains). A negative mass is how a least-squares fit absorbs a
+    /// force that lags the motion (f(t − τ) ≈ f − τ ḟ turns B into a negative mass): kept
+    /// physical, the base leaves a delay for the delay family to show.
+    pub fn positive(self) -> [usize; 6] {
         match self {
             Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload => {
-                [3, 5, 6, 7]
+                [0, 2, 3, 5, 6, 7]
             }
-            _ => MSD_POSITIVE,
+            _ => {
+                let [b1, b2, k1, k2] = MSD_POSITIVE;
+                [0, 2, b1, b2, k1, k2]
+            }
         }
+    }
+
+    /// Whether the base carries a constant force per axis: the trial's equilibrium is known
+    /// only to an encoder count and the load cell's tare only to its drift, so a constant
+    /// force is part of the base, not a missing effect (the preload form has its own).
+    fn takes_offset(self) -> bool {
+        self != Stiffness::ForceLawWithPreload
     }
 
     /// Whether the pneumatic term is written in joint space.
@@ -263,7 +361,11 @@ impl<'a> Loop<'a> {
         experiment: Experiment,
         settings: Settings,
     ) -> Result<Self, String> {
-        let mut p = trial.prepare(model, settings.filter)?;
+        let mut p = if experiment == Experiment::Dynamic && settings.adapt_cutoff {
+            prepare_with_best_cutoff(trial, model, settings.filter)?
+        } else {
+            trial.prepare(model, settings.filter)?
+        };
         if experiment == Experiment::Step && p.force_ref_n.is_none() {
             return Err(
                 "a step experiment needs the force reference columns fx_ref_n, fy_ref_n".into(),
@@ -314,6 +416,12 @@ impl<'a> Loop<'a> {
                 if pneumatic.0 > 0.0 {
                     forms.push((cols, pneumatic));
                 }
+                let offset = stiffness.takes_offset();
+                for (cols, _) in &mut forms {
+                    if offset {
+                        cols.extend(offset_columns(p.len()));
+                    }
+                }
                 let y = msd::target(&p);
                 for (cols, pneumatic) in forms {
                     let target = [y[0].as_slice(), y[1].as_slice()];
@@ -326,6 +434,7 @@ impl<'a> Loop<'a> {
                     );
                     v.push(BaseVariant {
                         cols,
+                        offset,
                         pneumatic,
                         stiffness,
                         normal,
@@ -334,7 +443,7 @@ impl<'a> Loop<'a> {
                 }
             }
             let y = msd::target(&p);
-            let pred = msd::fit_columns(&p, &v[0].cols, &v[0].stiffness.positive(), &y).1;
+            let pred = msd::fit_columns(&p, &v[0].cols, &v[0].positive(), &y).1;
             let res: Vec<Vec<f64>> = (0..2)
                 .map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect())
                 .collect();
@@ -362,6 +471,7 @@ impl<'a> Loop<'a> {
             experiment,
             settings,
             shapes: Default::default(),
+            cv: Default::default(),
             base_step: Default::default(),
         })
     }
@@ -393,9 +503,17 @@ impl<'a> Loop<'a> {
     /// The columns of a fit with variant `variant` and the effects' terms (computed once and
     /// shared by every variant: their columns are shared, not copied).
     fn assemble(&self, variant: usize, terms: &[DynTerm]) -> Option<DynColumns> {
-        let base_cols = &self.base_variants[variant].cols;
-        let preload = self.base_variants[variant].stiffness == Stiffness::ForceLawWithPreload;
-        let mut positive: Vec<usize> = self.base_variants[variant].stiffness.positive().to_vec();
+        let bv = &self.base_variants[variant];
+        let preload = bv.stiffness == Stiffness::ForceLawWithPreload;
+        // an effect's own constant (an offset, an equilibrium shift) replaces the base's
+        let nb = bv.cols.len()
+            - if bv.offset && terms.iter().any(|t| t.carries_constant) {
+                2
+            } else {
+                0
+            };
+        let base_cols = &bv.cols[..nb];
+        let mut positive: Vec<usize> = self.base_variants[variant].positive();
         let mut delay = 0.0f64;
         let mut extra = Vec::new();
         let mut ranges = Vec::new();
@@ -405,13 +523,12 @@ impl<'a> Loop<'a> {
                 return None;
             }
             delay = delay.max(term.base_delay_s);
-            let nb = base_cols.len();
             let start = nb + extra.len();
             positive.extend(term.positive.iter().map(|i| start + i));
             extra.extend(term.columns);
             ranges.push((start, nb + extra.len()));
         }
-        let mut cols = base_cols.clone();
+        let mut cols = base_cols.to_vec();
         if delay > 0.0 {
             let d = delay / self.p.dt_s;
             let (whole, frac) = (d.floor() as usize, d - d.floor());
@@ -429,7 +546,7 @@ impl<'a> Loop<'a> {
             }
         }
         cols.extend(extra);
-        Some((cols, ranges, positive, delay > 0.0))
+        Some((cols, ranges, positive, delay > 0.0, nb))
     }
 
     /// Information criterion of a fit of `ncols` columns with variant `v`: the pneumatic
@@ -441,41 +558,55 @@ impl<'a> Loop<'a> {
     }
 
     fn choose_shape(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Shape {
+        self.ranked_shapes(ctx, e, y)
+            .into_iter()
+            .next()
+            .unwrap_or_default()
+    }
+
+    /// The effect's shapes, best first by the information criterion of a fit on every
+    /// `shape_stride`-th training row (each with the base variant it fits best).
+    fn ranked_shapes(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Vec<Shape> {
         if let Some(s) = self.shapes.borrow().get(e.id()) {
             return s.clone();
         }
         let shapes = e.shapes(ctx);
-        let best = if shapes.len() <= 1 {
-            shapes.into_iter().next().unwrap_or_default()
+        let ranked = if shapes.len() <= 1 {
+            if shapes.is_empty() {
+                vec![Shape::default()]
+            } else {
+                shapes
+            }
         } else {
             let stride = shape_stride(self.p.dt_s);
             let rows = 0..self.p.split;
             let yty = strided_sum_of_squares(y, self.p.split, stride);
-            let mut best = (f64::INFINITY, Shape::default());
+            let mut scored: Vec<(f64, Shape)> = Vec::new();
             for s in shapes {
                 let term = [e.dynamic_term(ctx, &s)];
+                let mut best = f64::INFINITY;
                 for v in 0..self.base_variants.len() {
-                    let Some((cols, _, positive, shifted)) = self.assemble(v, &term) else {
+                    let Some((cols, _, positive, shifted, nb)) = self.assemble(v, &term) else {
                         continue;
                     };
                     let target = [y[0].as_slice(), y[1].as_slice()];
                     let ne = if shifted {
                         lsq::normal_equations_strided(&cols, &target, rows.clone(), stride)
                     } else {
-                        let known = &self.base_variants[v].normal_strided;
+                        let known = &self.base_variants[v].normal_strided.prefix(nb);
                         lsq::normal_equations_extended(known, &cols, &target, rows.clone(), stride)
                     };
                     let th = lsq::solve(&ne, &positive);
                     let r = self.criterion(lsq::rss(&ne, yty, &th) * stride as f64, cols.len(), v);
-                    if r < best.0 {
-                        best = (r, s.clone());
-                    }
+                    best = best.min(r);
                 }
+                scored.push((best, s));
             }
-            best.1
+            scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+            scored.into_iter().map(|x| x.1).collect()
         };
-        self.shapes.borrow_mut().insert(e.id(), best.clone());
-        best
+        self.shapes.borrow_mut().insert(e.id(), ranked.clone());
+        ranked
     }
 
     /// Normal equations of a fit with variant `v` on the training rows (the base part from
@@ -485,13 +616,14 @@ impl<'a> Loop<'a> {
         v: usize,
         cols: &[Column],
         shifted: bool,
+        base_len: usize,
         y: &[Vec<f64>; 2],
     ) -> lsq::Normal {
         let target = [y[0].as_slice(), y[1].as_slice()];
         if shifted {
             lsq::normal_equations(cols, &target, 0..self.p.split)
         } else {
-            let known = &self.base_variants[v].normal;
+            let known = &self.base_variants[v].normal.prefix(base_len);
             lsq::normal_equations_extended(known, cols, &target, 0..self.p.split, 1)
         }
     }
@@ -504,7 +636,7 @@ impl<'a> Loop<'a> {
         let r = (0..self.base_variants.len())
             .map(|v| {
                 let bv = &self.base_variants[v];
-                let th = lsq::solve(&bv.normal, &bv.stiffness.positive());
+                let th = lsq::solve(&bv.normal, &bv.positive());
                 let r = lsq::rss(&bv.normal, self.yty_train, &th);
                 (self.criterion(r, bv.cols.len(), v), r)
             })
@@ -527,10 +659,11 @@ impl<'a> Loop<'a> {
         // every base variant; keep the one the training part prefers
         let mut best: Option<VariantFit> = None;
         for v in 0..self.base_variants.len() {
-            let Some((cols, ranges, positive, shifted)) = self.dyn_columns(&ctx, v, &chosen) else {
+            let Some((cols, ranges, positive, shifted, nb)) = self.dyn_columns(&ctx, v, &chosen)
+            else {
                 continue;
             };
-            let ne = self.training_normal(v, &cols, shifted, &y);
+            let ne = self.training_normal(v, &cols, shifted, nb, &y);
             let theta = lsq::solve(&ne, &positive);
             let r = lsq::rss(&ne, self.yty_train, &theta);
             let c = self.criterion(r, cols.len(), v);
@@ -543,12 +676,14 @@ impl<'a> Loop<'a> {
         let bv = &self.base_variants[variant];
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
         let mut params = BTreeMap::new();
-        let nb = bv.cols.len();
+        // the base's columns end where the first effect's begin
+        let nb = ranges.first().map(|r| r.0).unwrap_or(cols.len());
         let mut base: BTreeMap<String, f64> = cols[..nb]
             .iter()
             .zip(&theta)
             .map(|(c, t)| (c.name.clone(), *t))
             .collect();
+        base.insert("derivative_cutoff_hz".into(), p.cutoff_hz);
         base.insert("pneumatic_omega_n_rad_s".into(), bv.pneumatic.0);
         base.insert("pneumatic_zeta".into(), bv.pneumatic.1);
         base.insert(
@@ -859,7 +994,15 @@ fn choose_pneumatic(
     let wn0 = model.params.ip.natural_freq_rad_s;
     let ctx = DynCtx::new(p, model);
     let z0 = model.params.ip.damping_ratio;
+    let with_offset = |cols: &[Column]| {
+        let mut c = cols.to_vec();
+        if stiffness.takes_offset() {
+            c.extend(offset_columns(p.len()));
+        }
+        c
+    };
     let fit = |cols: &[Column]| {
+        let cols = &with_offset(cols);
         let ne = lsq::normal_equations_strided(cols, &[&y[0], &y[1]], rows.clone(), stride);
         let th = lsq::solve(&ne, &stiffness.positive());
         (lsq::rss(&ne, yty, &th), th)
@@ -881,7 +1024,7 @@ fn choose_pneumatic(
     let (rss_pn, cols, wz) = best.expect("grid is not empty");
     // the term must pay for itself like an effect: a relative gain of 1 % and the BIC on
     // the effective number of samples of the plain residual (4 parameters with the grid)
-    let pred = lsq::predict(&plain, &th_plain, p.len());
+    let pred = lsq::predict(&with_offset(&plain), &th_plain, p.len());
     let residuals: Vec<Vec<f64>> = (0..2)
         .map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect())
         .collect();
@@ -897,559 +1040,3 @@ fn choose_pneumatic(
 }
 
 // -------------------------------------------------------------------- diagnosis
-
-#[derive(Clone, Debug, Serialize)]
-pub struct BaseReport {
-    pub nrmse: AxisPair,
-    pub r2: AxisPair,
-    pub params: BTreeMap<String, f64>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct EffectReport {
-    pub id: String,
-    /// Held-out NRMSE with this effect added to the base model.
-    pub nrmse: AxisPair,
-    pub params: BTreeMap<String, f64>,
-    pub evidence: String,
-    /// The residual signature that points to this effect.
-    pub signature: String,
-    /// Share of the base model's training residual the effect removes when refitted.
-    pub signature_strength: f64,
-    /// Share of the held-out relative MSE removed.
-    pub improvement: f64,
-    pub added_params: usize,
-    /// improvement − penalty × added_params.
-    pub score: f64,
-    /// How much the effect changes the held-out prediction, RMS over the scored axes as a
-    /// share of the measured signal's spread over the whole trial (largest axis).
-    pub effect_size: f64,
-    pub accepted: bool,
-}
-
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct UnexplainedReport {
-    pub kind: String,
-    pub signal: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub frequency_hz: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub amplitude_n: Option<f64>,
-    pub variance_share: f64,
-    pub detail: String,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct StepReport {
-    pub effects: Vec<String>,
-    pub nrmse: AxisPair,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct Diagnosis {
-    pub experiment: String,
-    pub samples: usize,
-    pub sample_period_s: f64,
-    pub base: BaseReport,
-    pub verdict: String,
-    /// Every applicable effect, best first.
-    pub effects: Vec<EffectReport>,
-    pub unexplained: Vec<UnexplainedReport>,
-    /// The error falling as the accepted effects are added one by one.
-    pub steps: Vec<StepReport>,
-    pub warnings: Vec<String>,
-}
-
-/// RMS of the change an effect makes to the held-out prediction, over the measured signal's
-/// standard deviation on the whole trial; the largest over the scored axes.
-fn effect_size(base: &ModelFit, f: &ModelFit) -> f64 {
-    f.axes
-        .iter()
-        .map(|&a| {
-            let d: Vec<f64> = (f.split..f.predicted[a].len())
-                .map(|i| f.predicted[a][i] - base.predicted[a][i])
-                .collect();
-            rms(&d) / std_dev(&f.measured[a]).max(1e-12)
-        })
-        .fold(0.0, f64::max)
-}
-
-/// Diagnoses a trial against the standard catalog.
-pub fn diagnose(
-    trial: &Trial,
-    model: &RobotModel<f64>,
-    experiment: Experiment,
-    settings: Settings,
-) -> Result<(Diagnosis, Vec<ModelFit>), String> {
-    diagnose_with(
-        trial,
-        model,
-        experiment,
-        settings,
-        &crate::effects::catalog(),
-    )
-}
-
-/// Diagnoses a trial against a given catalog. Returns the diagnosis and the fits of the
-/// step-by-step sequence (base first) for reports.
-pub fn diagnose_with(
-    trial: &Trial,
-    model: &RobotModel<f64>,
-    experiment: Experiment,
-    settings: Settings,
-    catalog: &[&dyn ModelEffect],
-) -> Result<(Diagnosis, Vec<ModelFit>), String> {
-    let lp = Loop::new(trial, model, experiment, settings)?;
-    let base = lp.fit(&[]);
-    let e_base = base.relative_mse();
-    let n_eff = effective_samples(&lp, &base);
-    let held_out: Vec<Vec<f64>> = base
-        .axes
-        .iter()
-        .map(|&a| base.residual(a)[base.split..].to_vec())
-        .collect();
-    let n_eff_test = effective_samples_of(&held_out);
-    let mut reports = Vec::new();
-    for e in catalog.iter().copied().filter(|e| e.applies(experiment)) {
-        if experiment == Experiment::Step && e.step_extras().is_empty() {
-            continue;
-        }
-        let f = lp.fit(&[e]);
-        let improvement = 1.0 - f.relative_mse() / e_base.max(1e-300);
-        let score = improvement - settings.penalty_per_param * f.added_params as f64;
-        // the held-out gain must beat the threshold, and the training gain must pass the
-        // Bayesian information criterion counted on the effective number of independent
-        // residual samples (the residual is autocorrelated: n alone would flatter it)
-        let bic =
-            n_eff * (1.0 - f.train_gain).max(1e-300).ln() + f.added_params as f64 * n_eff.ln();
-        // (steps: the training part holds few, strongly autocorrelated step responses, and
-        // the held-out steps carry the evidence; there the held-out gain decides alone)
-        let train_ok = experiment == Experiment::Step || (f.train_gain > 0.0 && bic < 0.0);
-        let size = effect_size(&base, &f);
-        // a noisy log: a material effect may remove little of an error that is mostly
-        // noise; it still counts when the held-out gain is significant by the same criterion
-        let held_bic = n_eff_test * (1.0 - improvement).max(1e-300).ln()
-            + f.added_params as f64 * n_eff_test.ln();
-        let held_ok = score > settings.min_improvement
-            || (improvement > settings.min_significant_improvement && held_bic < 0.0);
-        let accepted = held_ok && train_ok && size >= settings.min_effect_size;
-        let params = f.params.get(e.id()).cloned().unwrap_or_default();
-        let evidence = format!(
-            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the held-out error, changing the prediction by {:.2} % of the signal ({} parameter{}; score {:.3}, needed > {:.3} or a held-out ΔBIC < 0: {:.0} on {:.0} effective samples; training ΔBIC {:.0} on {:.0})",
-            e.signature(),
-            100.0 * f.train_gain,
-            100.0 * improvement,
-            100.0 * size,
-            f.added_params,
-            if f.added_params == 1 { "" } else { "s" },
-            score,
-            settings.min_improvement,
-            held_bic,
-            n_eff_test,
-            bic,
-            n_eff
-        );
-        reports.push((
-            EffectReport {
-                id: e.id().to_string(),
-                nrmse: AxisPair::of(f.nrmse),
-                params,
-                evidence,
-                signature: e.signature().to_string(),
-                signature_strength: f.train_gain,
-                improvement,
-                added_params: f.added_params,
-                score,
-                effect_size: size,
-                accepted,
-            },
-            e,
-        ));
-    }
-    reports.sort_by(|a, b| b.0.score.total_cmp(&a.0.score));
-
-    // greedy: add accepted effects best first while each still pays for itself
-    let mut fits = vec![base.clone()];
-    let mut current: Vec<&dyn ModelEffect> = Vec::new();
-    let mut current_fit = base.clone();
-    for (r, e) in reports.iter().filter(|r| r.0.accepted).take(4) {
-        let mut trial_set = current.clone();
-        trial_set.push(*e);
-        let f = lp.fit(&trial_set);
-        let gain = 1.0 - f.relative_mse() / current_fit.relative_mse().max(1e-300);
-        let added = f.added_params - current_fit.added_params;
-        if current.is_empty()
-            || gain - settings.penalty_per_param * added as f64 > settings.min_improvement
-        {
-            current = trial_set;
-            current_fit = f.clone();
-            fits.push(f);
-        }
-        let _ = r;
-    }
-    let unexplained = unexplained_structure(&lp, &current_fit, &settings);
-    let verdict = if !current.is_empty() {
-        "effect"
-    } else if !unexplained.is_empty() {
-        "unexplained"
-    } else {
-        "none"
-    };
-    let steps = fits
-        .iter()
-        .map(|f| StepReport {
-            effects: f.effect_ids.clone(),
-            nrmse: AxisPair::of(f.nrmse),
-        })
-        .collect();
-    let mut warnings = base.warnings.clone();
-    if lp.p.resampled {
-        warnings.push(
-            "the log's sampling is uneven (dropped frames?): it was resampled to its median period"
-                .into(),
-        );
-    }
-    if lp.p.len() < 200 {
-        warnings.push(format!(
-            "only {} samples: the held-out 20 % is short",
-            lp.p.len()
-        ));
-    }
-    Ok((
-        Diagnosis {
-            experiment: experiment.name().into(),
-            samples: lp.p.len(),
-            sample_period_s: lp.p.dt_s,
-            base: BaseReport {
-                nrmse: AxisPair::of(base.nrmse),
-                r2: AxisPair::of(base.r2),
-                params: base.params.get("base").cloned().unwrap_or_default(),
-            },
-            verdict: verdict.into(),
-            effects: reports.into_iter().map(|r| r.0).collect(),
-            unexplained,
-            steps,
-            warnings,
-        },
-        fits,
-    ))
-}
-
-/// n (1 − ρ)/(1 + ρ) over per-axis residuals.
-fn effective_samples_of(res: &[Vec<f64>]) -> f64 {
-    let mut rho = Vec::new();
-    let mut n = 0usize;
-    for r in res {
-        n += r.len();
-        let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
-        let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
-        if var > 0.0 {
-            rho.push(
-                (r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var)
-                    .clamp(-0.99, 0.999),
-            );
-        }
-    }
-    let rho = if rho.is_empty() {
-        0.0
-    } else {
-        rho.iter().sum::<f64>() / rho.len() as f64
-    };
-    let n = n as f64;
-    (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n.max(10.0))
-}
-
-/// Number of independent samples the training residual is worth: n (1 − ρ)/(1 + ρ) with ρ
-/// the lag-one autocorrelation, averaged over the axes.
-fn effective_samples(lp: &Loop, base: &ModelFit) -> f64 {
-    let train: Vec<Vec<f64>> = base
-        .axes
-        .iter()
-        .map(|&a| base.residual(a)[..lp.p.split].to_vec())
-        .collect();
-    effective_samples_of(&train)
-}
-
-/// Structure left in the residual of `fit` that no effect accounts for: narrow spectral
-/// lines that are not lines of the motion (or of the reference) itself.
-pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<UnexplainedReport> {
-    let p = &lp.p;
-    let mut out = Vec::new();
-    let names = ["fx", "fy"];
-    // spectra of the inputs: a line in the residual at a line of the input is a misfit of
-    // the motion, not an outside disturbance
-    let inputs: Vec<Vec<f64>> = match lp.experiment {
-        Experiment::Dynamic => vec![p.dx_m[0].clone(), p.dx_m[1].clone()],
-        Experiment::Step => p
-            .force_ref_n
-            .clone()
-            .map(|r| r.to_vec())
-            .unwrap_or_default(),
-    };
-    let input_spectra: Vec<_> = inputs
-        .iter()
-        .map(|x| amplitude_spectrum(x, p.dt_s))
-        .collect();
-    // a line where an input has energy (≥ 2 % of its largest line, ±2 bins) is a misfit of
-    // the motion or of the steps, not an outside disturbance
-    let input_has_energy = |f: f64| {
-        input_spectra.iter().any(|s| {
-            let df = s.freq_hz.get(1).copied().unwrap_or(1.0);
-            let k = (f / df).round() as usize;
-            let max = s.amplitude.iter().skip(1).cloned().fold(0.0, f64::max);
-            (k.saturating_sub(2)..(k + 3).min(s.amplitude.len()))
-                .any(|i| s.amplitude[i] >= 0.02 * max)
-        })
-    };
-    for a in 0..2 {
-        let r = fit.residual(a);
-        if rms(&r) == 0.0 {
-            continue;
-        }
-        let spec = amplitude_spectrum(&r, p.dt_s);
-        let df = spec.freq_hz.get(1).copied().unwrap_or(1.0);
-        for pk in narrow_peaks(&spec, s.peak_prominence, s.peak_min_share)
-            .into_iter()
-            .take(3)
-        {
-            if input_has_energy(pk.freq_hz) {
-                continue;
-            }
-            out.push(UnexplainedReport {
-                kind: "spectral_peak".into(),
-                signal: names[a].into(),
-                frequency_hz: Some(pk.freq_hz),
-                amplitude_n: Some(pk.amplitude),
-                variance_share: pk.variance_share,
-                detail: format!(
-                    "a narrow line at {:.2} Hz in the {} residual ({:.0} × the local background, {:.0} % of the residual variance); no catalog effect makes a tone{}",
-                    pk.freq_hz,
-                    names[a],
-                    pk.prominence,
-                    100.0 * pk.variance_share,
-                    if (pk.freq_hz - 0.5 / p.dt_s).abs() <= 2.0 * df {
-                        " (at the Nyquist frequency: possibly a faster tone, e.g. mains at 50 Hz, aliased)"
-                    } else {
-                        ""
-                    }
-                ),
-            });
-        }
-    }
-    // slow structure: the residual's level wandering over the trial (20 time bins), which
-    // neither the model nor a linear drift (the catalog's) accounts for
-    // (dynamic trials: a step trial's residual has levels by construction)
-    let axes = if lp.experiment == Experiment::Dynamic {
-        fit.axes.clone()
-    } else {
-        Vec::new()
-    };
-    for a in axes {
-        let r = fit.residual(a);
-        let share = binned_share(&r, 20);
-        if share >= s.structure_min_share {
-            out.push(UnexplainedReport {
-                kind: "slow_wander".into(),
-                signal: names[a].into(),
-                frequency_hz: None,
-                amplitude_n: None,
-                variance_share: share,
-                detail: format!(
-                    "the {} residual's level wanders over the trial: its means over 20 time bins carry {:.0} % of its variance, and no catalog effect removes it",
-                    names[a],
-                    100.0 * share
-                ),
-            });
-        }
-    }
-    out
-}
-
-/// Share of the variance of `r` carried by its means over `bins` equal time bins.
-fn binned_share(r: &[f64], bins: usize) -> f64 {
-    let n = r.len();
-    if n < 10 * bins {
-        return 0.0;
-    }
-    let m = r.iter().sum::<f64>() / n as f64;
-    let total: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
-    if total <= 0.0 {
-        return 0.0;
-    }
-    let mut between = 0.0;
-    for b in 0..bins {
-        let (lo, hi) = (b * n / bins, (b + 1) * n / bins);
-        let mb = r[lo..hi].iter().sum::<f64>() / (hi - lo) as f64;
-        between += (hi - lo) as f64 * (mb - m).powi(2);
-    }
-    between / total
-}
-
-/// Convenience for reports: NRMSE per axis of a fit as an AxisPair.
-pub fn nrmse_pair(f: &ModelFit) -> AxisPair {
-    AxisPair::of(f.nrmse)
-}
-
-/// For `compare`: where the model fails.
-#[derive(Clone, Debug, Serialize)]
-pub struct Comparison {
-    pub experiment: String,
-    pub effects: Vec<String>,
-    pub nrmse: AxisPair,
-    pub r2: AxisPair,
-    pub params: BTreeMap<String, BTreeMap<String, f64>>,
-    /// Worst 1-s windows of the held-out part by residual RMS.
-    pub worst_windows: Vec<Window>,
-    /// MSE at low and high motion frequency (Table 4.2's split), dynamic trials.
-    pub frequency_split: Option<msd::FrequencySplit>,
-    /// Largest lines of the residual spectrum.
-    pub residual_peaks: Vec<UnexplainedReport>,
-    /// Residual RMS per speed quartile (dynamic) / per |reference| quartile (step).
-    pub error_by_speed: Vec<Bin>,
-    /// Residual RMS per workspace cell (3×3 over the handle positions visited).
-    pub error_by_position: Vec<Bin>,
-    pub warnings: Vec<String>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct Window {
-    pub t_start_s: f64,
-    pub t_end_s: f64,
-    pub rms_n: AxisPair,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct Bin {
-    pub label: String,
-    pub samples: usize,
-    pub rms_n: AxisPair,
-}
-
-pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
-    let p = &lp.p;
-    let n = p.len();
-    let r = [fit.residual(0), fit.residual(1)];
-    let w = ((1.0 / p.dt_s).round() as usize).max(5);
-    let mut windows = Vec::new();
-    let mut s = p.split;
-    while s + w <= n {
-        windows.push(Window {
-            t_start_s: p.t_s[s],
-            t_end_s: p.t_s[s + w - 1],
-            rms_n: AxisPair::of([rms(&r[0][s..s + w]), rms(&r[1][s..s + w])]),
-        });
-        s += w;
-    }
-    windows.sort_by(|a, b| (b.rms_n.fx.hypot(b.rms_n.fy)).total_cmp(&a.rms_n.fx.hypot(a.rms_n.fy)));
-    windows.truncate(5);
-    let speed: Vec<f64> = match lp.experiment {
-        Experiment::Dynamic => (0..n).map(|i| p.v_m_s[0][i].hypot(p.v_m_s[1][i])).collect(),
-        Experiment::Step => {
-            let u = p.force_ref_n.as_ref().expect("step");
-            (0..n).map(|i| u[0][i].hypot(u[1][i])).collect()
-        }
-    };
-    let mut sorted = speed.clone();
-    sorted.sort_by(|a, b| a.total_cmp(b));
-    let q = |f: f64| sorted[((n - 1) as f64 * f) as usize];
-    let edges = [q(0.0) - 1e-12, q(0.25), q(0.5), q(0.75), q(1.0) + 1e-12];
-    let unit = if lp.experiment == Experiment::Dynamic {
-        "m/s"
-    } else {
-        "N"
-    };
-    let mut by_speed = Vec::new();
-    for k in 0..4 {
-        let idx: Vec<usize> = (0..n)
-            .filter(|&i| speed[i] > edges[k] && speed[i] <= edges[k + 1])
-            .collect();
-        by_speed.push(bin(
-            &format!("{:.3}–{:.3} {unit}", edges[k].max(0.0), edges[k + 1]),
-            &idx,
-            &r,
-        ));
-    }
-    let mut by_pos = Vec::new();
-    let ext = |v: &[f64]| {
-        v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |m, x| {
-            (m.0.min(*x), m.1.max(*x))
-        })
-    };
-    let (ex, ey) = (ext(&p.x_m[0]), ext(&p.x_m[1]));
-    let cell = |v: f64, e: (f64, f64)| {
-        (((v - e.0) / (e.1 - e.0 + 1e-12)) * 3.0)
-            .floor()
-            .clamp(0.0, 2.0) as usize
-    };
-    for cy in 0..3 {
-        for cx in 0..3 {
-            let idx: Vec<usize> = (0..n)
-                .filter(|&i| cell(p.x_m[0][i], ex) == cx && cell(p.x_m[1][i], ey) == cy)
-                .collect();
-            if !idx.is_empty() {
-                by_pos.push(bin(
-                    &format!("x cell {}, y cell {} (of 3×3)", cx + 1, cy + 1),
-                    &idx,
-                    &r,
-                ));
-            }
-        }
-    }
-    let loose = Settings {
-        peak_prominence: 20.0,
-        peak_min_share: 0.01,
-        ..lp.settings
-    };
-    let peaks = unexplained_structure(lp, fit, &loose);
-    let split = (lp.experiment == Experiment::Dynamic)
-        .then(|| msd::frequency_split(p, &fit.measured, &fit.predicted));
-    let mut warnings = fit.warnings.clone();
-    let still = |a: usize| {
-        lp.experiment == Experiment::Step
-            && p.force_ref_n
-                .as_ref()
-                .is_some_and(|r| std_dev(&r[a][p.split..]) < 1e-3)
-    };
-    for &a in fit.axes.iter() {
-        if still(a) {
-            warnings.push(format!(
-                "{}'s reference does not step in the held-out part: its NRMSE and R² there measure the noise",
-                ["fx", "fy"][a]
-            ));
-        } else if fit.r2[a] < 0.5 {
-            warnings.push(format!(
-                "held-out R² of {} is {:.2}: the model explains little of this axis",
-                ["fx", "fy"][a],
-                fit.r2[a]
-            ));
-        }
-    }
-    Comparison {
-        experiment: lp.experiment.name().into(),
-        effects: fit.effect_ids.clone(),
-        nrmse: AxisPair::of(fit.nrmse),
-        r2: AxisPair::of(fit.r2),
-        params: fit.params.clone(),
-        worst_windows: windows,
-        frequency_split: split,
-        residual_peaks: peaks,
-        error_by_speed: by_speed,
-        error_by_position: by_pos,
-        warnings,
-    }
-}
-
-fn bin(label: &str, idx: &[usize], r: &[Vec<f64>; 2]) -> Bin {
-    let sel = |a: usize| idx.iter().map(|&i| r[a][i]).collect::<Vec<f64>>();
-    Bin {
-        label: label.into(),
-        samples: idx.len(),
-        rms_n: AxisPair::of([rms(&sel(0)), rms(&sel(1))]),
-    }
-}
-
-impl AxisPair {
-    pub fn axis(&self, a: usize) -> f64 {
-        self.get(a)
-    }
-}

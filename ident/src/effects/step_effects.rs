@@ -1,0 +1,183 @@
+//! Effects of the pressure chain seen in step trials (and the load cell's drift, seen in both).
+
+use super::*;
+
+/// Pure delay: the force follows the motion late (dynamic trials) / the reference late
+/// (step trials).
+pub struct TransportDelay;
+impl ModelEffect for TransportDelay {
+    fn id(&self) -> &'static str {
+        "transport_delay"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Delay)
+    }
+    fn shape_name(&self) -> &'static str {
+        "dead_time"
+    }
+    fn summary(&self) -> &'static str {
+        "pure delay between command/motion and force (tubes, converter pilot stage; Table 5.1)"
+    }
+    fn signature(&self) -> &'static str {
+        "lagged cross-correlation of the residual with the inputs peaks at a non-zero lag"
+    }
+    /// Steps: a dead time of the set-points. Dynamic trials: the force samples lag the
+    /// encoder samples (a sensor-sync delay, what a slow loop with filtering produces); the
+    /// base model's pneumatic term describes a lag of a different shape (a high-pass of
+    /// the displacement), so the fold test tells the two apart.
+    fn applies(&self, _e: Experiment) -> bool {
+        true
+    }
+    fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
+        // 10 ms steps up to 150 ms; delays that are not whole samples are interpolated
+        let step: f64 = 0.01;
+        let count = (0.15 / step).round() as usize;
+        (1..=count)
+            .map(|k| Shape(vec![("delay_s", k as f64 * step)]))
+            .collect()
+    }
+    fn dynamic_term(&self, _ctx: &DynCtx, shape: &Shape) -> DynTerm {
+        DynTerm {
+            columns: vec![],
+            base_delay_s: shape.get("delay_s"),
+            ..Default::default()
+        }
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::Delay]
+    }
+}
+
+/// Load-cell offset and linear drift, in the sensor frame (it turns with θ1 + θ2).
+pub struct LoadcellDrift;
+impl ModelEffect for LoadcellDrift {
+    fn id(&self) -> &'static str {
+        "loadcell_drift"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Drift)
+    }
+    fn shape_name(&self) -> &'static str {
+        "offset_and_linear_drift"
+    }
+    fn summary(&self) -> &'static str {
+        "offset and linear drift of the load-cell channels (sensor frame)"
+    }
+    fn signature(&self) -> &'static str {
+        "residual has an offset and drifts with time"
+    }
+    fn applies(&self, _e: Experiment) -> bool {
+        true
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, _s: &Shape) -> DynTerm {
+        let p = ctx.p;
+        let k = &ctx.model.kinematics;
+        let mut cols = Vec::new();
+        for (axis, name_o, name_d) in [
+            (0, "offset_x_n", "drift_x_n_per_s"),
+            (1, "offset_z_n", "drift_z_n_per_s"),
+        ] {
+            let mut e = [0.0; 2];
+            e[axis] = 1.0;
+            let (mut ox, mut oy, mut dx, mut dy) = (vec![], vec![], vec![], vec![]);
+            for i in 0..p.len() {
+                // the offset adds to the measured f; the column is its share of −f
+                let u = k.sensor_to_user([p.alpha_rad[0][i], p.alpha_rad[1][i]], e);
+                let t = p.t_s[i] - p.t_s[0];
+                ox.push(-u[0]);
+                oy.push(-u[1]);
+                dx.push(-u[0] * t);
+                dy.push(-u[1] * t);
+            }
+            cols.push(Column::both(name_o, ox, oy));
+            cols.push(Column::both(name_d, dx, dy));
+        }
+        DynTerm {
+            columns: cols,
+            carries_constant: true,
+            ..Default::default()
+        }
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::Drift]
+    }
+}
+
+/// Flow-limited converters: the force slews at a limited rate, different up and down.
+pub struct AsymmetricIpRates;
+impl ModelEffect for AsymmetricIpRates {
+    fn id(&self) -> &'static str {
+        "asymmetric_ip_rates"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::RateLimits)
+    }
+    fn shape_name(&self) -> &'static str {
+        "converter_fill_times"
+    }
+    fn summary(&self) -> &'static str {
+        "flow-limited I/P converters: the force rises and falls at limited, different rates (Table 5.1)"
+    }
+    fn signature(&self) -> &'static str {
+        "large steps are slower than small ones, and rising differs from falling (ramp-shaped residual after large steps)"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Step
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::SlewRate]
+    }
+}
+
+/// The delivered pressure saturates: large force commands fall short.
+pub struct PressureSaturation;
+impl ModelEffect for PressureSaturation {
+    fn id(&self) -> &'static str {
+        "pressure_saturation"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Saturation)
+    }
+    fn shape_name(&self) -> &'static str {
+        "pressure_knee"
+    }
+    fn summary(&self) -> &'static str {
+        "the delivered pressure saturates, so large force commands fall short"
+    }
+    fn signature(&self) -> &'static str {
+        "the step gain drops for large commands (residual grows with |reference|)"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Step
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::Saturation]
+    }
+}
+
+/// The delivered force saturates in magnitude: each axis's force is compressed above a knee
+/// toward a maximum (N), whatever the pressures behind it.
+pub struct ForceSaturation;
+impl ModelEffect for ForceSaturation {
+    fn id(&self) -> &'static str {
+        "force_saturation"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Saturation)
+    }
+    fn shape_name(&self) -> &'static str {
+        "force_magnitude"
+    }
+    fn summary(&self) -> &'static str {
+        "the handle force saturates in magnitude: the largest steps fall short"
+    }
+    fn signature(&self) -> &'static str {
+        "only the largest steps fall short of the reference, by more the larger they are"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Step
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::ForceSaturation]
+    }
+}
