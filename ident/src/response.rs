@@ -25,6 +25,9 @@ pub const FILL_SPAN_BAR: f64 = 5.0;
 pub enum StepExtra {
     Delay,
     SlewRate,
+    /// The same rise and fall limits on the set-points themselves (the command slews
+    /// before the converters), not on the converters' flow.
+    CommandSlew,
     Saturation,
     /// The handle force's magnitude saturates (knee and maximum in N of the measured force).
     ForceSaturation,
@@ -210,6 +213,9 @@ pub struct Response {
     /// or the commanded force of a force channel (N/s).
     pub rise_per_s: f64,
     pub fall_per_s: f64,
+    /// The rate limits act on the set-points (as for force channels) instead of the
+    /// converters' pressures.
+    pub slew_command: bool,
     /// Set-points above `knee` are compressed toward `knee + knee_span` (tanh).
     pub knee: f64,
     pub knee_span: f64,
@@ -235,6 +241,7 @@ impl Response {
             delay_s: 0.0,
             rise_per_s: f64::INFINITY,
             fall_per_s: f64::INFINITY,
+            slew_command: false,
             knee: f64::INFINITY,
             knee_span: 1.0,
             force_knee_n: f64::INFINITY,
@@ -257,7 +264,11 @@ impl Response {
                 v.push(("inflation_s".into(), FILL_SPAN_BAR / self.rise_per_s));
                 v.push(("deflation_s".into(), FILL_SPAN_BAR / self.fall_per_s));
             }
-            (StepExtra::SlewRate, Units::Force) => {
+            (StepExtra::CommandSlew, Units::Pressure) => {
+                v.push(("command_rise_bar_per_s".into(), self.rise_per_s));
+                v.push(("command_fall_bar_per_s".into(), self.fall_per_s));
+            }
+            (StepExtra::SlewRate | StepExtra::CommandSlew, Units::Force) => {
                 v.push(("rise_n_per_s".into(), self.rise_per_s));
                 v.push(("fall_n_per_s".into(), self.fall_per_s));
             }
@@ -306,7 +317,10 @@ pub fn extra_param_count(extras: &[StepExtra], axes: &[usize]) -> usize {
         .iter()
         .map(|x| match x {
             StepExtra::Delay => 1,
-            StepExtra::SlewRate | StepExtra::Saturation | StepExtra::ForceSaturation => 2,
+            StepExtra::SlewRate
+            | StepExtra::CommandSlew
+            | StepExtra::Saturation
+            | StepExtra::ForceSaturation => 2,
             StepExtra::PoseGain => 2 * axes.len(),
             StepExtra::Hysteresis => axes.len(),
             StepExtra::Drift => axes.len(),
@@ -325,7 +339,7 @@ fn pack(r: &Response, extras: &[StepExtra], axes: &[usize]) -> Vec<f64> {
     for x in extras {
         match x {
             StepExtra::Delay => v.push(r.delay_s),
-            StepExtra::SlewRate => v.extend([r.rise_per_s, r.fall_per_s]),
+            StepExtra::SlewRate | StepExtra::CommandSlew => v.extend([r.rise_per_s, r.fall_per_s]),
             StepExtra::Saturation => v.extend([r.knee, r.knee_span]),
             StepExtra::ForceSaturation => v.extend([r.force_knee_n, r.force_span_n]),
             StepExtra::PoseGain => {
@@ -355,7 +369,7 @@ fn unpack(v: &[f64], extras: &[StepExtra], axes: &[usize], template: &Response) 
     for x in extras {
         match x {
             StepExtra::Delay => r.delay_s = next(),
-            StepExtra::SlewRate => {
+            StepExtra::SlewRate | StepExtra::CommandSlew => {
                 r.rise_per_s = next();
                 r.fall_per_s = next();
             }
@@ -395,7 +409,9 @@ fn lower_bounds(extras: &[StepExtra], axes: &[usize], rate_floor: f64) -> Vec<(u
     for x in extras {
         match x {
             StepExtra::Delay => v.push((i, 0.0)),
-            StepExtra::SlewRate => v.extend([(i, rate_floor), (i + 1, rate_floor)]),
+            StepExtra::SlewRate | StepExtra::CommandSlew => {
+                v.extend([(i, rate_floor), (i + 1, rate_floor)])
+            }
             StepExtra::Saturation | StepExtra::ForceSaturation => {
                 v.extend([(i, 0.0), (i + 1, 1e-3)])
             }
@@ -454,7 +470,7 @@ pub fn simulate(
     // Rate limits: a converter's flow limits how fast its pressure moves; without the
     // converters (force channels) the limit is on the commanded force, as in §5.3's
     // black-box view
-    let slew_the_command = force_channels;
+    let slew_the_command = force_channels || r.slew_command;
     let mut driven = x;
     // the hysteresis offset goes through the same regulation
     let mut hx = [0, 1].map(|a| r.hysteresis_n[a] * d.direction[a][0]);
@@ -554,6 +570,21 @@ pub fn fit(
     let n = fit_end.min(p.len());
     if n < 4 || axes.is_empty() {
         return *start;
+    }
+    // a command slew is the rate limits acting on the set-points: the same parameters
+    if extras.contains(&StepExtra::CommandSlew) {
+        let mapped: Vec<StepExtra> = extras
+            .iter()
+            .map(|x| match x {
+                StepExtra::CommandSlew => StepExtra::SlewRate,
+                other => *other,
+            })
+            .collect();
+        let start = Response {
+            slew_command: true,
+            ..*start
+        };
+        return fit(p, d, &start, &mapped, axes, fit_end);
     }
     // the simulation runs on every sample; residuals every ≥ 5 ms keep 1 kHz logs cheap
     let stride = ((0.005 / p.dt_s).floor() as usize).max(1);

@@ -236,13 +236,29 @@ pub fn diagnose_with(
     families.sort();
     families.dedup();
     let folds_count = base_folds.sse.len();
-    // the level split over the families, then in half between the t-test and the sign test
-    let level = settings.alpha / families.len().max(1) as f64;
-    let t_crit = t_critical(folds_count, settings.alpha / 2.0, families.len());
+    // the level of each family's test (split in half between the t-test and the sign test);
+    // with `bonferroni`, the level is split over the families as well
+    let split = if settings.bonferroni {
+        families.len().max(1)
+    } else {
+        1
+    };
+    let level = settings.alpha / split as f64;
+    let t_crit = t_critical(folds_count, settings.alpha / 2.0, split);
+    // every effect alone against the base, on both cores
+    let alone: Vec<(ModelFit, FoldScores)> = {
+        use rayon::prelude::*;
+        applicable
+            .par_iter()
+            .map(|e| {
+                let f = lp.fit(&[*e]);
+                let folds = folds_of(&[*e], &f);
+                (f, folds)
+            })
+            .collect()
+    };
     let mut tried: Vec<Tried> = Vec::new();
-    for e in applicable {
-        let f = lp.fit(&[e]);
-        let folds = folds_of(&[e], &f);
+    for (e, (f, folds)) in applicable.into_iter().zip(alone) {
         let test = fold_test(&base_folds, &folds, dynamic);
         let held_out_improvement = 1.0 - f.relative_mse() / e_base.max(1e-300);
         let improvement = if dynamic {

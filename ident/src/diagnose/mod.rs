@@ -48,9 +48,11 @@ pub struct Settings {
     pub peak_min_share: f64,
     /// Slow wander of the residual: share of its variance in 20 time-bin means.
     pub structure_min_share: f64,
-    /// Level of the fold test that accepts an effect, split over the candidates tested
-    /// (Bonferroni): the share of clean logs allowed a false alarm.
+    /// Level of the fold test that accepts a family (half for the t-test, half for the
+    /// sign test). Calibrated on the controls of two generators (docs/model-loop.md).
     pub alpha: f64,
+    /// Split `alpha` over the families tested (Bonferroni) as well.
+    pub bonferroni: bool,
     /// Two families whose fold-by-fold difference has |t| below this are reported as
     /// ambiguous.
     pub ambiguity_t: f64,
@@ -73,6 +75,7 @@ impl Default for Settings {
             peak_min_share: 0.03,
             structure_min_share: 0.2,
             alpha: 0.05,
+            bonferroni: false,
             ambiguity_t: 2.0,
             adapt_cutoff: true,
         }
@@ -155,10 +158,10 @@ pub struct Loop<'a> {
     pub experiment: Experiment,
     pub settings: Settings,
     /// Shapes per effect id, best first by the training part's criterion (cached).
-    shapes: std::cell::RefCell<BTreeMap<&'static str, Vec<Shape>>>,
+    shapes: std::sync::Mutex<BTreeMap<&'static str, Vec<Shape>>>,
     /// Blocks and base normals of the cross-validation (dynamic trials).
-    cv: std::cell::OnceCell<cv::CvCache>,
-    base_step: std::cell::RefCell<Option<Response>>,
+    cv: std::sync::OnceLock<cv::CvCache>,
+    base_step: std::sync::Mutex<Option<Response>>,
     /// What drives a step trial's model (the converters' set-points, or the reference).
     drive: Option<Drive>,
     /// The variants of the dynamic base model (Cartesian, joint-space or force-law
@@ -172,7 +175,7 @@ pub struct Loop<'a> {
     /// Σ y² over the training rows (dynamic trials).
     yty_train: f64,
     /// Training RSS of the base alone, with the variant it prefers (cached).
-    base_rss: std::cell::Cell<Option<f64>>,
+    base_rss: std::sync::OnceLock<f64>,
 }
 
 /// (columns, effect ranges, positive parameters, base columns shifted by a delay) of a
@@ -567,7 +570,7 @@ impl<'a> Loop<'a> {
     /// The effect's shapes, best first by the information criterion of a fit on every
     /// `shape_stride`-th training row (each with the base variant it fits best).
     fn ranked_shapes(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Vec<Shape> {
-        if let Some(s) = self.shapes.borrow().get(e.id()) {
+        if let Some(s) = self.shapes.lock().expect("shape cache").get(e.id()) {
             return s.clone();
         }
         let shapes = e.shapes(ctx);
@@ -605,7 +608,10 @@ impl<'a> Loop<'a> {
             scored.sort_by(|a, b| a.0.total_cmp(&b.0));
             scored.into_iter().map(|x| x.1).collect()
         };
-        self.shapes.borrow_mut().insert(e.id(), ranked.clone());
+        self.shapes
+            .lock()
+            .expect("shape cache")
+            .insert(e.id(), ranked.clone());
         ranked
     }
 
@@ -630,21 +636,18 @@ impl<'a> Loop<'a> {
 
     /// Training RSS of the base alone with the variant it prefers.
     fn base_alone_rss(&self) -> f64 {
-        if let Some(r) = self.base_rss.get() {
-            return r;
-        }
-        let r = (0..self.base_variants.len())
-            .map(|v| {
-                let bv = &self.base_variants[v];
-                let th = lsq::solve(&bv.normal, &bv.positive());
-                let r = lsq::rss(&bv.normal, self.yty_train, &th);
-                (self.criterion(r, bv.cols.len(), v), r)
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map(|x| x.1)
-            .unwrap_or(f64::INFINITY);
-        self.base_rss.set(Some(r));
-        r
+        *self.base_rss.get_or_init(|| {
+            (0..self.base_variants.len())
+                .map(|v| {
+                    let bv = &self.base_variants[v];
+                    let th = lsq::solve(&bv.normal, &bv.positive());
+                    let r = lsq::rss(&bv.normal, self.yty_train, &th);
+                    (self.criterion(r, bv.cols.len(), v), r)
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|x| x.1)
+                .unwrap_or(f64::INFINITY)
+        })
     }
 
     fn fit_dynamic(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
@@ -774,7 +777,8 @@ impl<'a> Loop<'a> {
     }
 
     fn base_step_params(&self) -> Response {
-        if let Some(b) = *self.base_step.borrow() {
+        let mut cached = self.base_step.lock().expect("base cache");
+        if let Some(b) = *cached {
             return b;
         }
         let init = self
@@ -782,7 +786,7 @@ impl<'a> Loop<'a> {
             .unwrap_or(Response::base(0.7, 20.0, [1.0, 1.0]));
         let d = self.drive.as_ref().expect("step trials have a drive");
         let fitted = response::fit(&self.p, d, &init, &[], &self.stepping_axes(), self.p.split);
-        *self.base_step.borrow_mut() = Some(fitted);
+        *cached = Some(fitted);
         fitted
     }
 

@@ -410,6 +410,8 @@ pub fn catalog() -> Vec<&'static dyn ModelEffect> {
         &StribeckFriction,
         &PreslidingFriction,
         &JointPlay,
+        &SettlingDrift,
+        &CommandSlew,
         &ElasticLoop,
         &MaxwellSlip,
         &CubicAboutEquilibrium,

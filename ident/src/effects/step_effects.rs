@@ -181,3 +181,104 @@ impl ModelEffect for ForceSaturation {
         &[StepExtra::ForceSaturation]
     }
 }
+
+/// A load-cell offset that settles exponentially (warm-up of the bridge and amplifier), in
+/// the sensor frame: offset + A·(1 − e^{−t/τ}), τ a grid over the trial's length.
+pub struct SettlingDrift;
+impl ModelEffect for SettlingDrift {
+    fn id(&self) -> &'static str {
+        "settling_drift"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Drift)
+    }
+    fn shape_name(&self) -> &'static str {
+        "exponential_settling"
+    }
+    fn summary(&self) -> &'static str {
+        "load-cell offset settling exponentially (warm-up), sensor frame"
+    }
+    fn signature(&self) -> &'static str {
+        "residual level moves early in the trial and levels off"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Dynamic
+    }
+    fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
+        let p = ctx.p;
+        let span = p.t_s[p.len() - 1] - p.t_s[0];
+        [0.1, 0.25, 0.5, 1.0]
+            .iter()
+            .map(|f| Shape(vec![("time_constant_s", f * span)]))
+            .collect()
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, s: &Shape) -> DynTerm {
+        let tau = s.get("time_constant_s").max(1e-3);
+        let t0 = ctx.p.t_s[0];
+        DynTerm {
+            columns: sensor_frame_columns(
+                ctx,
+                [("offset_x_n", "settled_x_n"), ("offset_z_n", "settled_z_n")],
+                |t| 1.0 - (-(t - t0) / tau).exp(),
+            ),
+            carries_constant: true,
+            ..Default::default()
+        }
+    }
+}
+
+/// Per load-cell channel (sensor frame, turning with θ1 + θ2): a constant and `shape(t)`,
+/// as columns of −f.
+fn sensor_frame_columns(
+    ctx: &DynCtx,
+    names: [(&str, &str); 2],
+    shape: impl Fn(f64) -> f64,
+) -> Vec<Column> {
+    let p = ctx.p;
+    let k = &ctx.model.kinematics;
+    let mut cols = Vec::new();
+    for (axis, (name_o, name_s)) in names.into_iter().enumerate() {
+        let mut e = [0.0; 2];
+        e[axis] = 1.0;
+        let (mut ox, mut oy, mut sx, mut sy) = (vec![], vec![], vec![], vec![]);
+        for i in 0..p.len() {
+            // the offset adds to the measured f; the column is its share of −f
+            let u = k.sensor_to_user([p.alpha_rad[0][i], p.alpha_rad[1][i]], e);
+            let g = shape(p.t_s[i]);
+            ox.push(-u[0]);
+            oy.push(-u[1]);
+            sx.push(-u[0] * g);
+            sy.push(-u[1] * g);
+        }
+        cols.push(Column::both(name_o, ox, oy));
+        cols.push(Column::both(name_s, sx, sy));
+    }
+    cols
+}
+
+/// The set-points slew at limited rates (the command is ramped before the converters, e.g.
+/// by a rate limiter in the controller), different up and down.
+pub struct CommandSlew;
+impl ModelEffect for CommandSlew {
+    fn id(&self) -> &'static str {
+        "command_slew"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::RateLimits)
+    }
+    fn shape_name(&self) -> &'static str {
+        "command_slew"
+    }
+    fn summary(&self) -> &'static str {
+        "the command ramps at limited rates before the converters (a slew limit on the set-points)"
+    }
+    fn signature(&self) -> &'static str {
+        "large steps start later and ramp; the ramp's slope is the same for every step of a sign"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Step
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::CommandSlew]
+    }
+}
