@@ -47,12 +47,25 @@ fn diagnose_json_follows_the_schema_and_names_the_hidden_effect() {
         assert!(e["nrmse"]["fx"].is_number() && e["nrmse"]["fy"].is_number());
         assert!(e["params"].is_object() && e["evidence"].is_string());
     }
-    // best first
-    let scores: Vec<f64> = effects
+    // the accepted families first, each group best first; one entry per family
+    let key = |e: &serde_json::Value| {
+        (
+            !e["accepted"].as_bool().unwrap(),
+            -e["score"].as_f64().unwrap(),
+        )
+    };
+    assert!(effects
+        .windows(2)
+        .all(|w| key(&w[0]).partial_cmp(&key(&w[1])) != Some(std::cmp::Ordering::Greater)));
+    assert_eq!(effects[0]["family"], "friction");
+    let mut families: Vec<&str> = effects
         .iter()
-        .map(|e| e["score"].as_f64().unwrap())
+        .map(|e| e["family"].as_str().unwrap())
         .collect();
-    assert!(scores.windows(2).all(|w| w[0] >= w[1]));
+    let n = families.len();
+    families.sort();
+    families.dedup();
+    assert_eq!(families.len(), n, "one entry per family");
     let c = effects[0]["params"]["coulomb_n"].as_f64().unwrap();
     assert!((c - 2.5).abs() < 0.3, "coulomb {c}");
     assert!(v["unexplained"].is_array());

@@ -294,12 +294,6 @@ pub fn diagnose_with(
                 && test.fold_mean > 0.0
                 && size >= settings.min_effect_size
         };
-        if std::env::var_os("PAM_IDENT_DEBUG").is_some() {
-            eprintln!(
-                "{:24} imp {:+.4} held {:+.4} t {:6.2}/{:.2} mean {:+.4} sd {:.4} size {:.4} bic {:.0} acc {}",
-                e.id(), improvement, held_out_improvement, test.t, t_crit, test.fold_mean, test.fold_sd, size, bic, accepted
-            );
-        }
         let params = f.params.get(e.id()).cloned().unwrap_or_default();
         let evidence = format!(
             "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the {} error (fold gains {:.1} ± {:.1} %, t = {:.1} against {:.1}), changing the prediction by {:.2} % of the signal ({} parameter{})",

@@ -70,30 +70,16 @@ impl ModelEffect for LoadcellDrift {
         true
     }
     fn dynamic_term(&self, ctx: &DynCtx, _s: &Shape) -> DynTerm {
-        let p = ctx.p;
-        let k = &ctx.model.kinematics;
-        let mut cols = Vec::new();
-        for (axis, name_o, name_d) in [
-            (0, "offset_x_n", "drift_x_n_per_s"),
-            (1, "offset_z_n", "drift_z_n_per_s"),
-        ] {
-            let mut e = [0.0; 2];
-            e[axis] = 1.0;
-            let (mut ox, mut oy, mut dx, mut dy) = (vec![], vec![], vec![], vec![]);
-            for i in 0..p.len() {
-                // the offset adds to the measured f; the column is its share of −f
-                let u = k.sensor_to_user([p.alpha_rad[0][i], p.alpha_rad[1][i]], e);
-                let t = p.t_s[i] - p.t_s[0];
-                ox.push(-u[0]);
-                oy.push(-u[1]);
-                dx.push(-u[0] * t);
-                dy.push(-u[1] * t);
-            }
-            cols.push(Column::both(name_o, ox, oy));
-            cols.push(Column::both(name_d, dx, dy));
-        }
+        let t0 = ctx.p.t_s[0];
         DynTerm {
-            columns: cols,
+            columns: sensor_frame_columns(
+                ctx,
+                [
+                    ("offset_x_n", "drift_x_n_per_s"),
+                    ("offset_z_n", "drift_z_n_per_s"),
+                ],
+                |t| t - t0,
+            ),
             carries_constant: true,
             ..Default::default()
         }
