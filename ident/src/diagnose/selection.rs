@@ -2,11 +2,12 @@
 //!
 //! An effect's gain is measured fold by fold (blocked cross-validation over time, or
 //! contiguous blocks of the held-out part): r_k = 1 − SSE_k(with) / SSE_k(without). Its mean
-//! must exceed the fold-to-fold spread: a one-sided t-test whose level is split over the
-//! candidates tested (Bonferroni), so that a clean log raises a false alarm in at most
-//! `alpha` of cases. Cross-validation folds share most of their training data, which makes
-//! the r_k correlated; the variance then uses Nadeau and Bengio's correction
-//! (1/K + n_test/n_train instead of 1/K), which keeps the test honest.
+//! must exceed the fold-to-fold spread — a one-sided t-test — or it must win in nearly every
+//! fold — a sign test, robust to gains that differ from fold to fold. Each takes half the
+//! level; the level is per family unless `Settings::bonferroni` splits it over the families.
+//! Cross-validation folds share most of their training data, which makes the r_k
+//! correlated; the variance then uses Nadeau and Bengio's correction (1/K + n_test/n_train
+//! instead of 1/K), which keeps the test honest.
 
 use super::cv::FoldScores;
 use statrs::distribution::{ContinuousCDF, StudentsT};
