@@ -659,24 +659,22 @@ pub fn fit(
         all.sort_by(f64::total_cmp);
         let q = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
         let top = q(1.0);
-        let mut v = Vec::new();
         // the cost has several basins in (knee, span): a grid, screened below
         // (and below the lowest set-point: a supply that caps every command)
         let knees = [0.99, 0.95, 0.9, 0.8, 0.65, 0.5, 0.35, 0.2, 0.05]
             .into_iter()
             .map(q)
             .chain([0.8, 0.5].map(|f| f * q(0.0)));
-        for knee in knees {
-            for span_f in [0.1, 0.2, 0.35, 0.6, 1.0, 1.7, 3.0] {
-                for s in &starts {
-                    let mut r = *s;
-                    r.knee = knee;
-                    r.knee_span = ((top - knee) * span_f).max(1e-3 * top.max(1e-3));
-                    v.push(r);
-                }
-            }
-        }
-        starts = v;
+        starts = knee_grid(
+            &starts,
+            knees,
+            &[0.1, 0.2, 0.35, 0.6, 1.0, 1.7, 3.0],
+            top,
+            |r, knee, span| {
+                r.knee = knee;
+                r.knee_span = span;
+            },
+        );
     }
     if extras.contains(&StepExtra::ForceSaturation) && !start.force_knee_n.is_finite() {
         // knees at quantiles of the measured force's magnitude (a force saturation acts on
@@ -689,18 +687,16 @@ pub fn fit(
         all.sort_by(f64::total_cmp);
         if let Some(&top) = all.last() {
             let q = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
-            let mut v = Vec::new();
-            for knee in [0.97, 0.9, 0.8, 0.65, 0.5, 0.3].map(q) {
-                for span_f in [0.05, 0.2, 0.6, 2.0] {
-                    for s in &starts {
-                        let mut r = *s;
-                        r.force_knee_n = knee;
-                        r.force_span_n = ((top - knee) * span_f).max(1e-3 * top.max(1e-3));
-                        v.push(r);
-                    }
-                }
-            }
-            starts = v;
+            starts = knee_grid(
+                &starts,
+                [0.97, 0.9, 0.8, 0.65, 0.5, 0.3].map(q),
+                &[0.05, 0.2, 0.6, 2.0],
+                top,
+                |r, knee, span| {
+                    r.force_knee_n = knee;
+                    r.force_span_n = span;
+                },
+            );
         }
     }
     if extras.contains(&StepExtra::Delay) && start.delay_s == 0.0 {
@@ -797,6 +793,33 @@ pub fn fit(
         Some((theta, _)) => unpack(&theta, extras, axes, start),
         None => *start,
     }
+}
+
+/// Every start at every (knee, span) of a saturation's grid: spans as fractions of the room
+/// between the knee and the top value (at least 0.1 % of the top), the saturation's two
+/// parameters written by `set`; knees outermost, then spans, then the starts.
+fn knee_grid(
+    starts: &[Response],
+    knees: impl IntoIterator<Item = f64>,
+    span_fractions: &[f64],
+    top: f64,
+    set: impl Fn(&mut Response, f64, f64),
+) -> Vec<Response> {
+    let mut v = Vec::new();
+    for knee in knees {
+        for span_f in span_fractions {
+            for s in starts {
+                let mut r = *s;
+                set(
+                    &mut r,
+                    knee,
+                    ((top - knee) * span_f).max(1e-3 * top.max(1e-3)),
+                );
+                v.push(r);
+            }
+        }
+    }
+    v
 }
 
 #[cfg(test)]
