@@ -1,0 +1,272 @@
+//! Fits of dynamic trials: the base variants plus the effects' regressors, the shape
+//! choice, and the delay (a shift of the measured force, see [`Loop::target`]).
+
+use super::*;
+
+impl<'a> Loop<'a> {
+
+    pub(super) fn dyn_columns(
+        &self,
+        ctx: &DynCtx,
+        variant: usize,
+        effects: &[(&dyn ModelEffect, Shape)],
+    ) -> Option<DynColumns> {
+        let terms: Vec<DynTerm> = effects
+            .iter()
+            .map(|(e, s)| e.dynamic_term(ctx, s))
+            .collect();
+        self.assemble(variant, &terms)
+    }
+
+    /// The columns of a fit with variant `variant` and the effects' terms (computed once and
+    /// shared by every variant: their columns are shared, not copied).
+    pub(super) fn assemble(&self, variant: usize, terms: &[DynTerm]) -> Option<DynColumns> {
+        let bv = &self.base_variants[variant];
+        let preload = bv.stiffness == Stiffness::ForceLawWithPreload;
+        // an effect's own constant (an offset, an equilibrium shift) replaces the base's
+        let nb = bv.cols.len()
+            - if bv.offset && terms.iter().any(|t| t.carries_constant) {
+                2
+            } else {
+                0
+            };
+        let base_cols = &bv.cols[..nb];
+        let mut positive: Vec<usize> = self.base_variants[variant].positive();
+        let mut delay = 0.0f64;
+        let mut extra = Vec::new();
+        let mut ranges = Vec::new();
+        for term in terms {
+            let term = term.clone();
+            if preload && term.carries_constant {
+                return None;
+            }
+            delay = delay.max(term.base_delay_s);
+            let start = nb + extra.len();
+            positive.extend(term.positive.iter().map(|i| start + i));
+            extra.extend(term.columns);
+            ranges.push((start, nb + extra.len()));
+        }
+        let mut cols = base_cols.to_vec();
+        if delay > 0.0 {
+            let d = delay / self.p.dt_s;
+            let (whole, frac) = (d.floor() as usize, d - d.floor());
+            for c in &mut cols {
+                for v in c.axis.iter_mut().flatten() {
+                    let shifted: Vec<f64> = (0..v.len())
+                        .map(|i| {
+                            let a = v[i.saturating_sub(whole)];
+                            let b = v[i.saturating_sub(whole + 1)];
+                            a * (1.0 - frac) + b * frac
+                        })
+                        .collect();
+                    *v = std::sync::Arc::new(shifted);
+                }
+            }
+        }
+        cols.extend(extra);
+        Some((cols, ranges, positive, delay > 0.0, nb))
+    }
+
+    /// Information criterion of a fit of `ncols` columns with variant `v`: the pneumatic
+    /// variants count one more parameter for their chosen dynamics.
+    pub(super) fn criterion(&self, rss: f64, ncols: usize, v: usize) -> f64 {
+        let k = ncols + usize::from(self.base_variants[v].pneumatic.0 > 0.0);
+        let n = self.n_eff.max(10.0);
+        n * rss.max(1e-300).ln() + k as f64 * n.ln()
+    }
+
+    pub(super) fn choose_shape(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Shape {
+        self.ranked_shapes(ctx, e, y)
+            .into_iter()
+            .next()
+            .unwrap_or_default()
+    }
+
+    /// The effect's shapes, best first by the information criterion of a fit on every
+    /// `shape_stride`-th training row (each with the base variant it fits best).
+    pub(super) fn ranked_shapes(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Vec<Shape> {
+        if let Some(s) = self.shapes.lock().expect("shape cache").get(e.id()) {
+            return s.clone();
+        }
+        let shapes = e.shapes(ctx);
+        let ranked = if shapes.len() <= 1 {
+            if shapes.is_empty() {
+                vec![Shape::default()]
+            } else {
+                shapes
+            }
+        } else {
+            let stride = shape_stride(self.p.dt_s);
+            let rows = 0..self.p.split;
+            let yty = strided_sum_of_squares(y, self.p.split, stride);
+            let mut scored: Vec<(f64, Shape)> = Vec::new();
+            for s in shapes {
+                let term = [e.dynamic_term(ctx, &s)];
+                let mut best = f64::INFINITY;
+                for v in 0..self.base_variants.len() {
+                    let Some((cols, _, positive, shifted, nb)) = self.assemble(v, &term) else {
+                        continue;
+                    };
+                    let target = [y[0].as_slice(), y[1].as_slice()];
+                    let ne = if shifted {
+                        lsq::normal_equations_strided(&cols, &target, rows.clone(), stride)
+                    } else {
+                        let known = &self.base_variants[v].normal_strided.prefix(nb);
+                        lsq::normal_equations_extended(known, &cols, &target, rows.clone(), stride)
+                    };
+                    let th = lsq::solve(&ne, &positive);
+                    let r = self.criterion(lsq::rss(&ne, yty, &th) * stride as f64, cols.len(), v);
+                    best = best.min(r);
+                }
+                scored.push((best, s));
+            }
+            scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+            scored.into_iter().map(|x| x.1).collect()
+        };
+        self.shapes
+            .lock()
+            .expect("shape cache")
+            .insert(e.id(), ranked.clone());
+        ranked
+    }
+
+    /// Normal equations of a fit with variant `v` on the training rows (the base part from
+    /// the variant's cache unless the effects shifted the base columns).
+    pub(super) fn training_normal(
+        &self,
+        v: usize,
+        cols: &[Column],
+        shifted: bool,
+        base_len: usize,
+        y: &[Vec<f64>; 2],
+    ) -> lsq::Normal {
+        let target = [y[0].as_slice(), y[1].as_slice()];
+        if shifted {
+            lsq::normal_equations(cols, &target, 0..self.p.split)
+        } else {
+            let known = &self.base_variants[v].normal.prefix(base_len);
+            lsq::normal_equations_extended(known, cols, &target, 0..self.p.split, 1)
+        }
+    }
+
+    /// Training RSS of the base alone with the variant it prefers.
+    pub(super) fn base_alone_rss(&self) -> f64 {
+        *self.base_rss.get_or_init(|| {
+            (0..self.base_variants.len())
+                .map(|v| {
+                    let bv = &self.base_variants[v];
+                    let th = lsq::solve(&bv.normal, &bv.positive());
+                    let r = lsq::rss(&bv.normal, self.yty_train, &th);
+                    (self.criterion(r, bv.cols.len(), v), r)
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|x| x.1)
+                .unwrap_or(f64::INFINITY)
+        })
+    }
+
+    pub(super) fn fit_dynamic(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
+        let p = &self.p;
+        let ctx = DynCtx::new(p, self.model);
+        let y = msd::target(p);
+        let chosen: Vec<(&dyn ModelEffect, Shape)> = effects
+            .iter()
+            .filter(|e| e.applies(Experiment::Dynamic))
+            .map(|e| (*e, self.choose_shape(&ctx, *e, &y)))
+            .collect();
+        // every base variant; keep the one the training part prefers
+        let mut best: Option<VariantFit> = None;
+        for v in 0..self.base_variants.len() {
+            let Some((cols, ranges, positive, shifted, nb)) = self.dyn_columns(&ctx, v, &chosen)
+            else {
+                continue;
+            };
+            let ne = self.training_normal(v, &cols, shifted, nb, &y);
+            let theta = lsq::solve(&ne, &positive);
+            let r = lsq::rss(&ne, self.yty_train, &theta);
+            let c = self.criterion(r, cols.len(), v);
+            if best.as_ref().is_none_or(|b| c < b.0) {
+                best = Some((c, v, cols, ranges, theta, r));
+            }
+        }
+        let (_, variant, cols, ranges, theta, fit_rss) = best.expect("variants");
+        let pred = lsq::predict(&cols, &theta, p.len());
+        let bv = &self.base_variants[variant];
+        let (nrmse, r2) = held_out_scores(p, &y, &pred);
+        let mut params = BTreeMap::new();
+        // the base's columns end where the first effect's begin
+        let nb = ranges.first().map(|r| r.0).unwrap_or(cols.len());
+        let mut base: BTreeMap<String, f64> = cols[..nb]
+            .iter()
+            .zip(&theta)
+            .map(|(c, t)| (c.name.clone(), *t))
+            .collect();
+        base.insert("derivative_cutoff_hz".into(), p.cutoff_hz);
+        base.insert("pneumatic_omega_n_rad_s".into(), bv.pneumatic.0);
+        base.insert("pneumatic_zeta".into(), bv.pneumatic.1);
+        base.insert(
+            "joint_space_stiffness".into(),
+            if bv.stiffness == Stiffness::Joint {
+                1.0
+            } else {
+                0.0
+            },
+        );
+        let force_law = matches!(
+            bv.stiffness,
+            Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload
+        );
+        base.insert(
+            "force_law_stiffness".into(),
+            if force_law { 1.0 } else { 0.0 },
+        );
+        if force_law {
+            base.insert(
+                "force_law_from_start".into(),
+                if bv.stiffness == Stiffness::ForceLawAbsolute {
+                    0.0
+                } else {
+                    1.0
+                },
+            );
+        }
+        params.insert("base".to_string(), base);
+        let mut added = 0;
+        for ((e, s), (a, b)) in chosen.iter().zip(&ranges) {
+            let fitted: Vec<(String, f64)> = cols[*a..*b]
+                .iter()
+                .zip(&theta[*a..*b])
+                .map(|(c, t)| (c.name.clone(), *t))
+                .collect();
+            added += (b - a) + s.0.len();
+            params.insert(
+                e.id().to_string(),
+                e.report_params(&ctx, &fitted, s).into_iter().collect(),
+            );
+        }
+        let warnings = msd::mass_warnings(
+            &msd::sym(&theta[0..3]),
+            self.model.cartesian_mass(p.alpha0_rad),
+        );
+        let train_gain = if chosen.is_empty() {
+            0.0
+        } else {
+            // against the base alone, with the variant the base alone prefers
+            1.0 - fit_rss / self.base_alone_rss().max(1e-300)
+        };
+        ModelFit {
+            experiment: Experiment::Dynamic,
+            effect_ids: chosen.iter().map(|(e, _)| e.id().to_string()).collect(),
+            params,
+            added_params: added,
+            nrmse,
+            r2,
+            axes: vec![0, 1],
+            measured: y,
+            predicted: pred,
+            train_gain,
+            split: p.split,
+            warnings,
+        }
+    }
+}
