@@ -3,7 +3,7 @@
 //! accuracy, false alarms and timings.
 //!
 //! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
-//!  [--experiment dynamic|step] [--jobs 2] [--out DIR] [--json FILE]`
+//!  [--experiment dynamic|step] [--family F] [--jobs 2] [--out DIR] [--json FILE]`
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -15,12 +15,14 @@ use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
-use pam_synth::{generate, CaseSpec, Experiment};
+use pam_synth::{generate, CaseSpec, Experiment, Family};
 
 struct Args {
     logs: usize,
     seed0: u64,
     experiment: Option<Experiment>,
+    /// Only this family (no controls): to look at one family's misses.
+    family: Option<Family>,
     jobs: usize,
     out: Option<PathBuf>,
     json: Option<PathBuf>,
@@ -31,6 +33,7 @@ fn parse() -> Result<Args, String> {
         logs: 100,
         seed0: 1000,
         experiment: None,
+        family: None,
         jobs: 2,
         out: None,
         json: None,
@@ -45,6 +48,7 @@ fn parse() -> Result<Args, String> {
             "--experiment" => {
                 a.experiment = Some(Experiment::parse(&v()?).map_err(|e| e.to_string())?)
             }
+            "--family" => a.family = Some(Family::parse(&v()?).map_err(|e| e.to_string())?),
             "--jobs" => a.jobs = v()?.parse().map_err(|e| format!("--jobs: {e}"))?,
             "--out" => a.out = Some(PathBuf::from(v()?)),
             "--json" => a.json = Some(PathBuf::from(v()?)),
@@ -105,14 +109,20 @@ fn main() {
     let a = match parse() {
         Ok(a) => a,
         Err(e) => {
-            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--jobs 2] [--out DIR] [--json FILE]");
+            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--jobs 2] [--out DIR] [--json FILE]");
             std::process::exit(2);
         }
     };
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).expect("creating --out");
     }
-    let specs = judge::plan(a.logs, a.seed0, a.experiment);
+    let specs = match a.family {
+        None => judge::plan(a.logs, a.seed0, a.experiment),
+        Some(f) => (0..a.logs as u64)
+            .map(|i| CaseSpec::random(a.seed0 + i, a.experiment, Some(f)))
+            .collect::<Result<Vec<_>, _>>()
+            .unwrap_or_else(|e| panic!("--family {}: {e}", f.name())),
+    };
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<CaseResult>>> = Mutex::new(vec![None; specs.len()]);

@@ -97,6 +97,32 @@ pub fn normal_equations_strided(
     normal_equations_extended(&empty, cols, target, rows, stride)
 }
 
+/// Like [`normal_equations_extended`] for a new target: the known columns' Gram block is
+/// kept, every right-hand side is computed against `target` (a delay shifts the measured
+/// force, not the regressors).
+pub fn normal_equations_retarget(
+    known: &Normal,
+    cols: &[Column],
+    target: &[&[f64]; 2],
+    rows: Range<usize>,
+    stride: usize,
+) -> Normal {
+    let mut n = normal_equations_extended(known, cols, target, rows.clone(), stride);
+    for j in 0..known.rhs.len().min(cols.len()) {
+        n.rhs[j] = (0..2)
+            .filter_map(|a| {
+                let c = cols[j].axis[a].as_ref()?;
+                Some(dot_strided(
+                    &c[rows.clone()],
+                    &target[a][rows.clone()],
+                    stride,
+                ))
+            })
+            .sum();
+    }
+    n
+}
+
 /// Normal equations of `cols` whose first `known.rhs.len()` columns are those `known` was
 /// computed from (same rows, stride and target): only the new columns' products are
 /// computed. The base model's columns are shared by every effect's fit.
@@ -226,6 +252,36 @@ fn solve_subset(n: &Normal, active: &[usize]) -> Vec<f64> {
         out[active[r]] = z[r] * scale[r];
     }
     out
+}
+
+/// Least squares with lower bounds: parameter `i` of `floors` kept ≥ its value, those in
+/// `positive` ≥ 0. (θ = f + θ̃ with θ̃ ≥ 0 on the floored ones: the normal equations of θ̃
+/// have the right-hand side X'y − X'X f.)
+pub fn solve_bounded(n: &Normal, positive: &[usize], floors: &[(usize, f64)]) -> Vec<f64> {
+    if floors.is_empty() {
+        return solve(n, positive);
+    }
+    let p = n.rhs.len();
+    let mut f = vec![0.0; p];
+    for &(i, v) in floors {
+        if i < p {
+            f[i] = v;
+        }
+    }
+    let rhs: Vec<f64> = (0..p)
+        .map(|r| n.rhs[r] - (0..p).map(|c| n.gram[r][c] * f[c]).sum::<f64>())
+        .collect();
+    let shifted = Normal {
+        gram: n.gram.clone(),
+        rhs,
+    };
+    let mut pos = positive.to_vec();
+    pos.extend(floors.iter().map(|x| x.0).filter(|i| !positive.contains(i)));
+    let mut th = solve(&shifted, &pos);
+    for (t, fi) in th.iter_mut().zip(&f) {
+        *t += fi;
+    }
+    th
 }
 
 /// Least squares with the parameters listed in `positive` kept ≥ 0 (active set: a

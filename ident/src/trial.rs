@@ -170,10 +170,14 @@ impl Trial {
         }
         let start = n.min(((0.1 / dt).round() as usize).max(1));
         let x0 = [mean(&x[0][..start]), mean(&x[1][..start])];
-        let dx = [
-            x[0].iter().map(|v| v - x0[0]).collect(),
-            x[1].iter().map(|v| v - x0[1]).collect(),
-        ];
+        // the displacement through the same zero-phase low-pass as the derivatives: the
+        // encoders' quantisation (white up to Nyquist) would otherwise reach the stiffness
+        // regressor but not the measured force, and the base would spend terms (the
+        // pneumatic high-pass) cancelling it instead of describing the arm
+        let dx = [0, 1].map(|a| {
+            let d: Vec<f64> = x[a].iter().map(|v| v - x0[a]).collect();
+            bw.filtfilt(&d, fs, cutoff)
+        });
         let deriv = |s: &[f64]| -> Vec<f64> {
             let raw = central_difference(s, &self.t_s);
             bw.filtfilt(&raw, fs, cutoff)

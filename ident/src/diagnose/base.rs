@@ -169,7 +169,6 @@ impl Stiffness {
     }
 }
 
-
 /// The pneumatic compliance of the muscles: when the handle moves, each muscle's volume
 /// changes and its pressure with it, until the I/P converter — a second-order regulator
 /// (Table 5.2) — restores it. The pressure (so the force) deviation is the displacement
@@ -330,4 +329,3 @@ pub(super) fn choose_pneumatic(
         },
     )
 }
-

@@ -73,6 +73,8 @@ struct Candidate {
     positive: Vec<usize>,
     blocks: Vec<lsq::Normal>,
     total: lsq::Normal,
+    /// Σ y² of the candidate's target (shifted for a delay) on each block.
+    yty: Vec<f64>,
 }
 
 impl<'a> Loop<'a> {
@@ -122,23 +124,36 @@ impl<'a> Loop<'a> {
     }
 
     fn candidate(&self, v: usize, terms: &[DynTerm]) -> Option<Candidate> {
-        let (cols, _, positive, shifted, nb) = self.assemble(v, terms)?;
+        let (cols, _, positive, shift, nb) = self.assemble(v, terms)?;
         let c = self.cv_cache();
-        let y = msd::target(&self.p);
-        let target = [y[0].as_slice(), y[1].as_slice()];
+        let t = self.target(shift);
         let blocks: Vec<lsq::Normal> = c
             .blocks
             .iter()
             .enumerate()
             .map(|(b, r)| {
-                if shifted {
-                    lsq::normal_equations_strided(&cols, &target, r.clone(), c.stride)
-                } else {
-                    let known = c.base[v][b].prefix(nb);
-                    lsq::normal_equations_extended(&known, &cols, &target, r.clone(), c.stride)
-                }
+                let known = c.base[v][b].prefix(nb);
+                Self::normal_with_known(&known, &cols, &t.y, shift, r.clone(), c.stride)
             })
             .collect();
+        let yty = if shift == 0 {
+            c.yty.clone()
+        } else {
+            c.blocks
+                .iter()
+                .map(|r| {
+                    (0..2)
+                        .map(|a| {
+                            t.y[a][r.clone()]
+                                .iter()
+                                .step_by(c.stride)
+                                .map(|v| v * v)
+                                .sum::<f64>()
+                        })
+                        .sum()
+                })
+                .collect()
+        };
         let mut total = empty_normal();
         for b in &blocks {
             add_into(&mut total, b, 1.0);
@@ -149,6 +164,7 @@ impl<'a> Loop<'a> {
             positive,
             blocks,
             total,
+            yty,
         })
     }
 
@@ -195,8 +211,8 @@ impl<'a> Loop<'a> {
                 let mut train = empty_normal();
                 add_into(&mut train, &c.total, 1.0);
                 add_into(&mut train, &c.blocks[k], -1.0);
-                let yty: f64 = cache.yty.iter().sum::<f64>() - cache.yty[k];
-                let th = lsq::solve(&train, &c.positive);
+                let yty: f64 = c.yty.iter().sum::<f64>() - c.yty[k];
+                let th = self.solve_dynamic(&train, &c.positive);
                 let crit = self.criterion(lsq::rss(&train, yty, &th), c.ncols, c.variant);
                 if best.as_ref().is_none_or(|b| crit < b.0) {
                     best = Some((crit, th, ci));
@@ -205,7 +221,7 @@ impl<'a> Loop<'a> {
             let Some((_, th, ci)) = best else {
                 continue;
             };
-            let sse = lsq::rss(&candidates[ci].blocks[k], cache.yty[k], &th).max(0.0);
+            let sse = lsq::rss(&candidates[ci].blocks[k], candidates[ci].yty[k], &th).max(0.0);
             out.sse.push(sse);
             out.sst.push(cache.sst[k]);
         }

@@ -4,7 +4,6 @@
 use super::*;
 
 impl<'a> Loop<'a> {
-
     pub(super) fn dyn_columns(
         &self,
         ctx: &DynCtx,
@@ -47,24 +46,71 @@ impl<'a> Loop<'a> {
             ranges.push((start, nb + extra.len()));
         }
         let mut cols = base_cols.to_vec();
-        if delay > 0.0 {
-            let d = delay / self.p.dt_s;
-            let (whole, frac) = (d.floor() as usize, d - d.floor());
-            for c in &mut cols {
-                for v in c.axis.iter_mut().flatten() {
-                    let shifted: Vec<f64> = (0..v.len())
-                        .map(|i| {
-                            let a = v[i.saturating_sub(whole)];
-                            let b = v[i.saturating_sub(whole + 1)];
-                            a * (1.0 - frac) + b * frac
-                        })
-                        .collect();
-                    *v = std::sync::Arc::new(shifted);
-                }
-            }
-        }
         cols.extend(extra);
-        Some((cols, ranges, positive, delay > 0.0, nb))
+        Some((cols, ranges, positive, self.delay_samples(delay), nb))
+    }
+
+    /// A dynamic fit's least squares: the stiffness form's parameters ≥ 0 and the mass
+    /// diagonals (columns 0 and 2 of every variant) at least [`Settings::mass_floor_share`]
+    /// of the robot's own Cartesian inertia. The links' inertia beyond the load cell is
+    /// known from their geometry; without the floor a fit "explains" a force that lags the
+    /// motion by a lower damping and a vanishing mass (f(t − τ) ≈ f − τḟ), and a delay the
+    /// data shows plainly would be absorbed by a base no rig could have.
+    pub(super) fn solve_dynamic(&self, ne: &lsq::Normal, positive: &[usize]) -> Vec<f64> {
+        let [fx, fy] = self.mass_floor_kg;
+        lsq::solve_bounded(ne, positive, &[(0, fx), (2, fy)])
+    }
+
+    /// A delay in whole samples. A delay shifts the measured force, not the regressors:
+    /// every fit then shares the base's cached Gram matrix (only X'y is new), and an
+    /// interpolated (fractional) shift would average the force's noise and favour itself.
+    pub(super) fn delay_samples(&self, delay_s: f64) -> usize {
+        if delay_s > 0.0 {
+            (delay_s / self.p.dt_s).round() as usize
+        } else {
+            0
+        }
+    }
+
+    /// The fit's target (−f, [`msd::target`]) `shift` samples later — the force a model
+    /// of the motion at t explains when the force is sampled `shift` periods late — and
+    /// its Σ y² over the training rows (cached per shift).
+    pub(super) fn target(&self, shift: usize) -> std::sync::Arc<Target> {
+        let mut cache = self.targets.lock().expect("target cache");
+        if let Some(t) = cache.get(&shift) {
+            return t.clone();
+        }
+        let y0 = msd::target(&self.p);
+        let n = y0[0].len();
+        let y = if shift == 0 {
+            y0
+        } else {
+            y0.map(|v| (0..n).map(|i| v[(i + shift).min(n - 1)]).collect())
+        };
+        let yty_train = (0..2)
+            .map(|a| y[a][..self.p.split].iter().map(|v| v * v).sum::<f64>())
+            .sum();
+        let t = std::sync::Arc::new(Target { y, yty_train });
+        cache.insert(shift, t.clone());
+        t
+    }
+
+    /// Normal equations of `cols` (the first `nb` the variant's base columns, whose Gram
+    /// block is `known`'s) against the target shifted by `shift`.
+    pub(super) fn normal_with_known(
+        known: &lsq::Normal,
+        cols: &[Column],
+        y: &[Vec<f64>; 2],
+        shift: usize,
+        rows: std::ops::Range<usize>,
+        stride: usize,
+    ) -> lsq::Normal {
+        let target = [y[0].as_slice(), y[1].as_slice()];
+        if shift > 0 {
+            lsq::normal_equations_retarget(known, cols, &target, rows, stride)
+        } else {
+            lsq::normal_equations_extended(known, cols, &target, rows, stride)
+        }
     }
 
     /// Information criterion of a fit of `ncols` columns with variant `v`: the pneumatic
@@ -75,7 +121,12 @@ impl<'a> Loop<'a> {
         n * rss.max(1e-300).ln() + k as f64 * n.ln()
     }
 
-    pub(super) fn choose_shape(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Shape {
+    pub(super) fn choose_shape(
+        &self,
+        ctx: &DynCtx,
+        e: &dyn ModelEffect,
+        y: &[Vec<f64>; 2],
+    ) -> Shape {
         self.ranked_shapes(ctx, e, y)
             .into_iter()
             .next()
@@ -84,7 +135,12 @@ impl<'a> Loop<'a> {
 
     /// The effect's shapes, best first by the information criterion of a fit on every
     /// `shape_stride`-th training row (each with the base variant it fits best).
-    pub(super) fn ranked_shapes(&self, ctx: &DynCtx, e: &dyn ModelEffect, y: &[Vec<f64>; 2]) -> Vec<Shape> {
+    pub(super) fn ranked_shapes(
+        &self,
+        ctx: &DynCtx,
+        e: &dyn ModelEffect,
+        y: &[Vec<f64>; 2],
+    ) -> Vec<Shape> {
         if let Some(s) = self.shapes.lock().expect("shape cache").get(e.id()) {
             return s.clone();
         }
@@ -98,23 +154,33 @@ impl<'a> Loop<'a> {
         } else {
             let stride = shape_stride(self.p.dt_s);
             let rows = 0..self.p.split;
-            let yty = strided_sum_of_squares(y, self.p.split, stride);
+            let yty0 = strided_sum_of_squares(y, self.p.split, stride);
             let mut scored: Vec<(f64, Shape)> = Vec::new();
             for s in shapes {
                 let term = [e.dynamic_term(ctx, &s)];
                 let mut best = f64::INFINITY;
                 for v in 0..self.base_variants.len() {
-                    let Some((cols, _, positive, shifted, nb)) = self.assemble(v, &term) else {
+                    let Some((cols, _, positive, shift, nb)) = self.assemble(v, &term) else {
                         continue;
                     };
-                    let target = [y[0].as_slice(), y[1].as_slice()];
-                    let ne = if shifted {
-                        lsq::normal_equations_strided(&cols, &target, rows.clone(), stride)
+                    let known = &self.base_variants[v].normal_strided.prefix(nb);
+                    let (ne, yty) = if shift > 0 {
+                        let t = self.target(shift);
+                        let yty = strided_sum_of_squares(&t.y, self.p.split, stride);
+                        let ne = Self::normal_with_known(
+                            known,
+                            &cols,
+                            &t.y,
+                            shift,
+                            rows.clone(),
+                            stride,
+                        );
+                        (ne, yty)
                     } else {
-                        let known = &self.base_variants[v].normal_strided.prefix(nb);
-                        lsq::normal_equations_extended(known, &cols, &target, rows.clone(), stride)
+                        let ne = Self::normal_with_known(known, &cols, y, 0, rows.clone(), stride);
+                        (ne, yty0)
                     };
-                    let th = lsq::solve(&ne, &positive);
+                    let th = self.solve_dynamic(&ne, &positive);
                     let r = self.criterion(lsq::rss(&ne, yty, &th) * stride as f64, cols.len(), v);
                     best = best.min(r);
                 }
@@ -130,23 +196,18 @@ impl<'a> Loop<'a> {
         ranked
     }
 
-    /// Normal equations of a fit with variant `v` on the training rows (the base part from
-    /// the variant's cache unless the effects shifted the base columns).
+    /// Normal equations of a fit with variant `v` on the training rows against the target
+    /// shifted by `shift` (the base part's Gram block from the variant's cache).
     pub(super) fn training_normal(
         &self,
         v: usize,
         cols: &[Column],
-        shifted: bool,
+        shift: usize,
         base_len: usize,
-        y: &[Vec<f64>; 2],
     ) -> lsq::Normal {
-        let target = [y[0].as_slice(), y[1].as_slice()];
-        if shifted {
-            lsq::normal_equations(cols, &target, 0..self.p.split)
-        } else {
-            let known = &self.base_variants[v].normal.prefix(base_len);
-            lsq::normal_equations_extended(known, cols, &target, 0..self.p.split, 1)
-        }
+        let known = &self.base_variants[v].normal.prefix(base_len);
+        let t = self.target(shift);
+        Self::normal_with_known(known, cols, &t.y, shift, 0..self.p.split, 1)
     }
 
     /// Training RSS of the base alone with the variant it prefers.
@@ -155,7 +216,7 @@ impl<'a> Loop<'a> {
             (0..self.base_variants.len())
                 .map(|v| {
                     let bv = &self.base_variants[v];
-                    let th = lsq::solve(&bv.normal, &bv.positive());
+                    let th = self.solve_dynamic(&bv.normal, &bv.positive());
                     let r = lsq::rss(&bv.normal, self.yty_train, &th);
                     (self.criterion(r, bv.cols.len(), v), r)
                 })
@@ -177,20 +238,22 @@ impl<'a> Loop<'a> {
         // every base variant; keep the one the training part prefers
         let mut best: Option<VariantFit> = None;
         for v in 0..self.base_variants.len() {
-            let Some((cols, ranges, positive, shifted, nb)) = self.dyn_columns(&ctx, v, &chosen)
+            let Some((cols, ranges, positive, shift, nb)) = self.dyn_columns(&ctx, v, &chosen)
             else {
                 continue;
             };
-            let ne = self.training_normal(v, &cols, shifted, nb, &y);
-            let theta = lsq::solve(&ne, &positive);
-            let r = lsq::rss(&ne, self.yty_train, &theta);
+            let ne = self.training_normal(v, &cols, shift, nb);
+            let theta = self.solve_dynamic(&ne, &positive);
+            let r = lsq::rss(&ne, self.target(shift).yty_train, &theta);
             let c = self.criterion(r, cols.len(), v);
             if best.as_ref().is_none_or(|b| c < b.0) {
-                best = Some((c, v, cols, ranges, theta, r));
+                best = Some((c, v, cols, ranges, theta, r, shift));
             }
         }
-        let (_, variant, cols, ranges, theta, fit_rss) = best.expect("variants");
-        let pred = lsq::predict(&cols, &theta, p.len());
+        let (_, variant, cols, ranges, theta, fit_rss, shift) = best.expect("variants");
+        // the model explains the force `shift` samples late: back on the log's time base
+        let pred = lsq::predict(&cols, &theta, p.len())
+            .map(|v| (0..v.len()).map(|i| v[i.saturating_sub(shift)]).collect());
         let bv = &self.base_variants[variant];
         let (nrmse, r2) = held_out_scores(p, &y, &pred);
         let mut params = BTreeMap::new();

@@ -5,14 +5,16 @@
 
 mod base;
 mod compare;
-mod dynamic;
-mod step_fit;
 mod cv;
 mod decide;
+mod dynamic;
 mod selection;
+mod step_fit;
 mod unexplained;
-pub use base::{base_columns, joint_stiffness_columns, pneumatic_columns, prepare_with_best_cutoff, Stiffness};
 use base::*;
+pub use base::{
+    base_columns, joint_stiffness_columns, pneumatic_columns, prepare_with_best_cutoff, Stiffness,
+};
 pub use compare::*;
 pub use cv::{FoldScores, FOLDS};
 pub use decide::*;
@@ -65,6 +67,9 @@ pub struct Settings {
     /// the one whose plain base fits the training part best (see
     /// [`prepare_with_best_cutoff`]).
     pub adapt_cutoff: bool,
+    /// Dynamic trials: the fitted mass diagonals are kept at least this share of the
+    /// robot's rigid-body Cartesian inertia at the trial's pose (0 turns the floor off).
+    pub mass_floor_share: f64,
 }
 
 impl Default for Settings {
@@ -83,6 +88,7 @@ impl Default for Settings {
             bonferroni: false,
             ambiguity_t: 2.0,
             adapt_cutoff: true,
+            mass_floor_share: 0.35,
         }
     }
 }
@@ -181,16 +187,37 @@ pub struct Loop<'a> {
     yty_train: f64,
     /// Training RSS of the base alone, with the variant it prefers (cached).
     base_rss: std::sync::OnceLock<f64>,
+    /// The dynamic fit's target per shift in samples (cached, see [`Loop::target`]).
+    targets: std::sync::Mutex<BTreeMap<usize, std::sync::Arc<Target>>>,
+    /// Lower bounds of the dynamic fits' mass diagonals (kg), see
+    /// [`Loop::solve_dynamic`].
+    mass_floor_kg: [f64; 2],
 }
 
-/// (columns, effect ranges, positive parameters, base columns shifted by a delay) of a
-/// dynamic fit.
+/// A dynamic fit's target (−f), possibly shifted for a delay.
+pub(super) struct Target {
+    pub y: [Vec<f64>; 2],
+    /// Σ y² over the training rows.
+    pub yty_train: f64,
+}
+
+/// (columns, effect ranges, positive parameters, the target's shift in samples for a
+/// delay, see [`Loop::target`]) of a dynamic fit.
 /// The last element is the number of base columns used (the base's force offsets are left
 /// out when an effect carries a constant of its own).
-type DynColumns = (Vec<Column>, Vec<(usize, usize)>, Vec<usize>, bool, usize);
+type DynColumns = (Vec<Column>, Vec<(usize, usize)>, Vec<usize>, usize, usize);
 
-/// (criterion, variant, columns, effect ranges, θ, training RSS) of one base variant's fit.
-type VariantFit = (f64, usize, Vec<Column>, Vec<(usize, usize)>, Vec<f64>, f64);
+/// (criterion, variant, columns, effect ranges, θ, training RSS, target shift) of one base
+/// variant's fit.
+type VariantFit = (
+    f64,
+    usize,
+    Vec<Column>,
+    Vec<(usize, usize)>,
+    Vec<f64>,
+    f64,
+    usize,
+);
 
 fn held_out_scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([f64; 2], [f64; 2]) {
     let (test, _) = msd::scores(p, y, pred);
@@ -308,6 +335,15 @@ impl<'a> Loop<'a> {
             n_eff,
             yty_train,
             base_rss: Default::default(),
+            targets: Default::default(),
+            mass_floor_kg: if experiment == Experiment::Dynamic {
+                model
+                    .cartesian_mass(p.alpha0_rad)
+                    .map(|m| [m.0[0][0], m.0[1][1]].map(|v| v.max(0.0) * settings.mass_floor_share))
+                    .unwrap_or([0.0; 2])
+            } else {
+                [0.0; 2]
+            },
             base_variants,
             p,
             model,
@@ -327,7 +363,6 @@ impl<'a> Loop<'a> {
             Experiment::Step => self.fit_step(effects),
         }
     }
-
 }
 
 pub(crate) fn correlation(a: &[f64], b: &[f64]) -> f64 {

@@ -4,7 +4,6 @@
 use super::*;
 
 impl<'a> Loop<'a> {
-
     /// Axes scored in a step trial: those whose reference steps in the held-out part (the
     /// NRMSE of an axis that only holds still measures noise), else those that step at all.
     #[allow(dead_code)]
@@ -113,4 +112,5 @@ impl<'a> Loop<'a> {
             split: p.split,
             warnings: Vec::new(),
         }
-    }}
+    }
+}

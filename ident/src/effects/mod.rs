@@ -238,7 +238,8 @@ impl Shape {
 #[derive(Clone, Debug, Default)]
 pub struct DynTerm {
     pub columns: Vec<Column>,
-    /// The base regressors are taken this much earlier (force lagging motion), seconds.
+    /// The force is sampled this much later than the motion (a sensor-sync delay), seconds:
+    /// the fit's target is shifted by it in whole samples.
     pub base_delay_s: f64,
     /// Indices (into `columns`) of parameters that are physically ≥ 0 (dissipation, a
     /// friction force): a sign-flipped fit of one effect must not pass for another.

@@ -28,12 +28,15 @@ impl ModelEffect for TransportDelay {
     fn applies(&self, _e: Experiment) -> bool {
         true
     }
-    fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
-        // 10 ms steps up to 150 ms; delays that are not whole samples are interpolated
-        let step: f64 = 0.01;
-        let count = (0.15 / step).round() as usize;
-        (1..=count)
-            .map(|k| Shape(vec![("delay_s", k as f64 * step)]))
+    fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
+        // whole samples (a delay shifts the measured force), every 2 ms or every sample
+        // when sampling is slower, up to 150 ms
+        let dt = ctx.p.dt_s;
+        let every = (0.002 / dt).round().max(1.0);
+        (1..)
+            .map(|k| k as f64 * every * dt)
+            .take_while(|d| *d <= 0.15 + 1e-9)
+            .map(|d| Shape(vec![("delay_s", d)]))
             .collect()
     }
     fn dynamic_term(&self, _ctx: &DynCtx, shape: &Shape) -> DynTerm {
