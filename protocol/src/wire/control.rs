@@ -137,8 +137,9 @@ impl PartialEq<pam_control::State> for State {
 /// `map` are arrays, converted element by element). A field missing from the list or
 /// from either struct does not compile.
 macro_rules! same_fields {
-    ($from:ty => $to:ty { $($f:ident),* $(,)? $(; map $($m:ident),* $(,)?)? }) => {
+    ($(#[$a:meta])* $from:ty => $to:ty { $($f:ident),* $(,)? $(; map $($m:ident),* $(,)?)? }) => {
         impl From<$from> for $to {
+            $(#[$a])*
             fn from(v: $from) -> Self {
                 Self {
                     $($f: v.$f.into(),)*

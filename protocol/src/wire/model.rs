@@ -100,9 +100,9 @@ wire_struct! {
 
 /// Both directions of [`same_fields!`].
 macro_rules! both_ways {
-    ($domain:ty, $wire:ty { $($f:ident),* $(,)? $(; map $($m:ident),* $(,)?)? }) => {
-        same_fields!($domain => $wire { $($f),* $(; map $($m),*)? });
-        same_fields!($wire => $domain { $($f),* $(; map $($m),*)? });
+    ($(#[$a:meta])* $domain:ty, $wire:ty { $($f:ident),* $(,)? $(; map $($m:ident),* $(,)?)? }) => {
+        same_fields!($(#[$a])* $domain => $wire { $($f),* $(; map $($m),*)? });
+        same_fields!($(#[$a])* $wire => $domain { $($f),* $(; map $($m),*)? });
     };
 }
 
@@ -158,6 +158,7 @@ both_ways!(
         segment,
     }
 );
-both_ways!(pam_model::RobotParams<f32>, RobotParams {
+// one copy each way in the firmware (the handshake's hash, GetConfig and SetConfig share it)
+both_ways!(#[inline(never)] pam_model::RobotParams<f32>, RobotParams {
     muscle, pressure, ip, load_cell, gain_plane; map joints
 });
