@@ -300,7 +300,10 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
     let reply = |result| DeviceMessage::Reply(Reply { id: 300, result });
     let [_, _, _, force] = modes();
     let mut v = vec![
+        // 00 Reply, ac 02 id 300, 00 Ok, 00 Done
         (reply(Ok(ReplyData::Done)), "00 ac 02 00 00"),
+        // … 01 Hello: 02 protocol_version, 84 86 88 08 schema_fingerprint 0x01020304,
+        // 01 02 ac 02 firmware 1.2.300, e8 07 period_us 1000, ef fd b6 f5 0d params_hash
         (
             reply(Ok(ReplyData::Hello(DeviceInfo {
                 protocol_version: 2,
@@ -315,6 +318,8 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
             }))),
             "00 ac 02 00 01 02 84 86 88 08 01 02 ac 02 e8 07 ef fd b6 f5 0d",
         ),
+        // … 02 Status: 02 Faulted, 03 Force {4 × f32, 01 feed_forward}, 80 03 faults
+        // 0x180, 01 homed, e8 07 period_us, 0a divider
         (
             reply(Ok(ReplyData::Status(Status {
                 state: wire::State::Faulted,
@@ -327,6 +332,8 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
             "00 ac 02 00 02 02 03 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01 \
             80 03 01 e8 07 0a",
         ),
+        // … 03 Config, 00 Robot: joint 1 (7 × f32, 01 00 channels, 3 × f32 segment),
+        // joint 2 (… 02 03 …), muscle, pressure, ip, load cell (1.0 … 5.0), gain plane
         (
             reply(Ok(ReplyData::Config(Config::Robot(robot_params())))),
             "00 ac 02 00 03 00 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 \
@@ -351,6 +358,9 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
             "00 ac 02 00 03 02 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 \
             a0 40 00 00 c0 40 00 00 e0 40 ac 02 00 00 10 41 00 00 20 41 00 00 30 41",
         ),
+        // 01 Telemetry: ac 02 seq 300, c0 84 3d time_us 10⁶, α and force (4 × f32), 00 no
+        // force reference, currents and pressures (8 × f32), 04 ForceFeedForward, 01 Armed,
+        // 82 02 faults 0x102, 81 limited (a raw byte), 0c exec 12 µs, c8 01 jitter 200 µs
         (
             DeviceMessage::Telemetry(telemetry(None)),
             "01 ac 02 c0 84 3d 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 \

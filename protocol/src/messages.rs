@@ -7,8 +7,9 @@
 //! Compatibility rules, in every protocol version: `RequestBody::Hello` is variant 0 with
 //! a single `u16`, so that a host can always ask any device for its version; and its reply
 //! (`DeviceMessage::Reply` variant 0, `Ok`, `ReplyData::Hello` variant 1) carries a
-//! [`DeviceInfo`] that starts with `protocol_version` then `schema_fingerprint`, so that the
-//! host can read both whatever else differs.
+//! [`DeviceInfo`] that starts with `protocol_version` then `schema_fingerprint`. A device of
+//! another version refuses the `Hello` (`UnsupportedVersion`); one of the same version but
+//! another build is told apart by the fingerprint.
 
 use crate::wire;
 use crate::wire::schema::{fnv_u32, wire_enum, wire_struct, Schema, FNV_OFFSET};
