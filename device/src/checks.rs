@@ -176,9 +176,12 @@ pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
     refused(&mut d, RequestBody::Arm, ErrorCode::WrongState)?;
     done(
         &mut d,
-        RequestBody::SetMode(Mode::Pressures {
-            pressure_bar: [2.0; 4],
-        }),
+        RequestBody::SetMode(
+            Mode::Pressures {
+                pressure_bar: [2.0; 4],
+            }
+            .into(),
+        ),
     )?;
     let out = steps_alive(&mut d, 50, 1);
     holds("pressurised", out.current_ma.iter().all(|&i| i > 9.0))?;
@@ -236,7 +239,7 @@ fn unreachable_telemetry() -> Telemetry {
         current_ma: [f32::NAN; 4],
         pressure_cmd_bar: [f32::NAN; 4],
         mode: ModeKind::Idle,
-        state: State::Faulted,
+        state: State::Faulted.into(),
         faults: u16::MAX,
         limited: 0,
         loop_exec_us: 0,
@@ -342,7 +345,7 @@ pub fn out_of_range_mode_is_refused_and_nothing_changes() -> CheckResult {
     let good = Mode::Pressures {
         pressure_bar: [1.0, 2.0, 3.0, 2.5],
     };
-    done(&mut d, RequestBody::SetMode(good))?;
+    done(&mut d, RequestBody::SetMode(good.into()))?;
     for bad in [
         Mode::Pressures {
             pressure_bar: [1.0, 2.0, 5.5, 2.5],
@@ -361,7 +364,11 @@ pub fn out_of_range_mode_is_refused_and_nothing_changes() -> CheckResult {
             feed_forward: false,
         },
     ] {
-        refused(&mut d, RequestBody::SetMode(bad), ErrorCode::OutOfRange)?;
+        refused(
+            &mut d,
+            RequestBody::SetMode(bad.into()),
+            ErrorCode::OutOfRange,
+        )?;
     }
     holds("mode unchanged", d.controller().mode() == good)?;
     holds("still armed", d.controller().state() == State::Armed)
@@ -371,9 +378,12 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
     let mut d = armed_device()?;
     done(
         &mut d,
-        RequestBody::SetMode(Mode::Pressures {
-            pressure_bar: [1.0, 2.0, 3.0, 2.5],
-        }),
+        RequestBody::SetMode(
+            Mode::Pressures {
+                pressure_bar: [1.0, 2.0, 3.0, 2.5],
+            }
+            .into(),
+        ),
     )?;
     let out = steps_alive(&mut d, 200, 1);
     let t = out.telemetry.unwrap_or_else(unreachable_telemetry);
@@ -392,11 +402,14 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
 
     done(
         &mut d,
-        RequestBody::SetMode(Mode::Joint {
-            alpha_rad: [0.0, 0.0],
-            torque_nm: [0.0, 0.0],
-            stiffness_nm_per_rad: [60.0, 27.0],
-        }),
+        RequestBody::SetMode(
+            Mode::Joint {
+                alpha_rad: [0.0, 0.0],
+                torque_nm: [0.0, 0.0],
+                stiffness_nm_per_rad: [60.0, 27.0],
+            }
+            .into(),
+        ),
     )?;
     let t = steps_alive(&mut d, 200, 300)
         .telemetry
@@ -413,11 +426,14 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
     let force = [9.1, -4.0];
     done(
         &mut d,
-        RequestBody::SetMode(Mode::Force {
-            force_n: force,
-            stiffness_nm_per_rad: [60.0, 27.0],
-            feed_forward: true,
-        }),
+        RequestBody::SetMode(
+            Mode::Force {
+                force_n: force,
+                stiffness_nm_per_rad: [60.0, 27.0],
+                feed_forward: true,
+            }
+            .into(),
+        ),
     )?;
     let t = steps_alive(&mut d, 200, 600)
         .telemetry
@@ -434,11 +450,12 @@ pub fn get_config_returns_every_section() -> CheckResult {
     let mut d = device();
     holds(
         "robot",
-        config(&mut d, ConfigSection::Robot)? == Config::Robot(RobotParams::thesis()),
+        config(&mut d, ConfigSection::Robot)? == Config::Robot(RobotParams::thesis().into()),
     )?;
     holds(
         "limits",
-        config(&mut d, ConfigSection::Limits)? == Config::Limits(SafetyConfig::default_1khz()),
+        config(&mut d, ConfigSection::Limits)?
+            == Config::Limits(SafetyConfig::default_1khz().into()),
     )?;
     holds(
         "calibration",
@@ -462,14 +479,14 @@ pub fn invalid_robot_parameters_are_refused_and_nothing_changes() -> CheckResult
     for p in [over_pressure, nan, bad_map, bad_cell] {
         refused(
             &mut d,
-            RequestBody::SetConfig(Config::Robot(p)),
+            RequestBody::SetConfig(Config::Robot(p.into())),
             ErrorCode::OutOfRange,
         )?;
     }
     holds("unchanged", config(&mut d, ConfigSection::Robot)? == before)?;
     let mut good = thesis;
     good.joints[0].pulley_radius_m = 0.072;
-    done(&mut d, RequestBody::SetConfig(Config::Robot(good)))?;
+    done(&mut d, RequestBody::SetConfig(Config::Robot(good.into())))?;
     holds(
         "applied",
         d.controller().model().params.joints[0].pulley_radius_m == 0.072,
@@ -478,7 +495,7 @@ pub fn invalid_robot_parameters_are_refused_and_nothing_changes() -> CheckResult
     done(&mut d, RequestBody::Arm)?;
     refused(
         &mut d,
-        RequestBody::SetConfig(Config::Robot(thesis)),
+        RequestBody::SetConfig(Config::Robot(thesis.into())),
         ErrorCode::WrongState,
     )
 }
@@ -528,31 +545,37 @@ pub fn limits_are_validated_and_the_period_is_fixed_while_armed() -> CheckResult
     slow.period_s = 0.020;
     refused(
         &mut d,
-        RequestBody::SetConfig(Config::Limits(slow)),
+        RequestBody::SetConfig(Config::Limits(slow.into())),
         ErrorCode::OutOfRange,
     )?;
     let mut no_timeout = SafetyConfig::default_1khz();
     no_timeout.command_timeout_s = f32::NAN;
     refused(
         &mut d,
-        RequestBody::SetConfig(Config::Limits(no_timeout)),
+        RequestBody::SetConfig(Config::Limits(no_timeout.into())),
         ErrorCode::OutOfRange,
     )?;
     holds("period unchanged", d.period_us() == 1000)?;
     let mut two_ms = SafetyConfig::default_1khz();
     two_ms.period_s = 0.002;
-    done(&mut d, RequestBody::SetConfig(Config::Limits(two_ms)))?;
+    done(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(two_ms.into())),
+    )?;
     holds("period 2 ms", d.period_us() == 2000)?;
     done(&mut d, RequestBody::Home)?;
     done(&mut d, RequestBody::Arm)?;
     refused(
         &mut d,
-        RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz())),
+        RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz().into())),
         ErrorCode::WrongState,
     )?;
     let mut slower_slew = two_ms;
     slower_slew.slew_bar_per_s = 20.0;
-    done(&mut d, RequestBody::SetConfig(Config::Limits(slower_slew)))
+    done(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(slower_slew.into())),
+    )
 }
 
 pub fn telemetry_divider_and_sequence() -> CheckResult {
@@ -713,7 +736,9 @@ pub fn requests_survive_the_wire() -> CheckResult {
         "robot parameters came back",
         got == Some(DeviceMessage::Reply(Reply {
             id: 9,
-            result: Ok(ReplyData::Config(Config::Robot(RobotParams::thesis()))),
+            result: Ok(ReplyData::Config(Config::Robot(
+                RobotParams::thesis().into(),
+            ))),
         })),
     )
 }

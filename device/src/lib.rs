@@ -43,7 +43,7 @@ use pam_model::{Real, RobotModel, RobotParams};
 use pam_protocol::{
     Calibration, Config, ConfigSection, DecodeError, DeviceInfo, EncoderCalibration, ErrorCode,
     FaultEvent, ModeKind, OutputCalibration, Reply, ReplyData, Request, RequestBody, Status,
-    Telemetry, Version, LIMITED_OUTPUT, PROTOCOL_VERSION, UNKNOWN_REQUEST_ID,
+    Telemetry, Version, LIMITED_OUTPUT, PROTOCOL_VERSION, SCHEMA_FINGERPRINT, UNKNOWN_REQUEST_ID,
 };
 
 /// One period's raw readings, as the peripherals give them.
@@ -154,7 +154,7 @@ impl Device {
     pub fn calibration(&self) -> Calibration {
         Calibration {
             encoder: self.encoders.calibration(),
-            load_cell: self.controller.model().params.load_cell,
+            load_cell: self.controller.model().params.load_cell.into(),
             output: self.output_calibration,
         }
     }
@@ -209,7 +209,7 @@ impl Device {
                     current_ma: out.current_ma,
                     pressure_cmd_bar: out.pressure_bar,
                     mode: ModeKind::of(&mode),
-                    state: out.state,
+                    state: out.state.into(),
                     faults: out.faults.0,
                     limited: (out.limited.0 & !LIMITED_OUTPUT)
                         | if out.output_limited {
@@ -270,6 +270,7 @@ impl Device {
                 }
                 Ok(ReplyData::Hello(DeviceInfo {
                     protocol_version: PROTOCOL_VERSION,
+                    schema_fingerprint: SCHEMA_FINGERPRINT,
                     firmware_version: self.options.firmware_version,
                     period_us: self.period_us(),
                     params_hash: pam_protocol::params_hash(&self.controller.model().params),
@@ -314,21 +315,21 @@ impl Device {
                 DONE
             }
             RequestBody::GetStatus => Ok(ReplyData::Status(Status {
-                state: self.controller.state(),
-                mode: self.controller.mode(),
+                state: self.controller.state().into(),
+                mode: self.controller.mode().into(),
                 faults: self.controller.faults().0,
                 homed: self.encoders.homed(),
                 period_us: self.period_us(),
                 telemetry_divider: self.telemetry_divider,
             })),
             RequestBody::SetMode(mode) => {
-                self.controller.set_mode(mode).map_err(error_code)?;
+                self.controller.set_mode(mode.into()).map_err(error_code)?;
                 DONE
             }
             RequestBody::GetConfig(section) => Ok(ReplyData::Config(match section {
-                ConfigSection::Robot => Config::Robot(self.controller.model().params),
+                ConfigSection::Robot => Config::Robot(self.controller.model().params.into()),
                 ConfigSection::Calibration => Config::Calibration(self.calibration()),
-                ConfigSection::Limits => Config::Limits(*self.controller.safety()),
+                ConfigSection::Limits => Config::Limits((*self.controller.safety()).into()),
             })),
             RequestBody::SetConfig(config) => {
                 self.set_config(&config, armed)?;
@@ -348,9 +349,10 @@ impl Device {
                 if armed {
                     return Err(ErrorCode::WrongState);
                 }
-                validate::robot_params(params)?;
+                let params = RobotParams::<f32>::from(*params);
+                validate::robot_params(&params)?;
                 self.controller
-                    .set_model(RobotModel::new(*params))
+                    .set_model(RobotModel::new(params))
                     .map_err(error_code)?;
                 // a new geometry may move the angle limits: start the jump check afresh
                 self.controller.reset_angle_history().map_err(error_code)
@@ -361,15 +363,16 @@ impl Device {
                 }
                 validate::calibration(cal)?;
                 self.encoders.set_calibration(cal.encoder);
-                self.controller.set_load_cell(cal.load_cell);
+                self.controller.set_load_cell(cal.load_cell.into());
                 self.output_calibration = cal.output;
                 self.controller.reset_angle_history().map_err(error_code)
             }
             Config::Limits(safety) => {
+                let safety = SafetyConfig::from(*safety);
                 if armed && safety.period_s != self.controller.safety().period_s {
                     return Err(ErrorCode::WrongState);
                 }
-                self.controller.set_safety(*safety).map_err(error_code)
+                self.controller.set_safety(safety).map_err(error_code)
             }
         }
     }

@@ -81,7 +81,7 @@ pub fn calibration(c: &Calibration) -> Result<(), ErrorCode> {
     for e in &c.encoder {
         ok_if((16..=1 << 24).contains(&e.counts_per_rev) && (e.sign == 1 || e.sign == -1))?;
     }
-    load_cell(&c.load_cell)?;
+    load_cell(&c.load_cell.into())?;
     for o in &c.output {
         ok_if(in_range(o.gain, 0.5, 1.5) && in_range(o.offset_ma, -2.0, 2.0))?;
     }

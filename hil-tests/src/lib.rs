@@ -137,7 +137,7 @@ impl Target {
             .expect("telemetry at every period");
         // on a real board the arm must be at the neutral pose when the tests start
         c.command(RequestBody::Home).expect("home");
-        limits
+        limits.into()
     }
 }
 

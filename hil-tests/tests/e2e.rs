@@ -237,9 +237,12 @@ fn silent_host_brings_the_device_to_its_safe_state_within_the_timeout() {
     let (vent, vent_ma) = pam_hil_tests::vent(&c);
     c.command(RequestBody::Arm).expect("arm");
     let p_set = 2.5f32;
-    c.command(RequestBody::SetMode(Mode::Pressures {
-        pressure_bar: [p_set; 4],
-    }))
+    c.command(RequestBody::SetMode(
+        Mode::Pressures {
+            pressure_bar: [p_set; 4],
+        }
+        .into(),
+    ))
     .expect("pressures");
     c.start_telemetry();
     wait_for(&c, Duration::from_secs(2), true, |t| {
@@ -321,7 +324,8 @@ fn out_of_range_target_is_refused_and_the_state_is_unchanged() {
         torque_nm: [0.0; 2],
         stiffness_nm_per_rad: [60.0, 27.0],
     };
-    c.command(RequestBody::SetMode(joint)).expect("joint");
+    c.command(RequestBody::SetMode(joint.into()))
+        .expect("joint");
     let before = status(&c);
     for bad in [
         Mode::Pressures {
@@ -341,7 +345,7 @@ fn out_of_range_target_is_refused_and_the_state_is_unchanged() {
             feed_forward: false,
         },
     ] {
-        match c.request(RequestBody::SetMode(bad)) {
+        match c.request(RequestBody::SetMode(bad.into())) {
             Err(ClientError::Refused {
                 code: ErrorCode::OutOfRange,
                 ..
@@ -352,7 +356,7 @@ fn out_of_range_target_is_refused_and_the_state_is_unchanged() {
     }
     c.start_telemetry();
     let t = wait_for(&c, Duration::from_secs(1), true, |_| true);
-    assert_eq!((t.mode, t.state), (ModeKind::Joint, State::Armed));
+    assert_eq!((t.mode, t.state), (ModeKind::Joint, State::Armed.into()));
     drop(c);
 
     // the same through the command line: a clear error, non-zero exit, nothing changed
@@ -377,16 +381,20 @@ fn corrupted_frame_is_rejected_and_the_link_recovers() {
     target.prepare(1.0);
     let c = target.client();
     c.command(RequestBody::Arm).expect("arm");
-    c.command(RequestBody::SetMode(Mode::Idle)).expect("idle");
+    c.command(RequestBody::SetMode(Mode::Idle.into()))
+        .expect("idle");
     let before = status(&c);
 
     // a valid pressures request with one byte flipped in flight
     let mut frame = [0u8; MAX_FRAME];
     let request = Request {
         id: 999,
-        body: RequestBody::SetMode(Mode::Pressures {
-            pressure_bar: [3.0; 4],
-        }),
+        body: RequestBody::SetMode(
+            Mode::Pressures {
+                pressure_bar: [3.0; 4],
+            }
+            .into(),
+        ),
     };
     let n = encode_frame(&request, &mut frame).unwrap();
     frame[n / 2] ^= 0x40;

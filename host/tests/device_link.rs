@@ -4,7 +4,7 @@
 mod support;
 
 use pam_protocol::{ErrorCode, ReplyData, RequestBody};
-use pamctl::link::{Client, DropCounter};
+use pamctl::link::{Client, ClientError, DropCounter};
 use std::process::{Command, Output};
 use std::time::Duration;
 use support::{Options, TestDevice};
@@ -47,7 +47,7 @@ fn tmp(name: &str) -> std::path::PathBuf {
 fn status_of_a_fresh_device() {
     let d = TestDevice::start(Options::default());
     let out = ok(&d.address, &["status"]);
-    assert!(out.contains("device: firmware 0.9.1, protocol 1"), "{out}");
+    assert!(out.contains("device: firmware 0.9.1, protocol 2"), "{out}");
     assert!(out.contains("state: disarmed"), "{out}");
     assert!(out.contains("mode: idle"), "{out}");
     assert!(out.contains("faults: none"), "{out}");
@@ -104,8 +104,43 @@ fn protocol_version_mismatch_is_explained() {
     });
     let err = fails(&d.address, &["status"]);
     assert!(
-        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 1"),
+        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 2"),
         "{err}"
+    );
+}
+
+#[test]
+fn schema_fingerprint_mismatch_is_refused_and_explained() {
+    // same protocol version, other wire types: the device (pam-device, the firmware's own
+    // service) reports another build's fingerprint in its Hello
+    let d = TestDevice::start(Options {
+        other_fingerprint: true,
+        ..Options::default()
+    });
+    let ours = format!("{:#010x}", pam_protocol::SCHEMA_FINGERPRINT);
+    let theirs = format!("{:#010x}", support::OTHER_FINGERPRINT);
+    let err = fails(&d.address, &["status"]);
+    assert!(err.contains("wire format mismatch"), "{err}");
+    assert!(err.contains(&ours) && err.contains(&theirs), "{err}");
+    assert!(
+        err.contains("flash the firmware") && err.contains("update pamctl"),
+        "{err}"
+    );
+    // the link client refuses it with a typed error, before any other request
+    match Client::connect(&d.address, Duration::from_secs(2)) {
+        Err(ClientError::Fingerprint { host, device }) => {
+            assert_eq!(host, pam_protocol::SCHEMA_FINGERPRINT);
+            assert_eq!(device, support::OTHER_FINGERPRINT);
+        }
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("a device with another schema fingerprint was accepted"),
+    }
+    // the same device with the matching fingerprint is accepted
+    let good = TestDevice::start(Options::default());
+    let c = Client::connect(&good.address, Duration::from_secs(2)).expect("connects");
+    assert_eq!(
+        c.info().schema_fingerprint,
+        pam_protocol::SCHEMA_FINGERPRINT
     );
 }
 

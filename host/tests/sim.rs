@@ -61,9 +61,12 @@ fn unequal_pressures_turn_the_twin_and_the_encoders_see_it() {
     );
     // joint 1's pair (channels 0, 1): one muscle at 3 bar, the other vented. The free arm
     // swings (the twin's arm is lightly damped): look at the largest excursion.
-    c.command(RequestBody::SetMode(Mode::Pressures {
-        pressure_bar: [3.0, 0.1, 1.5, 1.5],
-    }))
+    c.command(RequestBody::SetMode(
+        Mode::Pressures {
+            pressure_bar: [3.0, 0.1, 1.5, 1.5],
+        }
+        .into(),
+    ))
     .unwrap();
     c.start_telemetry();
     let start = Instant::now();
@@ -126,11 +129,14 @@ fn blocked_handle_in_force_mode_measures_the_commanded_force() {
     let c = connect(&address);
     c.command(RequestBody::Home).unwrap();
     c.command(RequestBody::Arm).unwrap();
-    c.command(RequestBody::SetMode(Mode::Force {
-        force_n: [0.0, -8.0],
-        stiffness_nm_per_rad: [60.0, 27.0],
-        feed_forward: false,
-    }))
+    c.command(RequestBody::SetMode(
+        Mode::Force {
+            force_n: [0.0, -8.0],
+            stiffness_nm_per_rad: [60.0, 27.0],
+            feed_forward: false,
+        }
+        .into(),
+    ))
     .unwrap();
     let t = run(&c, 0.8);
     assert!(

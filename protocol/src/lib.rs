@@ -2,7 +2,10 @@
 //! ends, so the wire format has exactly one definition.
 //!
 //! - [`messages`]: requests (host → device), replies, telemetry and fault events
-//!   (device → host), [`PROTOCOL_VERSION`].
+//!   (device → host), [`PROTOCOL_VERSION`], [`SCHEMA_FINGERPRINT`].
+//! - [`wire`]: the protocol's own forms of the domain values it carries (mode, state,
+//!   limits, robot parameters), with `From` conversions to and from pam-model's and
+//!   pam-control's types, and the compile-time schema fingerprint.
 //! - [`frame`]: `COBS(postcard(message) ‖ CRC-16/CCITT-FALSE) ‖ 0x00` framing and the
 //!   streaming [`FrameDecoder`], which resynchronises at the next 0x00 after any garbage.
 //!
@@ -14,6 +17,7 @@ pub mod cobs;
 pub mod crc;
 pub mod frame;
 pub mod messages;
+pub mod wire;
 
 pub use frame::{
     decode_block, encode_frame, DecodeError, EncodeError, FrameDecoder, MAX_FRAME, MAX_PAYLOAD,
@@ -31,11 +35,11 @@ pub const USB_PID: u16 = 0x0001;
 /// `telemetry_frame_size` test.
 pub const TELEMETRY_FRAME_MAX: usize = 84;
 
-/// A 32-bit fingerprint (FNV-1a over the postcard encoding) of a parameter set, so the
-/// host can tell whether the device runs the parameters it expects.
+/// A 32-bit fingerprint (FNV-1a over the postcard encoding of its wire form) of a
+/// parameter set, so the host can tell whether the device runs the parameters it expects.
 pub fn params_hash(params: &pam_model::RobotParams<f32>) -> u32 {
     let mut buf = [0u8; MAX_PAYLOAD];
-    let bytes: &[u8] = match postcard::to_slice(params, &mut buf) {
+    let bytes: &[u8] = match postcard::to_slice(&wire::RobotParams::from(*params), &mut buf) {
         Ok(b) => b,
         Err(_) => &[],
     };
@@ -47,5 +51,7 @@ pub fn params_hash(params: &pam_model::RobotParams<f32>) -> u32 {
     h
 }
 
+#[cfg(test)]
+mod golden;
 #[cfg(test)]
 mod tests;

@@ -1,16 +1,35 @@
 //! The messages. Every type here is fixed-size (no heap) and serialized with postcard:
-//! integers as varints, f32 as 4 little-endian bytes, enums as a varint tag.
+//! integers as varints, f32 as 4 little-endian bytes, enums as a varint tag. Payloads that
+//! carry a domain value use the protocol's own types from [`crate::wire`], and every type
+//! is declared through `wire_struct!`/`wire_enum!` so that it enters the
+//! [`SCHEMA_FINGERPRINT`].
 //!
-//! Compatibility rule: `RequestBody::Hello` is variant 0 with a single `u16` and stays so
-//! in every protocol version, so that a host can always ask any device for its version.
+//! Compatibility rules, in every protocol version: `RequestBody::Hello` is variant 0 with
+//! a single `u16`, so that a host can always ask any device for its version; and its reply
+//! (`DeviceMessage::Reply` variant 0, `Ok`, `ReplyData::Hello` variant 1) carries a
+//! [`DeviceInfo`] that starts with `protocol_version` then `schema_fingerprint`. A device of
+//! another version refuses the `Hello` (`UnsupportedVersion`); one of the same version but
+//! another build is told apart by the fingerprint.
 
-use pam_control::{Mode, SafetyConfig, State};
-use pam_model::params::LoadCell;
-use pam_model::RobotParams;
+use crate::wire;
+use crate::wire::schema::{fnv_u32, wire_enum, wire_struct, Schema, FNV_OFFSET};
 use serde::{Deserialize, Serialize};
 
 /// Version of everything in this module. Bump on any change of the wire format.
-pub const PROTOCOL_VERSION: u16 = 1;
+/// 2: the protocol's own wire types, `DeviceInfo::schema_fingerprint`.
+pub const PROTOCOL_VERSION: u16 = 2;
+
+/// Fingerprint of the wire format: FNV-1a over [`PROTOCOL_VERSION`] and the shape of
+/// [`Request`] and [`DeviceMessage`] (every type they contain, see [`crate::wire::schema`]),
+/// computed at compile time. The device reports it in [`DeviceInfo`]; the host refuses a
+/// device whose fingerprint differs from its own.
+pub const SCHEMA_FINGERPRINT: u32 = fnv_u32(
+    fnv_u32(
+        fnv_u32(FNV_OFFSET, PROTOCOL_VERSION as u32),
+        Request::SCHEMA_HASH,
+    ),
+    DeviceMessage::SCHEMA_HASH,
+);
 
 pub type RequestId = u16;
 
@@ -18,83 +37,97 @@ pub type RequestId = u16;
 /// (corrupted frame). Hosts number their requests from 1.
 pub const UNKNOWN_REQUEST_ID: RequestId = 0;
 
-/// Host → device.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Request {
-    pub id: RequestId,
-    pub body: RequestBody,
+wire_struct! {
+    /// Host → device.
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct Request {
+        pub id: RequestId,
+        pub body: RequestBody,
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum RequestBody {
-    /// Handshake: the device answers with [`ReplyData::Hello`], or
-    /// [`ErrorCode::UnsupportedVersion`] if it does not speak `protocol_version`.
-    Hello {
-        protocol_version: u16,
-    },
-    /// Keep-alive. Every valid request counts as one; this one does nothing else.
-    Heartbeat,
-    Arm,
-    Disarm,
-    /// The present encoder position becomes α = 0 (neutral pose). Not while armed.
-    Home,
-    /// The present load-cell reading becomes zero force. Not while armed.
-    Tare,
-    /// Clears latched faults (refused while a fault condition persists).
-    ClearFaults,
-    GetStatus,
-    /// Mode and targets; values beyond the absolute limits are refused, values the robot
-    /// cannot reach at the pose are clamped and flagged in telemetry.
-    SetMode(Mode),
-    GetConfig(ConfigSection),
-    /// Replaces one configuration section. Invalid → error reply, nothing changed.
-    SetConfig(Config),
-    /// Telemetry every `divider` control periods (1 = every period); 0 stops it.
-    SetTelemetry {
-        divider: u16,
-    },
+wire_enum! {
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub enum RequestBody {
+        /// Handshake: the device answers with [`ReplyData::Hello`], or
+        /// [`ErrorCode::UnsupportedVersion`] if it does not speak `protocol_version`.
+        Hello {
+            protocol_version: u16,
+        },
+        /// Keep-alive. Every valid request counts as one; this one does nothing else.
+        Heartbeat,
+        Arm,
+        Disarm,
+        /// The present encoder position becomes α = 0 (neutral pose). Not while armed.
+        Home,
+        /// The present load-cell reading becomes zero force. Not while armed.
+        Tare,
+        /// Clears latched faults (refused while a fault condition persists).
+        ClearFaults,
+        GetStatus,
+        /// Mode and targets; values beyond the absolute limits are refused, values the robot
+        /// cannot reach at the pose are clamped and flagged in telemetry.
+        SetMode(wire::Mode),
+        GetConfig(ConfigSection),
+        /// Replaces one configuration section. Invalid → error reply, nothing changed.
+        SetConfig(Config),
+        /// Telemetry every `divider` control periods (1 = every period); 0 stops it.
+        SetTelemetry {
+            divider: u16,
+        },
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ConfigSection {
-    Robot,
-    Calibration,
-    Limits,
+wire_enum! {
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub enum ConfigSection {
+        Robot,
+        Calibration,
+        Limits,
+    }
 }
 
-/// One configuration section.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Config {
-    /// Every model parameter (geometry, muscles, I/P law, load cell, gain plane).
-    Robot(RobotParams<f32>),
-    Calibration(Calibration),
-    /// Safety limits; `period_s` is the control period (1–10 ms).
-    Limits(SafetyConfig),
+wire_enum! {
+    /// One configuration section.
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub enum Config {
+        /// Every model parameter (geometry, muscles, I/P law, load cell, gain plane).
+        Robot(wire::RobotParams),
+        Calibration(Calibration),
+        /// Safety limits; `period_s` is the control period (1–10 ms).
+        Limits(wire::SafetyConfig),
+    }
 }
 
-/// Sensor and output calibration of the rig.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Calibration {
-    pub encoder: [EncoderCalibration; 2],
-    /// Per-channel volts → newtons. The same storage as `RobotParams::load_cell`.
-    pub load_cell: LoadCell<f32>,
-    pub output: [OutputCalibration; 4],
+wire_struct! {
+    /// Sensor and output calibration of the rig.
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct Calibration {
+        pub encoder: [EncoderCalibration; 2],
+        /// Per-channel volts → newtons. The same storage as `RobotParams::load_cell`.
+        pub load_cell: wire::LoadCell,
+        pub output: [OutputCalibration; 4],
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct EncoderCalibration {
-    /// Counts per joint revolution (quadrature edges included).
-    pub counts_per_rev: u32,
-    /// +1 or −1: the direction in which counts grow with α.
-    pub sign: i8,
+wire_struct! {
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct EncoderCalibration {
+        /// Counts per joint revolution (quadrature edges included).
+        pub counts_per_rev: u32,
+        /// +1 or −1: the direction in which counts grow with α.
+        pub sign: i8,
+    }
 }
 
-/// Trim of one 4–20 mA output stage: the stage is asked for `gain · I + offset_ma` so that
-/// it delivers the loop current I.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct OutputCalibration {
-    pub gain: f32,
-    pub offset_ma: f32,
+wire_struct! {
+    /// Trim of one 4–20 mA output stage: the stage is asked for `gain · I + offset_ma` so that
+    /// it delivers the loop current I.
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct OutputCalibration {
+        pub gain: f32,
+        pub offset_ma: f32,
+    }
 }
 
 impl Default for EncoderCalibration {
@@ -116,93 +149,112 @@ impl Default for OutputCalibration {
     }
 }
 
-/// Device → host.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum DeviceMessage {
-    Reply(Reply),
-    Telemetry(Telemetry),
-    FaultEvent(FaultEvent),
+wire_enum! {
+    /// Device → host.
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub enum DeviceMessage {
+        Reply(Reply),
+        Telemetry(Telemetry),
+        FaultEvent(FaultEvent),
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Reply {
-    pub id: RequestId,
-    pub result: Result<ReplyData, ErrorCode>,
+wire_struct! {
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct Reply {
+        pub id: RequestId,
+        pub result: Result<ReplyData, ErrorCode>,
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum ReplyData {
-    /// The request was carried out.
-    Done,
-    Hello(DeviceInfo),
-    Status(Status),
-    Config(Config),
+wire_enum! {
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub enum ReplyData {
+        /// The request was carried out.
+        Done,
+        Hello(DeviceInfo),
+        Status(Status),
+        Config(Config),
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Version {
-    pub major: u16,
-    pub minor: u16,
-    pub patch: u16,
+wire_struct! {
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct Version {
+        pub major: u16,
+        pub minor: u16,
+        pub patch: u16,
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct DeviceInfo {
-    pub protocol_version: u16,
-    pub firmware_version: Version,
-    pub period_us: u32,
-    /// [`crate::params_hash`] of the robot parameters in use.
-    pub params_hash: u32,
+wire_struct! {
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct DeviceInfo {
+        pub protocol_version: u16,
+        /// [`SCHEMA_FINGERPRINT`] of the device's build.
+        pub schema_fingerprint: u32,
+        pub firmware_version: Version,
+        pub period_us: u32,
+        /// [`crate::params_hash`] of the robot parameters in use.
+        pub params_hash: u32,
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Status {
-    pub state: State,
-    pub mode: Mode,
-    pub faults: u16,
-    pub homed: bool,
-    pub period_us: u32,
-    pub telemetry_divider: u16,
+wire_struct! {
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct Status {
+        pub state: wire::State,
+        pub mode: wire::Mode,
+        pub faults: u16,
+        pub homed: bool,
+        pub period_us: u32,
+        pub telemetry_divider: u16,
+    }
 }
 
-/// Why a request was refused. A refused request changes nothing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ErrorCode {
-    /// The frame was corrupted (CRC, COBS) or did not decode as a request.
-    Malformed,
-    /// `Hello` with a protocol version this device does not speak.
-    UnsupportedVersion,
-    /// A value is NaN/∞ or outside its limits.
-    OutOfRange,
-    /// Not allowed in the present state (e.g. arm while faulted, home while armed).
-    WrongState,
-    /// Clear refused: a fault condition is still present.
-    FaultStillPresent,
-    /// Arm refused: the encoders have not been homed.
-    NotHomed,
+wire_enum! {
+    /// Why a request was refused. A refused request changes nothing.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub enum ErrorCode {
+        /// The frame was corrupted (CRC, COBS) or did not decode as a request.
+        Malformed,
+        /// `Hello` with a protocol version this device does not speak.
+        UnsupportedVersion,
+        /// A value is NaN/∞ or outside its limits.
+        OutOfRange,
+        /// Not allowed in the present state (e.g. arm while faulted, home while armed).
+        WrongState,
+        /// Clear refused: a fault condition is still present.
+        FaultStillPresent,
+        /// Arm refused: the encoders have not been homed.
+        NotHomed,
+    }
 }
 
-/// Compact summary of [`Mode`] for telemetry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ModeKind {
-    Idle,
-    Pressures,
-    Joint,
-    Force,
-    ForceFeedForward,
+wire_enum! {
+    /// Compact summary of [`pam_control::Mode`] for telemetry.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub enum ModeKind {
+        Idle,
+        Pressures,
+        Joint,
+        Force,
+        ForceFeedForward,
+    }
 }
 
 impl ModeKind {
-    pub fn of(mode: &Mode) -> ModeKind {
+    pub fn of(mode: &pam_control::Mode) -> ModeKind {
+        use pam_control::Mode as M;
         match mode {
-            Mode::Idle => ModeKind::Idle,
-            Mode::Pressures { .. } => ModeKind::Pressures,
-            Mode::Joint { .. } => ModeKind::Joint,
-            Mode::Force {
+            M::Idle => ModeKind::Idle,
+            M::Pressures { .. } => ModeKind::Pressures,
+            M::Joint { .. } => ModeKind::Joint,
+            M::Force {
                 feed_forward: false,
                 ..
             } => ModeKind::Force,
-            Mode::Force {
+            M::Force {
                 feed_forward: true, ..
             } => ModeKind::ForceFeedForward,
         }
@@ -213,37 +265,41 @@ impl ModeKind {
 /// command; the low bits are the model's `Limited` flags (joint 1 | joint 2).
 pub const LIMITED_OUTPUT: u8 = 0x80;
 
-/// One control-period sample. Encoded size: see [`crate::TELEMETRY_FRAME_MAX`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Telemetry {
-    /// +1 per telemetry frame sent (whatever the divider): a gap is a dropped frame.
-    pub seq: u32,
-    /// Device time at the sample, µs (wraps after 71 min; the host unwraps it).
-    pub time_us: u32,
-    pub alpha_rad: [f32; 2],
-    /// Force the robot exerts on the handle, user frame.
-    pub force_user_n: [f32; 2],
-    /// The requested force in force mode, `None` otherwise.
-    pub force_ref_n: Option<[f32; 2]>,
-    /// Loop current commanded per output channel.
-    pub current_ma: [f32; 4],
-    /// Pressure commanded per output channel (after limits).
-    pub pressure_cmd_bar: [f32; 4],
-    pub mode: ModeKind,
-    pub state: State,
-    pub faults: u16,
-    pub limited: u8,
-    /// Execution time of the previous control step.
-    pub loop_exec_us: u16,
-    /// |actual − nominal| start time of this period.
-    pub loop_jitter_us: u16,
+wire_struct! {
+    /// One control-period sample. Encoded size: see [`crate::TELEMETRY_FRAME_MAX`].
+    #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+    pub struct Telemetry {
+        /// +1 per telemetry frame sent (whatever the divider): a gap is a dropped frame.
+        pub seq: u32,
+        /// Device time at the sample, µs (wraps after 71 min; the host unwraps it).
+        pub time_us: u32,
+        pub alpha_rad: [f32; 2],
+        /// Force the robot exerts on the handle, user frame.
+        pub force_user_n: [f32; 2],
+        /// The requested force in force mode, `None` otherwise.
+        pub force_ref_n: Option<[f32; 2]>,
+        /// Loop current commanded per output channel.
+        pub current_ma: [f32; 4],
+        /// Pressure commanded per output channel (after limits).
+        pub pressure_cmd_bar: [f32; 4],
+        pub mode: ModeKind,
+        pub state: wire::State,
+        pub faults: u16,
+        pub limited: u8,
+        /// Execution time of the previous control step.
+        pub loop_exec_us: u16,
+        /// |actual − nominal| start time of this period.
+        pub loop_jitter_us: u16,
+    }
 }
 
-/// Sent once when faults latch (new bits appear).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct FaultEvent {
-    /// Bit index of the lowest newly latched fault (see `pam_control::Faults`).
-    pub code: u8,
-    /// Every latched fault bit.
-    pub bits: u16,
+wire_struct! {
+    /// Sent once when faults latch (new bits appear).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct FaultEvent {
+        /// Bit index of the lowest newly latched fault (see `pam_control::Faults`).
+        pub code: u8,
+        /// Every latched fault bit.
+        pub bits: u16,
+    }
 }

@@ -19,7 +19,7 @@ fn feed<T: serde::de::DeserializeOwned>(
 fn calibration() -> Calibration {
     Calibration {
         encoder: [EncoderCalibration::default(); 2],
-        load_cell: RobotParams::<f32>::thesis().load_cell,
+        load_cell: RobotParams::<f32>::thesis().load_cell.into(),
         output: [OutputCalibration::default(); 4],
     }
 }
@@ -36,26 +36,35 @@ fn every_request() -> Vec<Request> {
         RequestBody::Tare,
         RequestBody::ClearFaults,
         RequestBody::GetStatus,
-        RequestBody::SetMode(Mode::Idle),
-        RequestBody::SetMode(Mode::Pressures {
-            pressure_bar: [1.0, 2.0, 3.0, 4.0],
-        }),
-        RequestBody::SetMode(Mode::Joint {
-            alpha_rad: [0.1, -0.2],
-            torque_nm: [5.0, -3.0],
-            stiffness_nm_per_rad: [60.0, 27.0],
-        }),
-        RequestBody::SetMode(Mode::Force {
-            force_n: [9.1, -4.0],
-            stiffness_nm_per_rad: [60.0, 27.0],
-            feed_forward: true,
-        }),
+        RequestBody::SetMode(Mode::Idle.into()),
+        RequestBody::SetMode(
+            Mode::Pressures {
+                pressure_bar: [1.0, 2.0, 3.0, 4.0],
+            }
+            .into(),
+        ),
+        RequestBody::SetMode(
+            Mode::Joint {
+                alpha_rad: [0.1, -0.2],
+                torque_nm: [5.0, -3.0],
+                stiffness_nm_per_rad: [60.0, 27.0],
+            }
+            .into(),
+        ),
+        RequestBody::SetMode(
+            Mode::Force {
+                force_n: [9.1, -4.0],
+                stiffness_nm_per_rad: [60.0, 27.0],
+                feed_forward: true,
+            }
+            .into(),
+        ),
         RequestBody::GetConfig(ConfigSection::Robot),
         RequestBody::GetConfig(ConfigSection::Calibration),
         RequestBody::GetConfig(ConfigSection::Limits),
-        RequestBody::SetConfig(Config::Robot(RobotParams::thesis())),
+        RequestBody::SetConfig(Config::Robot(RobotParams::thesis().into())),
         RequestBody::SetConfig(Config::Calibration(calibration())),
-        RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz())),
+        RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz().into())),
         RequestBody::SetTelemetry { divider: 10 },
     ];
     bodies
@@ -78,7 +87,7 @@ fn telemetry(seq: u32) -> Telemetry {
         current_ma: [8.0, 9.0, 10.0, 11.0],
         pressure_cmd_bar: [1.0, 1.5, 2.0, 2.5],
         mode: ModeKind::ForceFeedForward,
-        state: State::Armed,
+        state: State::Armed.into(),
         faults: 0,
         limited: LIMITED_OUTPUT | 1,
         loop_exec_us: 31,
@@ -88,8 +97,8 @@ fn telemetry(seq: u32) -> Telemetry {
 
 fn every_device_message() -> Vec<DeviceMessage> {
     let status = Status {
-        state: State::Faulted,
-        mode: Mode::Idle,
+        state: State::Faulted.into(),
+        mode: Mode::Idle.into(),
         faults: 0x0102,
         homed: true,
         period_us: 1000,
@@ -97,6 +106,7 @@ fn every_device_message() -> Vec<DeviceMessage> {
     };
     let info = DeviceInfo {
         protocol_version: PROTOCOL_VERSION,
+        schema_fingerprint: SCHEMA_FINGERPRINT,
         firmware_version: Version {
             major: 0,
             minor: 1,
@@ -109,10 +119,12 @@ fn every_device_message() -> Vec<DeviceMessage> {
         Ok(ReplyData::Done),
         Ok(ReplyData::Hello(info)),
         Ok(ReplyData::Status(status)),
-        Ok(ReplyData::Config(Config::Robot(RobotParams::thesis()))),
+        Ok(ReplyData::Config(Config::Robot(
+            RobotParams::thesis().into(),
+        ))),
         Ok(ReplyData::Config(Config::Calibration(calibration()))),
         Ok(ReplyData::Config(Config::Limits(
-            SafetyConfig::default_1khz(),
+            SafetyConfig::default_1khz().into(),
         ))),
         Err(ErrorCode::Malformed),
         Err(ErrorCode::UnsupportedVersion),
@@ -397,7 +409,7 @@ fn same_bits<T: serde::Serialize>(a: &T, b: &T) -> bool {
 proptest! {
     #[test]
     fn any_set_mode_round_trips(id in any::<u16>(), mode in arb_mode()) {
-        let r = Request { id, body: RequestBody::SetMode(mode) };
+        let r = Request { id, body: RequestBody::SetMode(mode.into()) };
         let out = feed(&mut FrameDecoder::<Request>::new(), &frame_of(&r));
         prop_assert_eq!(out.len(), 1);
         let got = out[0].unwrap();
@@ -418,7 +430,7 @@ proptest! {
             force_ref_n: with_ref.then_some([v[10], v[11]]),
             current_ma: [v[4], v[5], v[6], v[7]],
             pressure_cmd_bar: [v[8], v[9], v[0], v[1]],
-            mode: ModeKind::Joint, state: State::Disarmed,
+            mode: ModeKind::Joint, state: State::Disarmed.into(),
             faults, limited, loop_exec_us: exec, loop_jitter_us: jit,
         };
         let m = DeviceMessage::Telemetry(t);

@@ -203,7 +203,8 @@ fn main() -> ! {
         force_n: [9.1, -4.0],
         stiffness_nm_per_rad: [60.0, 27.0],
         feed_forward: true,
-    })));
+    }
+    .into())));
     let mut k = 0u32;
     let step_ticks = ticks(|| {
         for _ in 0..REPS {
@@ -244,7 +245,7 @@ fn main() -> ! {
     let hello = RequestBody::Hello {
         protocol_version: pam_protocol::PROTOCOL_VERSION,
     };
-    let robot = RobotParams::thesis();
+    let robot: pam_protocol::wire::RobotParams = RobotParams::thesis().into();
     let mut hello_ok = true;
     let mut config_ok = true;
     const REQ_REPS: u32 = 20;

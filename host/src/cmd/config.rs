@@ -69,7 +69,7 @@ pub fn fetch(client: &Client, section: Section) -> Result<ConfigFile, String> {
     let want = |s: Section| section == Section::All || section == s;
     if want(Section::Robot) {
         if let Config::Robot(p) = get(client, ConfigSection::Robot)? {
-            f.robot = Some(p);
+            f.robot = Some(p.into());
         }
     }
     if want(Section::Calibration) {
@@ -79,7 +79,7 @@ pub fn fetch(client: &Client, section: Section) -> Result<ConfigFile, String> {
     }
     if want(Section::Limits) {
         if let Config::Limits(l) = get(client, ConfigSection::Limits)? {
-            f.limits = Some(l);
+            f.limits = Some(l.into());
         }
     }
     Ok(f)
@@ -111,10 +111,10 @@ pub fn parse_toml(text: &str, source: &str) -> Result<ConfigFile, String> {
 /// the ones before it are applied).
 pub fn send(client: &Client, f: &ConfigFile, out: &mut dyn Write) -> Result<(), String> {
     let sections = [
-        f.robot.map(|p| ("robot", Config::Robot(p))),
+        f.robot.map(|p| ("robot", Config::Robot(p.into()))),
         f.calibration
             .map(|c| ("calibration", Config::Calibration(c))),
-        f.limits.map(|l| ("limits", Config::Limits(l))),
+        f.limits.map(|l| ("limits", Config::Limits(l.into()))),
     ];
     let mut sent = 0;
     for (name, config) in sections.into_iter().flatten() {

@@ -123,7 +123,7 @@ impl Session<'_> {
     }
 
     fn set_mode(&self, mode: Mode) -> Result<(), String> {
-        self.request(RequestBody::SetMode(mode))
+        self.request(RequestBody::SetMode(mode.into()))
     }
 
     /// Runs the link for `seconds` of host time, writing rows into `trial` if given.
@@ -245,7 +245,9 @@ fn device_model(client: &Client) -> Result<RobotModel<f64>, String> {
         .request(RequestBody::GetConfig(ConfigSection::Robot))
         .map_err(|e| e.to_string())?
     {
-        ReplyData::Config(Config::Robot(p)) => Ok(RobotModel::new(p.cast())),
+        ReplyData::Config(Config::Robot(p)) => Ok(RobotModel::new(
+            pam_model::RobotParams::<f32>::from(p).cast(),
+        )),
         _ => Err("the device answered config get robot with the wrong kind of reply".into()),
     }
 }

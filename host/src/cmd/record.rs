@@ -95,7 +95,7 @@ pub fn row(t: &Telemetry, t_s: f64, with_force_ref: bool) -> Vec<f64> {
     r.extend(t.pressure_cmd_bar.map(f));
     r.extend([
         t.seq as f64,
-        state_code(t.state),
+        state_code(t.state.into()),
         t.faults as f64,
         mode_code(t.mode),
         t.limited as f64,
@@ -188,7 +188,7 @@ pub fn record(
             .map_err(|e| e.to_string())?;
     }
     let divider = status.telemetry_divider.max(1) as u32;
-    let with_force_ref = matches!(status.mode, pam_control::Mode::Force { .. });
+    let with_force_ref = matches!(status.mode, pam_protocol::wire::Mode::Force { .. });
     let info = client.info();
     meta_owned.extend([
         ("device".to_string(), device.to_string()),

@@ -115,7 +115,7 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), St
     let client = super::connect(link)?;
     client.start_telemetry();
     client
-        .command(RequestBody::SetMode(mode))
+        .command(RequestBody::SetMode(mode.into()))
         .map_err(|e| e.to_string())?;
     writeln!(out, "mode set: {}", super::status::describe_mode(&mode))
         .map_err(|e| e.to_string())?;

@@ -95,12 +95,17 @@ pub fn run(link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
     w(
         out,
         format!(
-            "device: firmware {}.{}.{}, protocol {}, parameters hash {:08x}",
-            v.major, v.minor, v.patch, info.protocol_version, info.params_hash
+            "device: firmware {}.{}.{}, protocol {} (schema {:08x}), parameters hash {:08x}",
+            v.major,
+            v.minor,
+            v.patch,
+            info.protocol_version,
+            info.schema_fingerprint,
+            info.params_hash
         ),
     )?;
-    w(out, format!("state: {}", state_name(s.state)))?;
-    w(out, format!("mode: {}", describe_mode(&s.mode)))?;
+    w(out, format!("state: {}", state_name(s.state.into())))?;
+    w(out, format!("mode: {}", describe_mode(&s.mode.into())))?;
     w(out, format!("faults: {}", super::fault_names(s.faults)))?;
     w(
         out,

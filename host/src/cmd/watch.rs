@@ -138,7 +138,7 @@ impl View {
             "t {:.3} s  {} {}  α ({:+.2}°, {:+.2}°)  F ({:+.2}, {:+.2}) N  p {:.2} {:.2} {:.2} {:.2} bar  \
              i {:.2} {:.2} {:.2} {:.2} mA  faults: {}  loop {} µs (max {}) jitter max {} µs  dropped {}",
             self.elapsed_us as f64 * 1e-6,
-            state_name(t.state),
+            state_name(t.state.into()),
             mode_name(t.mode),
             (t.alpha_rad[0] as f64).to_degrees(),
             (t.alpha_rad[1] as f64).to_degrees(),
@@ -173,7 +173,7 @@ impl View {
         let (exec, exec_max, jitter_max) = self.timing();
         lines.push(format!(
             "state {}   mode {}{}   faults: {}",
-            state_name(t.state),
+            state_name(t.state.into()),
             mode_name(t.mode),
             match t.force_ref_n {
                 Some(f) => format!(" (target {:+.2}, {:+.2} N)", f[0], f[1]),
@@ -366,7 +366,7 @@ mod tests {
             current_ma: [4.0, 5.0, 6.0, 7.0],
             pressure_cmd_bar: [0.1, 0.5, 1.0, 1.5],
             mode: ModeKind::Joint,
-            state: State::Armed,
+            state: State::Armed.into(),
             faults: 0,
             limited: 0,
             loop_exec_us: 12,

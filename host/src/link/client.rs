@@ -1,10 +1,10 @@
-//! Protocol client: handshake with version check, requests with timeouts, the telemetry
+//! Protocol client: handshake with version and schema-fingerprint check, requests with timeouts, the telemetry
 //! stream with drop counting, fault events.
 
 use super::transport::{self, DeviceAddress};
 use pam_protocol::{
     encode_frame, DeviceInfo, DeviceMessage, ErrorCode, FaultEvent, FrameDecoder, Reply, ReplyData,
-    Request, RequestBody, Telemetry, MAX_FRAME, PROTOCOL_VERSION,
+    Request, RequestBody, Telemetry, MAX_FRAME, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
 };
 use std::fmt;
 use std::io::{ErrorKind, Write};
@@ -32,6 +32,9 @@ pub enum ClientError {
     Disconnected,
     /// The device does not speak our protocol version.
     Version { device: Option<u16> },
+    /// Same protocol version, different wire types: the device's
+    /// [`pam_protocol::SCHEMA_FINGERPRINT`] is not ours.
+    Fingerprint { host: u32, device: u32 },
     /// A reply of the wrong kind (a device bug).
     Unexpected { request: &'static str },
 }
@@ -81,6 +84,13 @@ impl fmt::Display for ClientError {
                     Some(v) => format!("speaks version {v}"),
                     None => "refused it".to_string(),
                 }
+            ),
+            ClientError::Fingerprint { host, device } => write!(
+                f,
+                "wire format mismatch: pamctl's schema fingerprint is {host:#010x}, the device reports \
+                 {device:#010x} (both say protocol version {PROTOCOL_VERSION}, but their message types \
+                 differ, so replies would be misread); flash the firmware built from the same source \
+                 as this pamctl (`cargo xtask firmware`), or update pamctl to the one that matches the firmware"
             ),
             ClientError::Unexpected { request } => {
                 write!(f, "the device answered {request} with the wrong kind of reply")
@@ -170,7 +180,8 @@ fn body_name(b: &RequestBody) -> &'static str {
 }
 
 impl Client {
-    /// Opens `--device`, does the handshake and checks the protocol version.
+    /// Opens `--device`, does the handshake and checks the protocol version and the
+    /// schema fingerprint.
     pub fn connect(device: &str, timeout: Duration) -> Result<Client, ClientError> {
         let address = DeviceAddress::parse(device).map_err(ClientError::Link)?;
         let stream = transport::open(&address, timeout).map_err(ClientError::Link)?;
@@ -212,6 +223,7 @@ impl Client {
             timeout,
             info: DeviceInfo {
                 protocol_version: 0,
+                schema_fingerprint: 0,
                 firmware_version: pam_protocol::Version {
                     major: 0,
                     minor: 0,
@@ -224,9 +236,18 @@ impl Client {
         // a lone delimiter ends whatever half frame the device may hold from before
         client.write_bytes(&[0]).map_err(ClientError::Link)?;
         match client.request(RequestBody::Hello { protocol_version }) {
-            Ok(ReplyData::Hello(info)) if info.protocol_version == PROTOCOL_VERSION => {
+            Ok(ReplyData::Hello(info))
+                if info.protocol_version == PROTOCOL_VERSION
+                    && info.schema_fingerprint == SCHEMA_FINGERPRINT =>
+            {
                 client.info = info;
                 Ok(client)
+            }
+            Ok(ReplyData::Hello(info)) if info.protocol_version == PROTOCOL_VERSION => {
+                Err(ClientError::Fingerprint {
+                    host: SCHEMA_FINGERPRINT,
+                    device: info.schema_fingerprint,
+                })
             }
             Ok(ReplyData::Hello(info)) => Err(ClientError::Version {
                 device: Some(info.protocol_version),

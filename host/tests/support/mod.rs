@@ -7,8 +7,8 @@ use pam_control::SafetyConfig;
 use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
 use pam_model::RobotParams;
 use pam_protocol::{
-    encode_frame, DeviceMessage, ErrorCode, FrameDecoder, Reply, Request, RequestBody, Version,
-    MAX_FRAME,
+    encode_frame, DeviceMessage, ErrorCode, FrameDecoder, Reply, ReplyData, Request, RequestBody,
+    Version, MAX_FRAME, SCHEMA_FINGERPRINT,
 };
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -21,9 +21,15 @@ use std::time::{Duration, Instant};
 pub struct Options {
     /// Answer every Hello as a device of another protocol version would.
     pub other_protocol: bool,
+    /// Answer every Hello as a device of the same protocol version but other wire types
+    /// (another build) would: the real reply with its schema fingerprint changed.
+    pub other_fingerprint: bool,
     /// Corrupt one telemetry frame in this many (one flipped byte).
     pub corrupt_every: Option<u64>,
 }
+
+/// The fingerprint the `other_fingerprint` device reports: never ours.
+pub const OTHER_FINGERPRINT: u32 = SCHEMA_FINGERPRINT ^ 0x5A5A_0001;
 
 pub struct TestDevice {
     pub address: String,
@@ -145,7 +151,15 @@ fn serve(listener: TcpListener, options: Options, stop: &AtomicBool, corrupted: 
                                         id,
                                         result: Err(ErrorCode::UnsupportedVersion),
                                     },
-                                    f => device.handle_frame(f),
+                                    f => {
+                                        let mut reply = device.handle_frame(f);
+                                        if let Ok(ReplyData::Hello(info)) = &mut reply.result {
+                                            if options.other_fingerprint {
+                                                info.schema_fingerprint = OTHER_FINGERPRINT;
+                                            }
+                                        }
+                                        reply
+                                    }
                                 };
                                 alive &= send(s, &DeviceMessage::Reply(reply), false);
                             }
