@@ -3,10 +3,18 @@
 # against the digital twin at 1 kHz in real time), make the robot respond over the link
 # protocol, watch it, and stop the emulator. Extra arguments go to `pamctl sim`, e.g.
 #   ./run.sh --with mains_hum --handle operator
+# Runs from any directory; honours CARGO_TARGET_DIR (absolute, or relative to the directory
+# it is run from) and cargo's build.target-dir.
 set -euo pipefail
+if [ -n "${CARGO_TARGET_DIR:-}" ] && [ "${CARGO_TARGET_DIR#/}" = "$CARGO_TARGET_DIR" ]; then
+    CARGO_TARGET_DIR="$PWD/$CARGO_TARGET_DIR"   # relative to here, not to the repository
+fi
 cd "$(dirname "$0")"
 cargo build --quiet --release -p pamctl
-pamctl=target/release/pamctl
+# where cargo put it: "target_directory":"..." in its metadata
+target_dir=$(cargo metadata --format-version 1 --no-deps | grep -o '"target_directory":"[^"]*"' | sed 's/^"target_directory":"//; s/"$//')
+pamctl=$target_dir/release/pamctl
+[ -x "$pamctl" ] || { echo "run.sh: no pamctl at $pamctl after the build" >&2; exit 1; }
 work=$(mktemp -d)
 # a script runs one pamctl per step: allow 1 s between them (the firmware's default is 0.1 s)
 "$pamctl" sim --listen 127.0.0.1:0 --command-timeout-s 1 "$@" >"$work/sim.out" 2>"$work/sim.err" &

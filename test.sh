@@ -3,7 +3,12 @@
 # toolchain and its thumbv7em-none-eabihf target through rustup; qemu-system-arm through
 # apt-get when run as root), then runs the host suite and the Cortex-M4F suite in QEMU.
 # Closes with one line per suite: `host: N passed, M failed` and `qemu: N passed, M failed`.
+# Runs from any directory; a relative CARGO_TARGET_DIR is relative to the directory it is
+# run from (made absolute here, before moving to the repository).
 set -euo pipefail
+if [ -n "${CARGO_TARGET_DIR:-}" ] && [ "${CARGO_TARGET_DIR#/}" = "$CARGO_TARGET_DIR" ]; then
+  CARGO_TARGET_DIR="$PWD/$CARGO_TARGET_DIR"
+fi
 cd "$(dirname "$0")"
 
 if ! command -v cargo >/dev/null 2>&1; then

@@ -67,6 +67,9 @@ pub enum Command {
     Watch(cmd::watch::WatchArgs),
     /// The device emulator: pam-device against the digital twin, in real time, on TCP/pty.
     Sim(cmd::sim::SimArgs),
+    /// One thesis experiment on the digital twin (no device), written as a log, with hidden
+    /// effects if asked: the logs the model loop is tried on.
+    Simulate(cmd::simulate::SimulateArgs),
 }
 
 pub fn run(cli: Cli) -> Result<(), String> {
@@ -86,6 +89,7 @@ pub fn run(cli: Cli) -> Result<(), String> {
         Command::Config(c) => cmd::config::run(c, link, out),
         Command::Record(r) => cmd::record::run(r, link, out),
         Command::Sim(s) => cmd::sim::run(s, out),
+        Command::Simulate(s) => cmd::simulate::run(s, out),
         Command::Watch(w) => cmd::watch::run(w, link, out),
         Command::Experiment(e) => cmd::experiment::run(e, link, out),
     }

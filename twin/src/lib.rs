@@ -21,6 +21,7 @@ pub mod plant;
 pub mod pneumatics;
 pub mod rig;
 pub mod rng;
+pub mod simulate;
 
 pub use effects::{Effect, EffectSet};
 pub use plant::{

@@ -6,6 +6,11 @@
 //!   and with micromath.
 //! - `bench`       criterion benchmarks on the host.
 //! - `firmware`    release build of the board firmware, with its flash and static-RAM size.
+//!
+//! Works from any directory and with `CARGO_TARGET_DIR` set, absolute or relative to where
+//! `cargo xtask` runs ([`target_dir`]).
+
+mod target_dir;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -17,11 +22,7 @@ fn main() {
         Some("test") => test(),
         Some("qemu-bench") => qemu_bench(),
         Some("firmware") => firmware().map(|_| 0).unwrap_or(1),
-        Some("bench") => run_status(
-            Command::new(cargo())
-                .args(["bench", "-p", "pam-model"])
-                .current_dir(root()),
-        ),
+        Some("bench") => run_status(cargo_in(&root()).args(["bench", "-p", "pam-model"])),
         _ => {
             eprintln!("usage: cargo xtask <test | qemu-bench | bench | firmware>");
             2
@@ -39,6 +40,19 @@ fn root() -> PathBuf {
 
 fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
+}
+
+/// A cargo command run in `dir`, with `CARGO_TARGET_DIR` (when set) made absolute against our
+/// working directory: cargo would take a relative one relative to `dir`.
+fn cargo_in(dir: &Path) -> Command {
+    let mut cmd = Command::new(cargo());
+    cmd.current_dir(dir);
+    let cwd = std::env::current_dir().unwrap_or_else(|_| root());
+    let value = std::env::var_os("CARGO_TARGET_DIR");
+    if let Some(t) = target_dir::absolute_target_dir(value.as_deref(), &cwd) {
+        cmd.env("CARGO_TARGET_DIR", t);
+    }
+    cmd
 }
 
 fn run_status(cmd: &mut Command) -> i32 {
@@ -144,10 +158,8 @@ fn ensure_debian_tool(binary: &str, package: &str, needed_for: &str) -> bool {
 
 /// Builds and runs the model checks in QEMU; returns (exit code, lines).
 fn run_qemu(features: &[&str]) -> (i32, Vec<String>) {
-    let mut cmd = Command::new(cargo());
-    cmd.args(["run", "--release", "--quiet"])
-        .args(features)
-        .current_dir(root().join("qemu-tests"));
+    let mut cmd = cargo_in(&root().join("qemu-tests"));
+    cmd.args(["run", "--release", "--quiet"]).args(features);
     run_streaming(&mut cmd)
 }
 
@@ -165,11 +177,7 @@ fn test() -> i32 {
     // missing that test fails and says how to install it.
     ensure_chromium();
     println!("== host: cargo test --workspace");
-    let (host_code, host_lines) = run_streaming(
-        Command::new(cargo())
-            .args(["test", "--workspace"])
-            .current_dir(root()),
-    );
+    let (host_code, host_lines) = run_streaming(cargo_in(&root()).args(["test", "--workspace"]));
     let (host_passed, mut host_failed) = cargo_test_counts(&host_lines);
     if host_code != 0 && host_failed == 0 {
         host_failed = 1; // build failure or crash: count it, never report green
@@ -237,16 +245,14 @@ const RAM_LIMIT_BYTES: u64 = 32 * 1024;
 /// Builds the firmware in release mode and checks its size against the budget.
 fn firmware() -> Result<(), ()> {
     let dir = root().join("firmware");
-    if run_status(
-        Command::new(cargo())
-            .args(["build", "--release", "--quiet"])
-            .current_dir(&dir),
-    ) != 0
-    {
+    if run_status(cargo_in(&dir).args(["build", "--release", "--quiet"])) != 0 {
         eprintln!("xtask: firmware build failed");
         return Err(());
     }
-    let elf = dir.join("target/thumbv7em-none-eabihf/release/pam-firmware");
+    // <target dir>/<triple>/release: firmware/target/… by default, CARGO_TARGET_DIR/… if set
+    let target = target_dir::target_directory(cargo_in(&dir))
+        .map_err(|e| eprintln!("xtask: firmware's target directory: {e}"))?;
+    let elf = target.join("thumbv7em-none-eabihf/release/pam-firmware");
     let bytes =
         std::fs::read(&elf).map_err(|e| eprintln!("xtask: cannot read {}: {e}", elf.display()))?;
     let (flash, ram) = elf32_sizes(&bytes)

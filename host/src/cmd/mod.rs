@@ -11,6 +11,7 @@ pub mod ports;
 pub mod record;
 pub mod set;
 pub mod sim;
+pub mod simulate;
 pub mod status;
 pub mod tare;
 pub mod watch;

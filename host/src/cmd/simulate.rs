@@ -1,0 +1,106 @@
+//! `pamctl simulate`: one thesis experiment on the digital twin, written as a log (format v1),
+//! with hidden effects if asked — the logs the model loop (`pamctl model diagnose`) is tried
+//! on. The trial itself is `pam_twin::simulate::run_trial`.
+
+use clap::Args;
+use pam_twin::experiments::StiffnessLevel;
+use pam_twin::simulate::{run_trial, Experiment, TrialSpec};
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:
+  pamctl simulate --experiment dynamic --point 1 --with carrier_ball_friction:coulomb_n=3 --out trial.csv
+  pamctl simulate --experiment force_step --pose 4 --period 0.05 --seed 7 --out step.csv
+  pamctl simulate --list-effects")]
+pub struct SimulateArgs {
+    /// The experiment: dynamic (§4.2, operator path), static (§4.2, nine holds) or
+    /// force_step (§5.2, blocked handle).
+    #[arg(long, value_name = "EXPERIMENT", value_parser = parse_experiment,
+          required_unless_present = "list_effects")]
+    pub experiment: Option<Experiment>,
+    /// Table 4.1 point, 1–5 (dynamic, static).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub point: usize,
+    /// Index of the §5.2 pose, 0–8 (force_step).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub pose: usize,
+    /// Joint stiffness of the trial: low (K_min) or high (dynamic, static).
+    #[arg(long, default_value = "low", value_name = "low|high", value_parser = parse_stiffness)]
+    pub stiffness: StiffnessLevel,
+    /// Length of a dynamic trial, s.
+    #[arg(long, default_value_t = 90.0, value_name = "SECONDS", value_parser = finite)]
+    pub duration: f64,
+    /// Loop and logging period, s (0.001–0.1; the thesis sampled at 0.05).
+    #[arg(long, default_value_t = 0.001, value_name = "SECONDS", value_parser = finite)]
+    pub period: f64,
+    /// Seed of the twin's noise, effects and operator path: the same seed, the same log.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Load-cell noise, N (standard deviation per axis; default: the twin's 0.15).
+    #[arg(long, value_name = "N", value_parser = finite)]
+    pub noise: Option<f64>,
+    /// A hidden effect, `id` or `id:param=value,...` (repeatable; `--list-effects`).
+    #[arg(long = "with", value_name = "EFFECT")]
+    pub with: Vec<String>,
+    /// Gain-plane feed-forward in force mode (off: as the thesis measured its steps).
+    #[arg(long)]
+    pub feed_forward: bool,
+    /// Simulate the rig with the stiffness the thesis identified (twin/README.md) instead of
+    /// the thesis's model.
+    #[arg(long)]
+    pub identified_rig: bool,
+    /// The log to write (CSV, log format v1, docs/log-format.md).
+    #[arg(long, value_name = "FILE", required_unless_present = "list_effects")]
+    pub out: Option<PathBuf>,
+    /// List the twin's effects and their parameters, then exit.
+    #[arg(long)]
+    pub list_effects: bool,
+}
+
+fn parse_experiment(s: &str) -> Result<Experiment, String> {
+    s.parse()
+        .map_err(|e: pam_twin::simulate::SimulateError| e.to_string())
+}
+
+fn parse_stiffness(s: &str) -> Result<StiffnessLevel, String> {
+    s.parse()
+        .map_err(|e: pam_twin::simulate::SimulateError| e.to_string())
+}
+
+fn finite(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("`{s}` is not a number"))
+}
+
+pub fn run(args: SimulateArgs, out: &mut dyn Write) -> Result<(), String> {
+    let io = |e: std::io::Error| e.to_string();
+    if args.list_effects {
+        for e in pam_twin::effects::catalog() {
+            writeln!(out, "{}", pam_twin::effects::describe(e.as_ref())).map_err(io)?;
+        }
+        return Ok(());
+    }
+    let (Some(experiment), Some(path)) = (args.experiment, args.out) else {
+        return Err("--experiment and --out are required".into());
+    };
+    let spec = TrialSpec {
+        experiment,
+        point: args.point,
+        pose: args.pose,
+        stiffness: args.stiffness,
+        duration_s: args.duration,
+        period_s: args.period,
+        seed: args.seed,
+        loadcell_noise_n: args.noise,
+        effects: args.with,
+        feed_forward: args.feed_forward,
+        identified_rig: args.identified_rig,
+    };
+    let log = run_trial(&spec).map_err(|e| e.to_string())?;
+    log.write_path(&path)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    writeln!(out, "wrote {} rows to {}", log.len(), path.display()).map_err(io)
+}
