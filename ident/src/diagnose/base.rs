@@ -292,24 +292,43 @@ pub(super) fn choose_pneumatic(
         }
         c
     };
-    let fit = |cols: &[Column]| {
-        let cols = &with_offset(cols);
-        let ne = lsq::normal_equations_strided(cols, &[&y[0], &y[1]], rows.clone(), stride);
-        let th = lsq::solve(&ne, &stiffness.positive());
-        (lsq::rss(&ne, yty, &th), th)
-    };
     // without the pneumatic term
     let plain = base_columns(p, &ctx, stiffness, 0.0, 0.0)?;
-    let (rss_plain, th_plain) = fit(&plain);
+    let plain_off = with_offset(&plain);
+    let target = [y[0].as_slice(), y[1].as_slice()];
+    let ne_plain = lsq::normal_equations_strided(&plain_off, &target, rows.clone(), stride);
+    let th_plain = lsq::solve(&ne_plain, &stiffness.positive());
+    let rss_plain = lsq::rss(&ne_plain, yty, &th_plain);
+    // the pneumatic columns go after the plain ones (and before the offsets, as in
+    // `base_columns`); only their products are new, the plain block is reused
+    let plain_ne = ne_plain.prefix(plain.len());
     let mut best: Option<(f64, Vec<Column>, (f64, f64))> = None;
     for (wf, z) in [0.6, 1.0, 1.6]
         .iter()
         .flat_map(|&wf| [z0, 0.7, 1.0].into_iter().map(move |z| (wf, z)))
     {
-        let cols = base_columns(p, &ctx, stiffness, wn0 * wf, z)?;
-        let (r, _) = fit(&cols);
+        let mut cols = plain.clone();
+        cols.extend(pneumatic_columns(
+            p,
+            &ctx,
+            stiffness.joint_space(),
+            wn0 * wf,
+            z,
+        ));
+        let cols = with_offset(&cols);
+        let ne = lsq::normal_equations_extended(&plain_ne, &cols, &target, rows.clone(), stride);
+        let th = lsq::solve(&ne, &stiffness.positive());
+        let r = lsq::rss(&ne, yty, &th);
         if best.as_ref().is_none_or(|b| r < b.0) {
-            best = Some((r, cols, (wn0 * wf, z)));
+            let mut c = plain.clone();
+            c.extend(pneumatic_columns(
+                p,
+                &ctx,
+                stiffness.joint_space(),
+                wn0 * wf,
+                z,
+            ));
+            best = Some((r, c, (wn0 * wf, z)));
         }
     }
     let (rss_pn, cols, wz) = best.expect("grid is not empty");

@@ -194,7 +194,7 @@ impl<'a> Loop<'a> {
             if let Some(t) = ft {
                 terms.push(t);
             }
-            for v in 0..self.base_variants.len() {
+            for &v in self.shortlist() {
                 if let Some(c) = self.candidate(v, &terms) {
                     candidates.push(c);
                 }

@@ -159,7 +159,7 @@ impl<'a> Loop<'a> {
             for s in shapes {
                 let term = [e.dynamic_term(ctx, &s)];
                 let mut best = f64::INFINITY;
-                for v in 0..self.base_variants.len() {
+                for &v in self.shortlist() {
                     let Some((cols, _, positive, shift, nb)) = self.assemble(v, &term) else {
                         continue;
                     };
@@ -210,6 +210,24 @@ impl<'a> Loop<'a> {
         Self::normal_with_known(known, cols, &t.y, shift, 0..self.p.split, 1)
     }
 
+    /// The base variants effects are fitted with: the [`SHORTLIST`] the base alone fits
+    /// best by the criterion. An effect rarely turns a poor variant into the best one, and
+    /// every variant costs a pass over the data per shape and per fold.
+    pub(super) fn shortlist(&self) -> &[usize] {
+        self.shortlist.get_or_init(|| {
+            let mut scored: Vec<(f64, usize)> = (0..self.base_variants.len())
+                .map(|v| {
+                    let bv = &self.base_variants[v];
+                    let th = self.solve_dynamic(&bv.normal, &bv.positive());
+                    let r = lsq::rss(&bv.normal, self.yty_train, &th);
+                    (self.criterion(r, bv.cols.len(), v), v)
+                })
+                .collect();
+            scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+            scored.into_iter().take(SHORTLIST).map(|x| x.1).collect()
+        })
+    }
+
     /// Training RSS of the base alone with the variant it prefers.
     pub(super) fn base_alone_rss(&self) -> f64 {
         *self.base_rss.get_or_init(|| {
@@ -237,7 +255,7 @@ impl<'a> Loop<'a> {
             .collect();
         // every base variant; keep the one the training part prefers
         let mut best: Option<VariantFit> = None;
-        for v in 0..self.base_variants.len() {
+        for &v in self.shortlist() {
             let Some((cols, ranges, positive, shift, nb)) = self.dyn_columns(&ctx, v, &chosen)
             else {
                 continue;

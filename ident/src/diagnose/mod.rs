@@ -192,7 +192,12 @@ pub struct Loop<'a> {
     /// Lower bounds of the dynamic fits' mass diagonals (kg), see
     /// [`Loop::solve_dynamic`].
     mass_floor_kg: [f64; 2],
+    /// The base variants effects are fitted with (cached, see [`Loop::shortlist`]).
+    shortlist: std::sync::OnceLock<Vec<usize>>,
 }
+
+/// How many of the base variants (best first for the base alone) effects are fitted with.
+const SHORTLIST: usize = 6;
 
 /// A dynamic fit's target (−f), possibly shifted for a delay.
 pub(super) struct Target {
@@ -336,6 +341,7 @@ impl<'a> Loop<'a> {
             yty_train,
             base_rss: Default::default(),
             targets: Default::default(),
+            shortlist: Default::default(),
             mass_floor_kg: if experiment == Experiment::Dynamic {
                 model
                     .cartesian_mass(p.alpha0_rad)

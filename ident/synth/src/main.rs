@@ -1,4 +1,4 @@
-//! `pam-synth --seed N [--experiment dynamic|step] [--family F] [--shape S] [--period-s DT]
+//! `pam-synth --seed N [--experiment dynamic|step] [--family F] [--shape S] [--period-s DT] [--duration-s S]
 //! --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
 
 use std::path::PathBuf;
@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use pam_synth::{generate, write_files, CaseSpec, Experiment, Family, Shape, SynthError};
 
 const USAGE: &str = "usage: pam-synth --seed N [--experiment dynamic|step] [--family F] \
-[--shape S] [--period-s DT] --out FILE.csv | --list";
+[--shape S] [--period-s DT] [--duration-s S] --out FILE.csv | --list";
 
 fn list() {
     for e in Experiment::ALL {
@@ -21,6 +21,7 @@ fn list() {
 
 fn run(args: &[String]) -> Result<(), String> {
     let mut seed = None;
+    let mut duration: Option<f64> = None;
     let (mut experiment, mut family, mut shape, mut period, mut out) =
         (None, None, None, None, None);
     let mut it = args.iter();
@@ -41,6 +42,7 @@ fn run(args: &[String]) -> Result<(), String> {
             "--family" => family = Some(Family::parse(&value()?).map_err(e)?),
             "--shape" => shape = Some(Shape::parse(&value()?).map_err(e)?),
             "--period-s" => period = Some(value()?.parse::<f64>().map_err(|e| e.to_string())?),
+            "--duration-s" => duration = Some(value()?.parse::<f64>().map_err(|e| e.to_string())?),
             "--out" => out = Some(PathBuf::from(value()?)),
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
@@ -60,6 +62,10 @@ fn run(args: &[String]) -> Result<(), String> {
             .duration_s
             .min(pam_synth::case::MAX_SAMPLES as f64 * dt)
             .round();
+        spec.validate().map_err(|e| e.to_string())?;
+    }
+    if let Some(d) = duration {
+        spec.duration_s = d;
         spec.validate().map_err(|e| e.to_string())?;
     }
     let g = generate(&spec).map_err(|e| e.to_string())?;
