@@ -19,9 +19,10 @@ use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
 use pam_synth::{generate, CaseSpec, Experiment};
 
 const CASES: usize = 80;
-/// Measured 82.5 % right and 3/20 false alarms: the floor the loop must not fall below.
-const FLOOR_ACCURACY: f64 = 0.80;
-const CEILING_FALSE_ALARMS: f64 = 0.15;
+/// Measured 86.2 % right and 2/20 false alarms (82.5 % and 3/20 before the dynamic base's
+/// mass floor and filtered displacement): the floor the loop must not fall below.
+const FLOOR_ACCURACY: f64 = 0.85;
+const CEILING_FALSE_ALARMS: f64 = 0.10;
 /// The targets, printed next to the result.
 const TARGET_ACCURACY: f64 = 0.95;
 const TARGET_FALSE_ALARMS: f64 = 0.05;
