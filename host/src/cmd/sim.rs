@@ -31,7 +31,7 @@ pub struct SimArgs {
     #[arg(long, value_name = "SECONDS")]
     pub seconds: Option<f64>,
     /// Simulate the rig with the stiffness the thesis identified (a parallel joint stiffness,
-    /// twin/README.md) instead of the thesis's model.
+    /// host-libs/twin/README.md) instead of the thesis's model.
     #[arg(long)]
     pub identified_rig: bool,
     /// List the twin's effects and their parameters, then exit.

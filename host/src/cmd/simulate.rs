@@ -46,8 +46,8 @@ pub struct SimulateArgs {
     /// Gain-plane feed-forward in force mode (off: as the thesis measured its steps).
     #[arg(long)]
     pub feed_forward: bool,
-    /// Simulate the rig with the stiffness the thesis identified (twin/README.md) instead of
-    /// the thesis's model.
+    /// Simulate the rig with the stiffness the thesis identified (host-libs/twin/README.md)
+    /// instead of the thesis's model.
     #[arg(long)]
     pub identified_rig: bool,
     /// The log to write (CSV, log format v1, docs/log-format.md).

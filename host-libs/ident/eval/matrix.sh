@@ -2,10 +2,10 @@
 # The loop against twin logs stripped to the log-format-v1 columns (no metadata): one line per
 # (experiment, hidden effect, period) with the verdict and the effect named first. Build first:
 #   cargo build --release -p pamctl
-# then: bash ident/eval/matrix.sh   (OUT=dir for the logs, default /tmp/eval; KEEP=comma list of
+# then: bash host-libs/ident/eval/matrix.sh   (OUT=dir for the logs, default /tmp/eval; KEEP=comma list of
 # the columns kept, default all eleven; PERIODS, POINT, POSE, STIFFNESS, STEPS_ONLY=1 and
 # SIMARGS (e.g. "--noise 1 --duration 45") vary the cases; needs python3)
-cd "${REPO:-$(dirname "$0")/../..}"
+cd "${REPO:-$(dirname "$0")/../../..}"
 # where cargo builds (CARGO_TARGET_DIR, absolute, or build.target-dir), target/ by default
 TARGET=$(cargo metadata --format-version 1 --no-deps | grep -o '"target_directory":"[^"]*"' | sed 's/^"target_directory":"//; s/"$//')
 PAM=$TARGET/release/pamctl

@@ -1,6 +1,6 @@
 //! Judging the model loop against the truth, through the diagnosis's JSON only (so the
 //! loop's Rust types can change freely), and the confusion matrix of many cases. Shared
-//! by `ident/examples/confusion.rs` and `ident/tests/synth_matrix.rs`.
+//! by `host-libs/ident/examples/confusion.rs` and `host-libs/ident/tests/synth_matrix.rs`.
 
 use std::collections::BTreeMap;
 

@@ -5,7 +5,8 @@
 //! soft-float f64). Each returns the first deviation it finds with the numbers involved.
 //! Sweeps use a fixed-seed generator so a failure reproduces.
 //!
-//! Reference values: `shared/reference/reference-values.md`. Where the thesis's printed
+//! Reference values: README, "Reproduced values" (`cargo run -p pam-model --example
+//! reference_values` prints them). Where the thesis's printed
 //! number does not follow from its equations, the check uses what the equations give and
 //! the comment keeps the printed number.
 

@@ -5,9 +5,9 @@
 # script fits one mass-spring-damper by np.linalg.lstsq (the thesis's eq. 4.28 regression:
 # no base variants, no effects, no cross-validation), so the ratio is what the whole
 # diagnosis costs against one naive fit.
-#   bash ident/eval/numpy_ratio.sh        (needs python3; installs numpy with pip if missing)
+#   bash host-libs/ident/eval/numpy_ratio.sh        (needs python3; installs numpy with pip if missing)
 set -euo pipefail
-cd "$(dirname "$0")/../.."
+cd "$(dirname "$0")/../../.."
 python3 -c 'import numpy' 2>/dev/null || python3 -m pip install --quiet numpy
 cargo build --quiet --release -p pamctl -p pam-synth
 TARGET=$(cargo metadata --format-version 1 --no-deps | grep -o '"target_directory":"[^"]*"' | sed 's/^"target_directory":"//; s/"$//')
