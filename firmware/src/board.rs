@@ -92,6 +92,17 @@ pub const LINK_PRIORITY: Priority = Priority::P6;
 /// LSI (32 kHz nominal) may be off by ±10 %, which only moves the limit by 5 ms.
 pub const WATCHDOG_TIMEOUT_US: u32 = 50_000;
 
+/// Consecutive missed control periods (execution longer than the period, or a wake-up a
+/// whole period late) that latch `Faults::LOOP_OVERRUN`. One or two can be a debugger or a
+/// long USB critical section; three in a row is a loop that no longer keeps its rate.
+pub const LOOP_OVERRUN_FAULT_PERIODS: u32 =
+    pam_firmware_logic::cycle_stats::DEFAULT_OVERRUN_FAULT_PERIODS;
+
+/// Free stack below which `Faults::STACK_LOW` latches (the painted stack's high-water
+/// mark, checked once per second). The stack is the RAM above the statics (≈ 120 KiB); a
+/// run that comes within 8 KiB of the statics is one deeper call from corrupting them.
+pub const STACK_MIN_FREE_BYTES: u32 = 8 * 1024;
+
 // ---------------------------------------------------------------------------------------
 // Encoders (counts per revolution and direction are rig calibration: `pam-device`)
 

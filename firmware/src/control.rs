@@ -126,7 +126,14 @@ pub async fn control_task(mut hw: ControlHardware) {
             None => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
         };
         hw.watchdog.feed();
-        last_exec_cycles = hw.meter.cycle_end().exec_last_cycles;
+        let loop_timing = hw.meter.cycle_end();
+        last_exec_cycles = loop_timing.exec_last_cycles;
+        if loop_timing.overrun_fault {
+            // the loop no longer keeps its rate: latch (vents from the next step on, which
+            // also writes the outputs) and vent now
+            with_device(|device| device.raise(Faults::LOOP_OVERRUN));
+            hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]);
+        }
 
         if let Some((result, wanted_period_us)) = stepped {
             if let Some(sample) = result.telemetry {

@@ -7,7 +7,9 @@
 //! * Jitter: |actual − nominal| of the interval between two consecutive wake-ups. The
 //!   ticker keeps the *average* period exact; this measures how late each wake-up is
 //!   relative to the previous one (interrupt latency, critical sections of other code).
-//! * Overrun: an execution time longer than the period.
+//! * Overrun: an execution time longer than the period. `board::LOOP_OVERRUN_FAULT_PERIODS`
+//!   missed periods in a row (overruns or wake-ups a whole period late) set
+//!   `LoopTiming::overrun_fault`; the control task then latches `Faults::LOOP_OVERRUN`.
 //!
 //! The control task publishes the summary each cycle (a critical section of a few dozen
 //! cycles); any task reads it with [`snapshot`].
@@ -31,6 +33,8 @@ static SHARED: Mutex<CriticalSectionRawMutex, Cell<LoopTiming>> =
         jitter_last_cycles: 0,
         jitter_max_cycles: 0,
         overruns: 0,
+        consecutive_missed: 0,
+        overrun_fault: false,
     }));
 
 /// The latest published timing.
@@ -54,7 +58,8 @@ impl CycleMeter {
         dcb.enable_trace();
         dwt.enable_cycle_counter();
         Self {
-            stats: CycleStats::new(period_cycles),
+            stats: CycleStats::new(period_cycles)
+                .with_overrun_fault_periods(board::LOOP_OVERRUN_FAULT_PERIODS),
         }
     }
 

@@ -92,20 +92,27 @@ async fn heartbeat(mut led: Output<'static>) {
     }
 }
 
-/// Once per second: loop timing (the shared summary) and drop counters over defmt.
+/// Once per second: loop timing (the shared summary), stack high-water mark and drop
+/// counters over defmt; latches STACK_LOW when the free stack falls below its margin.
 #[embassy_executor::task]
 async fn status_log() {
     loop {
         Timer::after_secs(1).await;
+        let stack = panic::stack_usage();
+        if stack.free_min_bytes() < board::STACK_MIN_FREE_BYTES {
+            control::with_device(|d| d.raise(Faults::STACK_LOW));
+        }
         let t = loop_timing::snapshot();
         let state = control::with_device(|d| (d.controller().state(), d.controller().faults().0));
         info!(
-            "loop: {} cycles, exec {} ns (max {}), jitter max {} ns, overruns {}; telemetry dropped {}, fault events dropped {}; state {}",
+            "loop: {} cycles, exec {} ns (max {}), jitter max {} ns, overruns {}; stack {} of {} B used (max); telemetry dropped {}, fault events dropped {}; state {}",
             t.cycles,
             loop_timing::ns(t.exec_last_cycles),
             loop_timing::ns(t.exec_max_cycles),
             loop_timing::ns(t.jitter_max_cycles),
             t.overruns,
+            stack.used_max_bytes,
+            stack.size_bytes,
             TELEMETRY_DROPPED.load(Ordering::Relaxed),
             FAULT_EVENTS_DROPPED.load(Ordering::Relaxed),
             state.map(|(s, f)| (s as u8, f)),
@@ -115,12 +122,17 @@ async fn status_log() {
 
 #[entry]
 fn main() -> ! {
-    // Before anything can reset again: why did the last reset happen?
+    // Before anything can reset again: why did the last reset happen, and did a CPU fault
+    // handler leave a record?
     let reset_cause = ResetCause::take();
+    let cpu_fault = panic::FaultRecord::take();
+    let mut core = unwrap!(cortex_m::Peripherals::take());
+    panic::enable_fault_exceptions(&mut core.SCB);
     let board = Board::new(embassy_stm32::init(board::clock_config()));
 
     // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
     let outputs = CurrentLoopOutputs::new(board.outputs, [board::output_nominal_law(); CHANNELS]);
+    panic::paint_stack();
     info!(
         "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}",
         env!("CARGO_PKG_VERSION"),
@@ -153,10 +165,16 @@ fn main() -> ! {
         warn!("the last reset was a watchdog reset: latched WATCHDOG_RESET");
         device.raise(Faults::WATCHDOG_RESET);
     }
+    if let Some(record) = cpu_fault {
+        warn!(
+            "the last run ended in a CPU fault: latched CPU_FAULT ({})",
+            record
+        );
+        device.raise(Faults::CPU_FAULT);
+    }
     let period_us = device.period_us();
     control::install_device(device);
 
-    let mut core = unwrap!(cortex_m::Peripherals::take());
     let meter = CycleMeter::new(
         &mut core.DCB,
         &mut core.DWT,

@@ -45,7 +45,7 @@ pub fn interrupted() -> Arc<AtomicBool> {
 /// Names of the latched fault bits (`pam_control::Faults`).
 pub fn fault_names(bits: u16) -> String {
     use pam_control::Faults;
-    const NAMES: [(Faults, &str); 9] = [
+    const NAMES: [(Faults, &str); 12] = [
         (Faults::COMMAND_TIMEOUT, "command timeout"),
         (Faults::NON_FINITE, "non-finite sensor value"),
         (Faults::ANGLE_OUT_OF_RANGE, "angle out of range"),
@@ -55,6 +55,9 @@ pub fn fault_names(bits: u16) -> String {
         (Faults::OUTPUT_NON_FINITE, "non-finite output"),
         (Faults::WATCHDOG_RESET, "watchdog reset"),
         (Faults::OUTPUT_OPEN_LOOP, "output current loop open"),
+        (Faults::CPU_FAULT, "CPU fault exception (last run)"),
+        (Faults::LOOP_OVERRUN, "control loop overrun"),
+        (Faults::STACK_LOW, "stack high-water mark near its end"),
     ];
     if bits == 0 {
         return "none".into();
@@ -74,4 +77,24 @@ pub fn fault_names(bits: u16) -> String {
 /// Says the command worked.
 pub fn done(out: &mut dyn std::io::Write, what: &str) -> Result<(), String> {
     writeln!(out, "{what}").map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fault_names;
+    use pam_control::Faults;
+
+    #[test]
+    fn the_firmware_faults_have_names() {
+        assert_eq!(
+            fault_names(Faults::CPU_FAULT.with(Faults::LOOP_OVERRUN).0),
+            "CPU fault exception (last run), control loop overrun"
+        );
+        assert_eq!(
+            fault_names(Faults::STACK_LOW.0),
+            "stack high-water mark near its end"
+        );
+        assert_eq!(fault_names(1 << 12), "unknown bits 0x1000");
+        assert_eq!(fault_names(0), "none");
+    }
 }

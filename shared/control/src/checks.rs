@@ -218,6 +218,70 @@ pub fn loadcell_saturation_faults() -> CheckResult {
     )
 }
 
+/// Each channel faults at its amplifier's full scale (X ±111 N, Z ±167 N with the thesis's
+/// gains), well inside the 190 N force limit for X; 1 % below it is no fault. With a tare
+/// offset the same volts are a different force: the limit follows the calibration.
+pub fn loadcell_amplifier_full_scale_faults() -> CheckResult {
+    let full_scale_n = [111.2, 166.7]; // 10 V × 11.11 N/V, 10 V × 16.67 N/V, rounded up
+    for ch in 0..2 {
+        for sign in [1.0f32, -1.0] {
+            let mut below = [0.1, 0.2];
+            below[ch] = sign * 0.99 * full_scale_n[ch];
+            let mut c = controller();
+            c.arm().ok();
+            for k in 0..5 {
+                c.heartbeat();
+                below[1 - ch] += if k % 2 == 0 { 0.01 } else { -0.01 };
+                let out = c.step(&Sensors {
+                    alpha_rad: [0.0, 0.0],
+                    force_sensor_n: below,
+                });
+                holds("1 % below full scale is no fault", out.faults.is_none())?;
+            }
+            let mut at = [0.1, 0.2];
+            at[ch] = sign * full_scale_n[ch];
+            faults_once(
+                &[Sensors {
+                    alpha_rad: [0.0, 0.0],
+                    force_sensor_n: at,
+                }],
+                Faults::LOADCELL_SATURATED,
+            )?;
+        }
+    }
+    // tared at +5 V on X: +5 V more (55.6 N) is full scale, −100 N (−4 V) is not
+    let mut c = controller();
+    let mut cell = c.model().params.load_cell;
+    cell.tare([5.0, 0.0]);
+    c.set_load_cell(cell);
+    c.arm().ok();
+    c.heartbeat();
+    let out = c.step(&Sensors {
+        alpha_rad: [0.0, 0.0],
+        force_sensor_n: [-100.0, 0.2],
+    });
+    holds(
+        "tared: -100 N is inside the amplifier range",
+        out.faults.is_none(),
+    )?;
+    c.heartbeat();
+    let out = c.step(&Sensors {
+        alpha_rad: [0.0, 0.0],
+        force_sensor_n: [55.6, 0.2],
+    });
+    holds(
+        "tared: +5 V more is full scale",
+        out.faults.contains(Faults::LOADCELL_SATURATED) && is_vent(&out),
+    )?;
+    holds(
+        "clear refused while the channel is at full scale",
+        c.clear_faults(&Sensors {
+            alpha_rad: [0.0, 0.0],
+            force_sensor_n: [55.6, 0.2],
+        }) == Err(Reject::FaultStillPresent),
+    )
+}
+
 pub fn loadcell_stuck_faults() -> CheckResult {
     let stuck = [Sensors {
         alpha_rad: [0.0, 0.0],
@@ -353,17 +417,54 @@ pub fn force_mode_commands_pressures() -> CheckResult {
 }
 
 pub fn hardware_faults_latch() -> CheckResult {
-    let mut c = controller();
-    c.arm().ok();
-    c.raise(Faults::WATCHDOG_RESET);
-    let out = c.step(&sensors(0));
+    // every fault the firmware raises: armed → faulted, vented, latched, clearable
+    for fault in [
+        Faults::WATCHDOG_RESET,
+        Faults::OUTPUT_OPEN_LOOP,
+        Faults::CPU_FAULT,
+        Faults::LOOP_OVERRUN,
+        Faults::STACK_LOW,
+    ] {
+        let mut c = controller();
+        c.arm().ok();
+        c.set_mode(Mode::Pressures {
+            pressure_bar: [2.0; 4],
+        })
+        .ok();
+        run_steps(&mut c, 20, 0);
+        c.raise(fault);
+        let out = c.step(&sensors(0));
+        holds(
+            "hardware fault latched and vented",
+            out.faults.contains(fault) && out.state == State::Faulted && is_vent(&out),
+        )?;
+        let out = run_steps(&mut c, 5, 1);
+        holds("still latched", out.faults.contains(fault) && is_vent(&out))?;
+        holds("arm refused", c.arm() == Err(Reject::WrongState))?;
+        holds(
+            "clearable when sensors are fine",
+            c.clear_faults(&sensors(1)).is_ok(),
+        )?;
+    }
+    // the numbered bits are distinct
+    let all = [
+        Faults::COMMAND_TIMEOUT,
+        Faults::NON_FINITE,
+        Faults::ANGLE_OUT_OF_RANGE,
+        Faults::ENCODER_JUMP,
+        Faults::LOADCELL_SATURATED,
+        Faults::LOADCELL_STUCK,
+        Faults::OUTPUT_NON_FINITE,
+        Faults::WATCHDOG_RESET,
+        Faults::OUTPUT_OPEN_LOOP,
+        Faults::CPU_FAULT,
+        Faults::LOOP_OVERRUN,
+        Faults::STACK_LOW,
+    ];
+    let union = all.iter().fold(0u32, |a, f| a | u32::from(f.0));
     holds(
-        "watchdog fault latched and vented",
-        out.faults.contains(Faults::WATCHDOG_RESET) && is_vent(&out),
-    )?;
-    holds(
-        "clearable when sensors are fine",
-        c.clear_faults(&sensors(1)).is_ok(),
+        "one bit per fault",
+        union.count_ones() as usize == all.len(),
     )
 }
 
@@ -375,6 +476,7 @@ pam_model::register_checks!(
     angle_out_of_range_faults,
     encoder_jump_faults,
     loadcell_saturation_faults,
+    loadcell_amplifier_full_scale_faults,
     loadcell_stuck_faults,
     command_timeout_ramps_to_safe_state,
     disarm_vents_at_once,

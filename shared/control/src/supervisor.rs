@@ -53,6 +53,16 @@ impl Faults {
     pub const WATCHDOG_RESET: Faults = Faults(1 << 7);
     /// Set by the firmware when the current-loop stage reports an open loop.
     pub const OUTPUT_OPEN_LOOP: Faults = Faults(1 << 8);
+    /// Set by the firmware at boot when a CPU fault exception (HardFault, MemManage,
+    /// BusFault, UsageFault, an unexpected interrupt) ended the last run: the handler vented
+    /// the outputs and left a record in no-init RAM.
+    pub const CPU_FAULT: Faults = Faults(1 << 9);
+    /// Set by the firmware when the control loop missed this many consecutive periods
+    /// (execution longer than the period, or a wake-up a whole period late).
+    pub const LOOP_OVERRUN: Faults = Faults(1 << 10);
+    /// Set by the firmware when the stack's high-water mark came within its margin of the
+    /// stack's end (painted-stack measurement).
+    pub const STACK_LOW: Faults = Faults(1 << 11);
 
     pub const fn with(self, o: Faults) -> Faults {
         Faults(self.0 | o.0)
@@ -64,6 +74,12 @@ impl Faults {
         self.0 == 0
     }
 }
+
+/// The load-cell amplifier's full-scale output, V (±10 V, what the NI 9215 accepted). A
+/// channel at or beyond it is saturated: X ±111 N, Z ±167 N with the thesis's gains
+/// (0.09 V/N, 0.06 V/N). The volts are recovered from the force with the present
+/// calibration, so the limit holds whatever the gain, offset or tare.
+pub const LOADCELL_AMPLIFIER_FULL_SCALE_V: f32 = 10.0;
 
 /// Limits the firmware enforces whatever the host says.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -377,9 +393,17 @@ impl Controller {
                 }
             }
         }
-        if s.force_sensor_n
-            .iter()
-            .any(|x| x.abs() > self.safety.loadcell_limit_n)
+        let cell = &self.model.params.load_cell;
+        // volts at the amplifier output: F / gain + offset (the inverse of eq. 2.1); a
+        // zero or non-finite gain gives NaN/∞ and is left to the force limit below
+        let at_full_scale = (0..2).any(|ch| {
+            let volts = s.force_sensor_n[ch] / cell.gain_n_per_v[ch] + cell.offset_v[ch];
+            volts.abs() >= LOADCELL_AMPLIFIER_FULL_SCALE_V
+        });
+        if at_full_scale
+            || s.force_sensor_n
+                .iter()
+                .any(|x| x.abs() > self.safety.loadcell_limit_n)
         {
             f = f.with(Faults::LOADCELL_SATURATED);
         }

@@ -4,6 +4,13 @@
 //! * Execution time: from the wake-up to the end of the cycle's work.
 //! * Jitter: |actual − nominal| of the interval between two consecutive wake-ups.
 //! * Overrun: an execution time longer than the period.
+//! * Missed period: an overrun, or a wake-up a whole period (or more) late. A run of
+//!   `overrun_fault_periods` consecutive missed periods (default
+//!   [`DEFAULT_OVERRUN_FAULT_PERIODS`]) is a loop overrun fault: the firmware latches
+//!   `Faults::LOOP_OVERRUN`, which vents.
+
+/// Consecutive missed periods that make a loop overrun fault, unless configured otherwise.
+pub const DEFAULT_OVERRUN_FAULT_PERIODS: u32 = 3;
 
 /// Summary since start.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -16,6 +23,11 @@ pub struct LoopTiming {
     pub jitter_last_cycles: u32,
     pub jitter_max_cycles: u32,
     pub overruns: u32,
+    /// Missed periods (overrun or late wake-up) in a row up to and including the last cycle.
+    pub consecutive_missed: u32,
+    /// `consecutive_missed` is at or beyond the configured limit: the condition, present
+    /// while the run lasts (the controller latches the fault; it clears once this is false).
+    pub overrun_fault: bool,
 }
 
 /// Clock cycles → ns at `clock_hz`, saturating at u32::MAX.
@@ -32,6 +44,9 @@ pub struct CycleStats {
     timing: LoopTiming,
     last_start: Option<u32>,
     start: u32,
+    /// This cycle's wake-up came a whole period late.
+    late_wakeup: bool,
+    overrun_fault_periods: u32,
 }
 
 impl CycleStats {
@@ -45,10 +60,21 @@ impl CycleStats {
                 jitter_last_cycles: 0,
                 jitter_max_cycles: 0,
                 overruns: 0,
+                consecutive_missed: 0,
+                overrun_fault: false,
             },
             last_start: None,
             start: 0,
+            late_wakeup: false,
+            overrun_fault_periods: DEFAULT_OVERRUN_FAULT_PERIODS,
         }
+    }
+
+    /// Consecutive missed periods that make a loop overrun fault (at least 1: the check
+    /// cannot be switched off).
+    pub const fn with_overrun_fault_periods(mut self, periods: u32) -> Self {
+        self.overrun_fault_periods = if periods == 0 { 1 } else { periods };
+        self
     }
 
     /// A new period: the next wake-up has no reference, jitter restarts from there.
@@ -60,8 +86,11 @@ impl CycleStats {
     /// The counter at the wake-up; returns this wake-up's jitter (0 without a reference).
     pub fn start(&mut self, now: u32) -> u32 {
         let mut jitter = 0;
+        self.late_wakeup = false;
         if let Some(last) = self.last_start {
-            jitter = now.wrapping_sub(last).abs_diff(self.timing.period_cycles);
+            let interval = now.wrapping_sub(last);
+            self.late_wakeup = interval >= self.timing.period_cycles.saturating_mul(2);
+            jitter = interval.abs_diff(self.timing.period_cycles);
             self.timing.jitter_last_cycles = jitter;
             self.timing.jitter_max_cycles = self.timing.jitter_max_cycles.max(jitter);
         }
@@ -77,9 +106,16 @@ impl CycleStats {
         t.cycles = t.cycles.wrapping_add(1);
         t.exec_last_cycles = exec;
         t.exec_max_cycles = t.exec_max_cycles.max(exec);
-        if exec > t.period_cycles {
+        let overrun = exec > t.period_cycles;
+        if overrun {
             t.overruns = t.overruns.saturating_add(1);
         }
+        if overrun || self.late_wakeup {
+            t.consecutive_missed = t.consecutive_missed.saturating_add(1);
+        } else {
+            t.consecutive_missed = 0;
+        }
+        t.overrun_fault = t.consecutive_missed >= self.overrun_fault_periods;
         *t
     }
 
@@ -133,6 +169,54 @@ mod tests {
         assert_eq!(s.end(PERIOD).overruns, 0);
         s.start(PERIOD);
         assert_eq!(s.end(2 * PERIOD + 1).overruns, 1);
+    }
+
+    #[test]
+    fn three_consecutive_overruns_are_a_fault_two_are_not() {
+        let mut s = CycleStats::new(PERIOD);
+        let mut now = 0;
+        // two overruns, a good cycle, two more: never three in a row
+        for exec in [PERIOD + 1, PERIOD + 1, 1_000, PERIOD + 1, PERIOD + 1] {
+            s.start(now);
+            let t = s.end(now + exec);
+            assert!(!t.overrun_fault, "exec {exec}");
+            now += PERIOD.max(exec);
+        }
+        assert_eq!(s.timing().consecutive_missed, 2);
+        s.start(now);
+        let t = s.end(now + PERIOD + 1);
+        assert_eq!(t.consecutive_missed, 3);
+        assert!(t.overrun_fault);
+        // a good cycle ends the condition (the controller keeps the fault latched)
+        now += PERIOD + 1;
+        s.start(now);
+        let t = s.end(now + 1_000);
+        assert_eq!(t.consecutive_missed, 0);
+        assert!(!t.overrun_fault);
+    }
+
+    #[test]
+    fn late_wakeups_are_missed_periods_and_the_limit_is_configurable() {
+        let mut s = CycleStats::new(PERIOD).with_overrun_fault_periods(2);
+        s.start(0);
+        assert!(!s.end(1_000).overrun_fault);
+        // a wake-up 2 periods after the previous one: one period missed (short execution)
+        s.start(2 * PERIOD);
+        let t = s.end(2 * PERIOD + 1_000);
+        assert_eq!((t.consecutive_missed, t.overrun_fault), (1, false));
+        // one period minus a cycle late is still on time
+        s.start(4 * PERIOD - 1);
+        let t = s.end(4 * PERIOD);
+        assert_eq!((t.consecutive_missed, t.overrun_fault), (0, false));
+        s.start(6 * PERIOD);
+        s.end(6 * PERIOD + 10);
+        s.start(8 * PERIOD);
+        let t = s.end(8 * PERIOD + 10);
+        assert_eq!((t.consecutive_missed, t.overrun_fault), (2, true));
+        // a limit of 0 cannot switch the check off: it is 1
+        let mut s = CycleStats::new(PERIOD).with_overrun_fault_periods(0);
+        s.start(0);
+        assert!(s.end(PERIOD + 1).overrun_fault);
     }
 
     #[test]
