@@ -89,11 +89,50 @@ fn io(e: std::io::Error) -> String {
     e.to_string()
 }
 
+/// Runs `work` with a progress bar on stderr when stderr is a terminal (a diagnosis of a
+/// long 1 kHz log takes seconds): preparing, each effect fitted, combining.
+fn with_progress<T>(work: impl FnOnce(&(dyn Fn(diagnose::Progress) + Sync)) -> T) -> T {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return work(&|_| {});
+    }
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} {msg} [{bar:30}] {pos}/{len} effects, {elapsed}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_message("preparing the trial and the base model");
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let update = |p: diagnose::Progress| match p {
+        diagnose::Progress::BaseFitted { effects } => {
+            bar.set_length(effects as u64);
+            bar.set_message("fitting each effect with the base");
+        }
+        diagnose::Progress::EffectDone { .. } => bar.inc(1),
+        diagnose::Progress::Combining => bar.set_message("combining the accepted effects"),
+    };
+    let out = work(&update);
+    bar.finish_and_clear();
+    out
+}
+
 pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     let model = RobotModel::<f64>::thesis();
     let (trial, log) = read_trial(&a.log)?;
     let exp = experiment_of(&a.experiment, &log, &trial)?;
-    let (d, fits) = diagnose::diagnose(&trial, &model, exp, settings(a))?;
+    let (d, fits) = with_progress(|progress| {
+        diagnose::diagnose_observed(
+            &trial,
+            &model,
+            exp,
+            settings(a),
+            &pam_ident::effects::catalog(),
+            progress,
+        )
+    })?;
     if let Some(path) = &a.report {
         let p = trial.prepare(&model, settings(a).filter)?;
         write_report(path, &report::diagnosis_page(&d, &fits, &p))?;

@@ -203,6 +203,30 @@ pub fn diagnose_with(
     settings: Settings,
     catalog: &[&dyn ModelEffect],
 ) -> Result<(Diagnosis, Vec<ModelFit>), String> {
+    diagnose_observed(trial, model, experiment, settings, catalog, &|_| {})
+}
+
+/// Where a diagnosis is, for a progress display (effects are fitted on several threads, so
+/// `EffectDone` comes in any order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// The trial is prepared and the base fitted; this many effects follow.
+    BaseFitted { effects: usize },
+    /// One effect has been fitted and cross-validated on its own.
+    EffectDone { effect: &'static str },
+    /// The accepted effects are being combined (greedy sequence).
+    Combining,
+}
+
+/// [`diagnose_with`], telling `progress` where it is.
+pub fn diagnose_observed(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    experiment: Experiment,
+    settings: Settings,
+    catalog: &[&dyn ModelEffect],
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<(Diagnosis, Vec<ModelFit>), String> {
     let lp = Loop::new(trial, model, experiment, settings)?;
     let dynamic = experiment == Experiment::Dynamic;
     let base = lp.fit(&[]);
@@ -245,6 +269,9 @@ pub fn diagnose_with(
     };
     let level = settings.alpha / split as f64;
     let t_crit = t_critical(folds_count, settings.alpha / 2.0, split);
+    progress(Progress::BaseFitted {
+        effects: applicable.len(),
+    });
     // every effect alone against the base, on both cores
     let alone: Vec<(ModelFit, FoldScores)> = {
         use rayon::prelude::*;
@@ -253,10 +280,12 @@ pub fn diagnose_with(
             .map(|e| {
                 let f = lp.fit(&[*e]);
                 let folds = folds_of(&[*e], &f);
+                progress(Progress::EffectDone { effect: e.id() });
                 (f, folds)
             })
             .collect()
     };
+    progress(Progress::Combining);
     let mut tried: Vec<Tried> = Vec::new();
     for (e, (f, folds)) in applicable.into_iter().zip(alone) {
         let test = fold_test(&base_folds, &folds, dynamic);
