@@ -315,20 +315,17 @@ pub(super) fn choose_pneumatic(
             wn0 * wf,
             z,
         ));
-        let cols = with_offset(&cols);
-        let ne = lsq::normal_equations_extended(&plain_ne, &cols, &target, rows.clone(), stride);
+        let ne = lsq::normal_equations_extended(
+            &plain_ne,
+            &with_offset(&cols),
+            &target,
+            rows.clone(),
+            stride,
+        );
         let th = lsq::solve(&ne, &stiffness.positive());
         let r = lsq::rss(&ne, yty, &th);
         if best.as_ref().is_none_or(|b| r < b.0) {
-            let mut c = plain.clone();
-            c.extend(pneumatic_columns(
-                p,
-                &ctx,
-                stiffness.joint_space(),
-                wn0 * wf,
-                z,
-            ));
-            best = Some((r, c, (wn0 * wf, z)));
+            best = Some((r, cols, (wn0 * wf, z)));
         }
     }
     let (rss_pn, cols, wz) = best.expect("grid is not empty");

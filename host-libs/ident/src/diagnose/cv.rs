@@ -86,7 +86,8 @@ impl<'a> Loop<'a> {
             let blocks: Vec<Range<usize>> = (0..FOLDS)
                 .map(|k| (k * n / FOLDS)..((k + 1) * n / FOLDS))
                 .collect();
-            let y = msd::target(p);
+            let t0 = self.target(0);
+            let y = &t0.y;
             let target = [y[0].as_slice(), y[1].as_slice()];
             let mut yty = Vec::new();
             let mut sst = Vec::new();
@@ -177,10 +178,10 @@ impl<'a> Loop<'a> {
         free: Option<(&dyn ModelEffect, &[Shape])>,
     ) -> FoldScores {
         let ctx = DynCtx::new(&self.p, self.model);
-        let y = msd::target(&self.p);
+        let y = &self.target(0).y;
         let mut terms: Vec<DynTerm> = fixed
             .iter()
-            .map(|e| e.dynamic_term(&ctx, &self.choose_shape(&ctx, *e, &y)))
+            .map(|e| e.dynamic_term(&ctx, &self.choose_shape(&ctx, *e, y)))
             .collect();
         let mut candidates = Vec::new();
         let free_terms: Vec<Option<DynTerm>> = match free {
@@ -237,8 +238,8 @@ impl<'a> Loop<'a> {
     /// chooses among its best few.
     pub(super) fn cv_effect(&self, fixed: &[&dyn ModelEffect], e: &dyn ModelEffect) -> FoldScores {
         let ctx = DynCtx::new(&self.p, self.model);
-        let y = msd::target(&self.p);
-        let mut shapes = self.ranked_shapes(&ctx, e, &y);
+        let y = &self.target(0).y;
+        let mut shapes = self.ranked_shapes(&ctx, e, y);
         shapes.truncate(FREE_SHAPES);
         self.cv_dynamic(fixed, Some((e, &shapes)))
     }

@@ -214,40 +214,39 @@ impl<'a> Loop<'a> {
     /// best by the criterion. An effect rarely turns a poor variant into the best one, and
     /// every variant costs a pass over the data per shape and per fold.
     pub(super) fn shortlist(&self) -> &[usize] {
-        self.shortlist.get_or_init(|| {
-            let mut scored: Vec<(f64, usize)> = (0..self.base_variants.len())
-                .map(|v| {
-                    let bv = &self.base_variants[v];
-                    let th = self.solve_dynamic(&bv.normal, &bv.positive());
-                    let r = lsq::rss(&bv.normal, self.yty_train, &th);
-                    (self.criterion(r, bv.cols.len(), v), v)
-                })
-                .collect();
-            scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-            scored.into_iter().take(SHORTLIST).map(|x| x.1).collect()
-        })
+        &self.base_ranking().shortlist
     }
 
     /// Training RSS of the base alone with the variant it prefers.
     pub(super) fn base_alone_rss(&self) -> f64 {
-        *self.base_rss.get_or_init(|| {
-            (0..self.base_variants.len())
+        self.base_ranking().best_rss
+    }
+
+    /// The base variants alone, ranked by the criterion on the training rows (cached).
+    fn base_ranking(&self) -> &BaseRanking {
+        self.base_ranking.get_or_init(|| {
+            let yty = self.target(0).yty_train;
+            let mut scored: Vec<(f64, f64, usize)> = (0..self.base_variants.len())
                 .map(|v| {
                     let bv = &self.base_variants[v];
                     let th = self.solve_dynamic(&bv.normal, &bv.positive());
-                    let r = lsq::rss(&bv.normal, self.yty_train, &th);
-                    (self.criterion(r, bv.cols.len(), v), r)
+                    let r = lsq::rss(&bv.normal, yty, &th);
+                    (self.criterion(r, bv.cols.len(), v), r, v)
                 })
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|x| x.1)
-                .unwrap_or(f64::INFINITY)
+                .collect();
+            // stable: among equal criteria the first variant stays first
+            scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+            BaseRanking {
+                best_rss: scored.first().map_or(f64::INFINITY, |x| x.1),
+                shortlist: scored.iter().take(SHORTLIST).map(|x| x.2).collect(),
+            }
         })
     }
 
     pub(super) fn fit_dynamic(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
         let p = &self.p;
         let ctx = DynCtx::new(p, self.model);
-        let y = msd::target(p);
+        let y = self.target(0).y.clone();
         let chosen: Vec<(&dyn ModelEffect, Shape)> = effects
             .iter()
             .filter(|e| e.applies(Experiment::Dynamic))

@@ -183,17 +183,21 @@ pub struct Loop<'a> {
     step_init: Option<Response>,
     /// Effective number of independent training residual samples of the plain base.
     n_eff: f64,
-    /// Σ y² over the training rows (dynamic trials).
-    yty_train: f64,
-    /// Training RSS of the base alone, with the variant it prefers (cached).
-    base_rss: std::sync::OnceLock<f64>,
+    /// The base variants alone, ranked (cached, see [`Loop::shortlist`]).
+    base_ranking: std::sync::OnceLock<BaseRanking>,
     /// The dynamic fit's target per shift in samples (cached, see [`Loop::target`]).
     targets: std::sync::Mutex<BTreeMap<usize, std::sync::Arc<Target>>>,
     /// Lower bounds of the dynamic fits' mass diagonals (kg), see
     /// [`Loop::solve_dynamic`].
     mass_floor_kg: [f64; 2],
-    /// The base variants effects are fitted with (cached, see [`Loop::shortlist`]).
-    shortlist: std::sync::OnceLock<Vec<usize>>,
+}
+
+/// The base variants alone, best first by the criterion on the training rows.
+pub(super) struct BaseRanking {
+    /// The variants effects are fitted with, best first.
+    pub shortlist: Vec<usize>,
+    /// Training RSS of the best variant.
+    pub best_rss: f64,
 }
 
 /// How many of the base variants (best first for the base alone) effects are fitted with.
@@ -326,22 +330,12 @@ impl<'a> Loop<'a> {
         } else {
             (Vec::new(), 0.0)
         };
-        let yty_train = if experiment == Experiment::Dynamic {
-            let y = msd::target(&p);
-            (0..2)
-                .map(|a| y[a][..p.split].iter().map(|v| v * v).sum::<f64>())
-                .sum()
-        } else {
-            0.0
-        };
         Ok(Loop {
             step_init,
             drive,
             n_eff,
-            yty_train,
-            base_rss: Default::default(),
+            base_ranking: Default::default(),
             targets: Default::default(),
-            shortlist: Default::default(),
             mass_floor_kg: if experiment == Experiment::Dynamic {
                 model
                     .cartesian_mass(p.alpha0_rad)
