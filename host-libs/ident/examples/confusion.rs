@@ -77,8 +77,10 @@ pub fn run_case(spec: &CaseSpec, out: Option<&PathBuf>) -> CaseResult {
     };
     let said = pam_log::read_str(&g.log_text, None)
         .map_err(|e| e.to_string())
-        .and_then(|log| Trial::from_log(&log))
-        .and_then(|trial| diagnose(&trial, &model, exp, Settings::default()))
+        .and_then(|log| Trial::from_log(&log).map_err(|e| e.to_string()))
+        .and_then(|trial| {
+            diagnose(&trial, &model, exp, Settings::default()).map_err(|e| e.to_string())
+        })
         .and_then(|(d, _)| serde_json::to_value(&d).map_err(|e| e.to_string()));
     let seconds = start.elapsed().as_secs_f64();
     match said {

@@ -20,15 +20,20 @@ pub struct Butterworth {
 impl Butterworth {
     /// Low-pass of `order` ≥ 1 with its −3 dB point at `cutoff_hz`, for samples at
     /// `sample_rate_hz`. Errors when the cutoff is not below Nyquist.
-    pub fn lowpass(order: usize, cutoff_hz: f64, sample_rate_hz: f64) -> Result<Self, String> {
+    pub fn lowpass(
+        order: usize,
+        cutoff_hz: f64,
+        sample_rate_hz: f64,
+    ) -> Result<Self, crate::IdentError> {
         if order == 0 || order > 40 {
-            return Err(format!("filter order must be 1..=40, got {order}"));
+            return Err(crate::IdentError::FilterOrder { order });
         }
         let nyquist = sample_rate_hz / 2.0;
         if !(cutoff_hz > 0.0 && cutoff_hz < nyquist) {
-            return Err(format!(
-                "cutoff {cutoff_hz} Hz must be in (0, {nyquist}) Hz (half the sample rate {sample_rate_hz} Hz)"
-            ));
+            return Err(crate::IdentError::FilterCutoff {
+                cutoff_hz,
+                nyquist_hz: nyquist,
+            });
         }
         // pre-warped analog cutoff for the bilinear map s = 2 fs (z − 1)/(z + 1)
         let fs2 = 2.0 * sample_rate_hz;

@@ -41,7 +41,7 @@ fn model_amp(th: &[f64], w: f64, vx: f64, vy: f64) -> [f64; 2] {
 }
 
 /// `start` = the nine time-domain parameters.
-pub fn fit(p: &Prepared, start: &[f64], band_rad_s: f64) -> Result<FreqFit, String> {
+pub fn fit(p: &Prepared, start: &[f64], band_rad_s: f64) -> Result<FreqFit, crate::IdentError> {
     let s = p.split;
     let f = msd::target(p);
     let fx = amplitude_spectrum(&f[0][..s], p.dt_s);
@@ -52,10 +52,10 @@ pub fn fit(p: &Prepared, start: &[f64], band_rad_s: f64) -> Result<FreqFit, Stri
         .filter(|&k| 2.0 * PI * fx.freq_hz[k] <= band_rad_s)
         .collect();
     if idx.len() < 10 {
-        return Err(format!(
-            "only {} spectral bins below {band_rad_s} rad/s: the trial is too short for a frequency fit",
-            idx.len()
-        ));
+        return Err(crate::IdentError::TooFewBins {
+            bins: idx.len(),
+            band_rad_s,
+        });
     }
     let omega: Vec<f64> = idx.iter().map(|&k| 2.0 * PI * fx.freq_hz[k]).collect();
     let n = idx.len();

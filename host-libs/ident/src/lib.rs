@@ -10,6 +10,7 @@
 // Two-axis and per-joint loops index several parallel arrays at once.
 #![allow(clippy::needless_range_loop)]
 
+pub mod error;
 pub mod filter;
 pub mod freq;
 pub mod lm;
@@ -22,5 +23,6 @@ pub mod trial;
 
 pub mod diagnose;
 pub mod effects;
+pub use error::IdentError;
 pub use trial::{FilterSettings, Prepared, Trial};
 pub mod report;

@@ -161,52 +161,23 @@ pub fn normal_equations_extended(
     Normal { gram, rhs }
 }
 
-/// Jacobi eigen-decomposition of a symmetric matrix: (eigenvalues, eigenvectors as columns).
+/// Eigen-decomposition of a symmetric matrix (nalgebra's symmetric QR algorithm):
+/// (eigenvalues, eigenvectors as columns). The fits solve their normal equations through it
+/// as a pseudo-inverse with a relative eigenvalue cut-off, so collinear columns (an effect
+/// that duplicates a base term) get the minimum-norm answer instead of a blow-up. Normal
+/// equations rather than a QR of the rows: every effect's fit reuses the base columns'
+/// cached Gram block, and only the new columns' products are computed.
 pub fn symmetric_eigen(m: &[Vec<f64>]) -> (Vec<f64>, Vec<Vec<f64>>) {
     let n = m.len();
-    let mut a: Vec<Vec<f64>> = m.to_vec();
-    let mut v = vec![vec![0.0; n]; n];
-    for (i, row) in v.iter_mut().enumerate() {
-        row[i] = 1.0;
+    if n == 0 {
+        return (Vec::new(), Vec::new());
     }
-    for _sweep in 0..60 {
-        let off: f64 = (0..n)
-            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
-            .map(|(i, j)| a[i][j] * a[i][j])
-            .sum();
-        let diag: f64 = (0..n).map(|i| a[i][i] * a[i][i]).sum();
-        if off <= 1e-30 * diag.max(1e-300) {
-            break;
-        }
-        for p in 0..n {
-            for q in p + 1..n {
-                if a[p][q].abs() < 1e-300 {
-                    continue;
-                }
-                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let c = 1.0 / (t * t + 1.0).sqrt();
-                let s = t * c;
-                for k in 0..n {
-                    let (akp, akq) = (a[k][p], a[k][q]);
-                    a[k][p] = c * akp - s * akq;
-                    a[k][q] = s * akp + c * akq;
-                }
-                for k in 0..n {
-                    let (apk, aqk) = (a[p][k], a[q][k]);
-                    a[p][k] = c * apk - s * aqk;
-                    a[q][k] = s * apk + c * aqk;
-                }
-                for k in 0..n {
-                    let (vkp, vkq) = (v[k][p], v[k][q]);
-                    v[k][p] = c * vkp - s * vkq;
-                    v[k][q] = s * vkp + c * vkq;
-                }
-            }
-        }
-    }
-    ((0..n).map(|i| a[i][i]).collect(), v)
+    let a = nalgebra::DMatrix::from_fn(n, n, |i, j| 0.5 * (m[i][j] + m[j][i]));
+    let e = a.symmetric_eigen();
+    let vectors = (0..n)
+        .map(|r| (0..n).map(|c| e.eigenvectors[(r, c)]).collect())
+        .collect();
+    (e.eigenvalues.iter().copied().collect(), vectors)
 }
 
 /// Solves the normal equations restricted to `active` parameters (others are zero).

@@ -157,16 +157,15 @@ pub fn pose_averages(steps: &[StepResult]) -> Vec<PoseAverage> {
 }
 
 /// Eq. 5.2 over poses: G(α1, α2) = p1 α1 + p2 α2 + p3, least squares per axis.
-pub fn fit_gain_plane(poses: &[PoseAverage]) -> Result<[[f64; 3]; 2], String> {
+pub fn fit_gain_plane(poses: &[PoseAverage]) -> Result<[[f64; 3]; 2], crate::IdentError> {
     let mut out = [[0.0; 3]; 2];
     for axis in 0..2 {
         let pts: Vec<&PoseAverage> = poses.iter().filter(|p| p.axis == axis).collect();
         if pts.len() < 3 {
-            return Err(format!(
-                "the gain plane needs at least 3 poses per axis; axis {} has {}",
-                ["X", "Y"][axis],
-                pts.len()
-            ));
+            return Err(crate::IdentError::TooFewPoses {
+                axis: ["X", "Y"][axis],
+                poses: pts.len(),
+            });
         }
         let n = pts.len();
         let cols = vec![

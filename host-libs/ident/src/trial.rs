@@ -67,13 +67,9 @@ pub struct Prepared {
 impl Trial {
     /// The columns the identification uses, from a log (which has already been checked
     /// for malformed values by pam-log).
-    pub fn from_log(log: &pam_log::Log) -> Result<Self, String> {
+    pub fn from_log(log: &pam_log::Log) -> Result<Self, crate::IdentError> {
         use pam_log::col;
-        let need = |name: &str| {
-            log.require(name)
-                .map(|c| c.to_vec())
-                .map_err(|e| e.to_string())
-        };
+        let need = |name: &str| log.require(name).map(|c| c.to_vec());
         let force_ref_n = match (log.column(col::FX_REF_N), log.column(col::FY_REF_N)) {
             (Some(x), Some(y)) => Some([x.to_vec(), y.to_vec()]),
             (None, None) => None,
@@ -93,12 +89,9 @@ impl Trial {
             force_ref_n,
             current_ma,
         };
-        let src = log
-            .source
-            .as_ref()
-            .map(|p| format!("{}: ", p.display()))
-            .unwrap_or_default();
-        trial.validate().map_err(|e| format!("{src}{e}"))?;
+        trial
+            .validate()
+            .map_err(|e| e.in_log(log.source.as_deref()))?;
         Ok(trial)
     }
 
@@ -110,10 +103,13 @@ impl Trial {
     }
 
     /// Checks lengths, finiteness and monotonic time (a log reader normally already did).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::IdentError> {
         let n = self.t_s.len();
         if n < 20 {
-            return Err(format!("trial has {n} samples; at least 20 are needed"));
+            return Err(crate::IdentError::TooFewSamples {
+                samples: n,
+                needed: 20,
+            });
         }
         let mut cols: Vec<(&str, &Vec<f64>)> = vec![
             ("alpha1_rad", &self.alpha_rad[0]),
@@ -127,15 +123,22 @@ impl Trial {
         }
         for (name, c) in &cols {
             if c.len() != n {
-                return Err(format!("column {name} has {} values, t_s has {n}", c.len()));
+                return Err(crate::IdentError::ColumnLength {
+                    column: name,
+                    len: c.len(),
+                    expected: n,
+                });
             }
             if let Some(i) = c.iter().position(|v| !v.is_finite()) {
-                return Err(format!("column {name}, row {}: not a finite number", i + 1));
+                return Err(crate::IdentError::NotFinite {
+                    column: name,
+                    row: i + 1,
+                });
             }
         }
         for i in 1..n {
             if !(self.t_s[i] > self.t_s[i - 1]) {
-                return Err(format!("t_s is not increasing at row {}", i + 1));
+                return Err(crate::IdentError::TimeNotIncreasing { row: i + 1 });
             }
         }
         Ok(())
@@ -148,7 +151,7 @@ impl Trial {
         &self,
         model: &RobotModel<f64>,
         filt: FilterSettings,
-    ) -> Result<Prepared, String> {
+    ) -> Result<Prepared, crate::IdentError> {
         self.validate()?;
         if let Some(uniform) = self.resampled_if_uneven() {
             let mut p = uniform.prepare(model, filt)?;

@@ -5,7 +5,10 @@ mod common;
 
 use common::*;
 use pam_ident::diagnose::{diagnose_with, Settings};
-use pam_ident::effects::{self, DynCtx, DynTerm, Experiment, ModelEffect, Shape};
+use pam_ident::effects::{self, DynCtx, DynTerm, Experiment, ModelEffect, Shape, ShapeParam};
+
+/// The custom effect's own shape parameter.
+const FREQUENCY: ShapeParam = ShapeParam::Custom("frequency_hz");
 use pam_ident::lsq::Column;
 use pam_model::RobotModel;
 
@@ -28,11 +31,11 @@ impl ModelEffect for MainsTone {
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         [50.0, 60.0]
             .iter()
-            .map(|&f| Shape(vec![("frequency_hz", f)]))
+            .map(|&f| Shape(vec![(FREQUENCY, f)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
-        let w = 2.0 * std::f64::consts::PI * shape.get("frequency_hz");
+        let w = 2.0 * std::f64::consts::PI * shape.get(FREQUENCY).unwrap_or(0.0);
         let sin: Vec<f64> = ctx.p.t_s.iter().map(|t| (w * t).sin()).collect();
         let cos: Vec<f64> = ctx.p.t_s.iter().map(|t| (w * t).cos()).collect();
         // a tone of its own amplitude and phase on each axis (in −f)
@@ -55,7 +58,7 @@ impl ModelEffect for MainsTone {
         let mut v = fitted.to_vec();
         v.push(("amplitude_x_n".into(), fitted[0].1.hypot(fitted[1].1)));
         v.push(("amplitude_y_n".into(), fitted[2].1.hypot(fitted[3].1)));
-        v.push(("frequency_hz".into(), shape.get("frequency_hz")));
+        v.push(("frequency_hz".into(), shape.get(FREQUENCY).unwrap_or(0.0)));
         v
     }
 }

@@ -40,8 +40,10 @@ fn run_case(spec: &CaseSpec) -> CaseResult {
     let start = Instant::now();
     let said = pam_log::read_str(&g.log_text, None)
         .map_err(|e| e.to_string())
-        .and_then(|log| Trial::from_log(&log))
-        .and_then(|t| diagnose(&t, &RobotModel::thesis(), exp, Settings::default()))
+        .and_then(|log| Trial::from_log(&log).map_err(|e| e.to_string()))
+        .and_then(|t| {
+            diagnose(&t, &RobotModel::thesis(), exp, Settings::default()).map_err(|e| e.to_string())
+        })
         .and_then(|(d, _)| serde_json::to_value(&d).map_err(|e| e.to_string()));
     let seconds = start.elapsed().as_secs_f64();
     let (says, error) = match said {

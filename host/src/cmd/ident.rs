@@ -138,13 +138,15 @@ fn json(out: &mut impl Write, v: &impl serde::Serialize) -> Result<(), String> {
 fn time(a: &TimeArgs, dynamic: bool, out: &mut impl Write) -> Result<(), String> {
     let model = RobotModel::<f64>::thesis();
     let (trial, _) = read_trial(&a.log)?;
-    let p = trial.prepare(
-        &model,
-        FilterSettings {
-            order: a.order,
-            cutoff_hz: a.cutoff_hz,
-        },
-    )?;
+    let p = trial
+        .prepare(
+            &model,
+            FilterSettings {
+                order: a.order,
+                cutoff_hz: a.cutoff_hz,
+            },
+        )
+        .map_err(super::model_loop::ident_error)?;
     let f = if dynamic {
         msd::fit_dynamic(&p, model.cartesian_mass(p.alpha0_rad))
     } else {
@@ -159,15 +161,17 @@ fn time(a: &TimeArgs, dynamic: bool, out: &mut impl Write) -> Result<(), String>
 fn frequency(a: &FreqArgs, out: &mut impl Write) -> Result<(), String> {
     let model = RobotModel::<f64>::thesis();
     let (trial, _) = read_trial(&a.time.log)?;
-    let p = trial.prepare(
-        &model,
-        FilterSettings {
-            order: a.time.order,
-            cutoff_hz: a.time.cutoff_hz,
-        },
-    )?;
+    let p = trial
+        .prepare(
+            &model,
+            FilterSettings {
+                order: a.time.order,
+                cutoff_hz: a.time.cutoff_hz,
+            },
+        )
+        .map_err(super::model_loop::ident_error)?;
     let t = msd::fit_dynamic(&p, model.cartesian_mass(p.alpha0_rad));
-    let f = freq::fit(&p, &t.theta, a.band_rad_s)?;
+    let f = freq::fit(&p, &t.theta, a.band_rad_s).map_err(super::model_loop::ident_error)?;
     if a.time.json {
         return json(out, &f);
     }
@@ -218,7 +222,9 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
                 path.display()
             ));
         }
-        let p = trial.prepare(&model, FilterSettings::default())?;
+        let p = trial
+            .prepare(&model, FilterSettings::default())
+            .map_err(super::model_loop::ident_error)?;
         let steps = step::analyse_steps(&p, a.threshold_n);
         let avg = step::pose_averages(&steps);
         let mut fitted = Vec::new();
@@ -255,7 +261,7 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
     let j = StepJson {
         logs,
         gain_plane: plane.as_ref().ok().copied(),
-        gain_plane_error: plane.as_ref().err().cloned(),
+        gain_plane_error: plane.as_ref().err().map(|e| e.to_string()),
     };
     if a.json {
         return json(out, &j);

@@ -33,10 +33,15 @@ pub struct LoopArgs {
     pub order: usize,
 }
 
+/// An identification error for the terminal: the message and what to do about it.
+pub fn ident_error(e: pam_ident::IdentError) -> String {
+    format!("{e}\n  help: {}", e.help())
+}
+
 /// Reads a log into a trial; errors carry file, line and column (from pam-log).
 pub fn read_trial(path: &Path) -> Result<(Trial, pam_log::Log), String> {
     let log = pam_log::read_path(path).map_err(|e| e.to_string())?;
-    let trial = Trial::from_log(&log)?;
+    let trial = Trial::from_log(&log).map_err(ident_error)?;
     Ok((trial, log))
 }
 
@@ -46,7 +51,7 @@ pub fn experiment_of(
     trial: &Trial,
 ) -> Result<Experiment, String> {
     if let Some(e) = arg {
-        return e.parse();
+        return e.parse().map_err(ident_error);
     }
     if let Some(e) = log.meta("experiment") {
         match e.trim() {
@@ -132,9 +137,12 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
             &pam_ident::effects::catalog(),
             progress,
         )
-    })?;
+    })
+    .map_err(ident_error)?;
     if let Some(path) = &a.report {
-        let p = trial.prepare(&model, settings(a).filter)?;
+        let p = trial
+            .prepare(&model, settings(a).filter)
+            .map_err(ident_error)?;
         write_report(path, &report::diagnosis_page(&d, &fits, &p))?;
     }
     if a.json {
@@ -224,8 +232,8 @@ pub fn compare(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     let (trial, log) = read_trial(&a.log)?;
     let exp = experiment_of(&a.experiment, &log, &trial)?;
     let catalog = effects::catalog();
-    let with = effects::lookup(&catalog, &a.with)?;
-    let lp = Loop::new(&trial, &model, exp, settings(a))?;
+    let with = effects::lookup(&catalog, &a.with).map_err(ident_error)?;
+    let lp = Loop::new(&trial, &model, exp, settings(a)).map_err(ident_error)?;
     let fit = lp.fit(&with);
     let c = diagnose::compare(&lp, &fit);
     if let Some(path) = &a.report {
@@ -307,7 +315,7 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
     let (trial, log) = read_trial(&a.log)?;
     let exp = experiment_of(&a.experiment, &log, &trial)?;
     let catalog = effects::catalog();
-    let with = effects::lookup(&catalog, &a.with)?;
+    let with = effects::lookup(&catalog, &a.with).map_err(ident_error)?;
     if with.is_empty() {
         return Err("fit needs --with ID,... (see `pamctl model diagnose` for candidates)".into());
     }
@@ -320,7 +328,7 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
             ));
         }
     }
-    let lp = Loop::new(&trial, &model, exp, settings(a))?;
+    let lp = Loop::new(&trial, &model, exp, settings(a)).map_err(ident_error)?;
     let before = lp.fit(&[]);
     let after = lp.fit(&with);
     if let Some(path) = &a.report {

@@ -38,7 +38,7 @@ pub fn prepare_with_best_cutoff(
     trial: &Trial,
     model: &RobotModel<f64>,
     filter: FilterSettings,
-) -> Result<Prepared, String> {
+) -> Result<Prepared, crate::IdentError> {
     let mut best: Option<(f64, Prepared)> = None;
     for f in [1.0, 0.6, 0.4] {
         let settings = FilterSettings {

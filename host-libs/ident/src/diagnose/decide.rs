@@ -150,7 +150,7 @@ pub fn diagnose(
     model: &RobotModel<f64>,
     experiment: Experiment,
     settings: Settings,
-) -> Result<(Diagnosis, Vec<ModelFit>), String> {
+) -> Result<(Diagnosis, Vec<ModelFit>), crate::IdentError> {
     diagnose_with(
         trial,
         model,
@@ -202,7 +202,7 @@ pub fn diagnose_with(
     experiment: Experiment,
     settings: Settings,
     catalog: &[&dyn ModelEffect],
-) -> Result<(Diagnosis, Vec<ModelFit>), String> {
+) -> Result<(Diagnosis, Vec<ModelFit>), crate::IdentError> {
     diagnose_observed(trial, model, experiment, settings, catalog, &|_| {})
 }
 
@@ -226,7 +226,7 @@ pub fn diagnose_observed(
     settings: Settings,
     catalog: &[&dyn ModelEffect],
     progress: &(dyn Fn(Progress) + Sync),
-) -> Result<(Diagnosis, Vec<ModelFit>), String> {
+) -> Result<(Diagnosis, Vec<ModelFit>), crate::IdentError> {
     let lp = Loop::new(trial, model, experiment, settings)?;
     let dynamic = experiment == Experiment::Dynamic;
     let base = lp.fit(&[]);

@@ -233,22 +233,48 @@ fn held_out_scores(p: &Prepared, y: &[Vec<f64>; 2], pred: &[Vec<f64>; 2]) -> ([f
     ([test[0].nrmse, test[1].nrmse], [test[0].r2, test[1].r2])
 }
 
+/// Shortest trial the loop judges: ten contiguous folds of at least
+/// [`MIN_SAMPLES_PER_FOLD`] samples and [`MIN_DURATION_S`] in all. Shorter, the fold-to-fold
+/// spread is meaningless (a fold of one or two samples has none) and a verdict would be
+/// noise dressed as evidence.
+pub const MIN_DURATION_S: f64 = 10.0;
+/// See [`MIN_DURATION_S`].
+pub const MIN_SAMPLES_PER_FOLD: usize = 20;
+
+fn check_long_enough(trial: &Trial) -> Result<(), crate::IdentError> {
+    let n = trial.len();
+    let duration_s = if n > 1 {
+        trial.t_s[n - 1] - trial.t_s[0]
+    } else {
+        0.0
+    };
+    let needed = cv::FOLDS * MIN_SAMPLES_PER_FOLD;
+    if n < needed || !(duration_s >= MIN_DURATION_S) {
+        return Err(crate::IdentError::TooShortToJudge {
+            samples: n,
+            duration_s,
+            needed_samples: needed,
+            needed_s: MIN_DURATION_S,
+        });
+    }
+    Ok(())
+}
+
 impl<'a> Loop<'a> {
     pub fn new(
         trial: &Trial,
         model: &'a RobotModel<f64>,
         experiment: Experiment,
         settings: Settings,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, crate::IdentError> {
+        check_long_enough(trial)?;
         let mut p = if experiment == Experiment::Dynamic && settings.adapt_cutoff {
             prepare_with_best_cutoff(trial, model, settings.filter)?
         } else {
             trial.prepare(model, settings.filter)?
         };
         if experiment == Experiment::Step && p.force_ref_n.is_none() {
-            return Err(
-                "a step experiment needs the force reference columns fx_ref_n, fy_ref_n".into(),
-            );
+            return Err(crate::IdentError::NoForceReference);
         }
         // step trials: graphical starting values from the reference's steps, and the
         // converters' set-points as the model's input (see `response::Drive`)
@@ -380,3 +406,45 @@ pub(crate) fn correlation(a: &[f64], b: &[f64]) -> f64 {
 }
 
 // -------------------------------------------------------------------- diagnosis
+
+#[cfg(test)]
+mod length_tests {
+    use super::*;
+
+    fn still_trial(samples: usize, dt_s: f64) -> Trial {
+        let t_s: Vec<f64> = (0..samples).map(|i| i as f64 * dt_s).collect();
+        let wiggle: Vec<f64> = t_s.iter().map(|t| 0.01 * (3.0 * t).sin()).collect();
+        Trial {
+            force_n: [wiggle.clone(), wiggle.clone()],
+            alpha_rad: [wiggle.clone(), wiggle],
+            t_s,
+            force_ref_n: None,
+            current_ma: None,
+        }
+    }
+
+    #[test]
+    fn a_trial_too_short_for_the_folds_is_refused_not_judged() {
+        let model = RobotModel::<f64>::thesis();
+        for (n, dt) in [(30, 0.001), (150, 0.1), (5000, 0.001)] {
+            let r = Loop::new(
+                &still_trial(n, dt),
+                &model,
+                Experiment::Dynamic,
+                Settings::default(),
+            );
+            assert!(
+                matches!(r, Err(crate::IdentError::TooShortToJudge { .. })),
+                "{n} samples every {dt} s"
+            );
+        }
+        // long enough: judged (whatever the verdict)
+        let r = Loop::new(
+            &still_trial(2000, 0.01),
+            &model,
+            Experiment::Dynamic,
+            Settings::default(),
+        );
+        assert!(r.is_ok());
+    }
+}

@@ -27,11 +27,11 @@ impl ModelEffect for CarrierBallFriction {
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         [0.001, 0.003, 0.01, 0.03, 0.1]
             .iter()
-            .map(|&w| Shape(vec![("smoothing_m_s", w)]))
+            .map(|&w| Shape(vec![(ShapeParam::SmoothingMS, w)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
-        let w = shape.get("smoothing_m_s");
+        let w = shape.get(ShapeParam::SmoothingMS).unwrap_or(0.0);
         let v = &ctx.p.v_m_s;
         let (mut x, mut y) = (Vec::new(), Vec::new());
         for i in 0..ctx.p.len() {
@@ -111,11 +111,11 @@ impl ModelEffect for StribeckFriction {
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         [0.005, 0.01, 0.02, 0.05]
             .iter()
-            .map(|&w| Shape(vec![("stribeck_m_s", w)]))
+            .map(|&w| Shape(vec![(ShapeParam::StribeckMS, w)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
-        let vs = shape.get("stribeck_m_s");
+        let vs = shape.get(ShapeParam::StribeckMS).unwrap_or(0.0);
         // the sign is smoothed over a tenth of the Stribeck speed
         let w = 0.1 * vs;
         let v = &ctx.p.v_m_s;
@@ -168,12 +168,12 @@ impl ModelEffect for PreslidingFriction {
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         [0.00003, 0.0001, 0.0003, 0.001]
             .iter()
-            .map(|&d| Shape(vec![("presliding_m", d)]))
+            .map(|&d| Shape(vec![(ShapeParam::PreslidingM, d)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         let p = ctx.p;
-        let w = shape.get("presliding_m").max(1e-7);
+        let w = shape.get(ShapeParam::PreslidingM).unwrap_or(0.0).max(1e-7);
         let mut out = [vec![0.0; p.len()], vec![0.0; p.len()]];
         for (a, col) in out.iter_mut().enumerate() {
             let mut z = 0.0f64;

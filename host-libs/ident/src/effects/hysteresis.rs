@@ -30,12 +30,12 @@ impl ModelEffect for MuscleHysteresis {
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         [0.0005, 0.001, 0.002, 0.004, 0.008]
             .iter()
-            .map(|&w| Shape(vec![("width", w)]))
+            .map(|&w| Shape(vec![(ShapeParam::Width, w)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         let p = ctx.p;
-        let width = shape.get("width");
+        let width = shape.get(ShapeParam::Width).unwrap_or(0.0);
         let mut cols = Vec::new();
         for j in 0..2 {
             let jp = &ctx.model.params.joints[j];
@@ -71,7 +71,7 @@ impl ModelEffect for MuscleHysteresis {
         shape: &Shape,
     ) -> Vec<(String, f64)> {
         let mut v = fitted.to_vec();
-        v.push(("width".into(), shape.get("width")));
+        v.push(("width".into(), shape.get(ShapeParam::Width).unwrap_or(0.0)));
         // fraction = amplitude / (R (F1 + F2)) with the muscle forces of the model at the
         // commanded pressures (from the logged currents), when the log has them
         if let Some(cur) = &ctx.p.current_ma {
@@ -173,12 +173,12 @@ impl ModelEffect for MaxwellSlip {
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         [0.0003, 0.0006, 0.0012, 0.0025, 0.005]
             .iter()
-            .map(|&d| Shape(vec![("breakaway_rad", d)]))
+            .map(|&d| Shape(vec![(ShapeParam::BreakawayRad, d)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         let p = ctx.p;
-        let delta = shape.get("breakaway_rad").max(1e-6);
+        let delta = shape.get(ShapeParam::BreakawayRad).unwrap_or(0.0).max(1e-6);
         let mut cols = Vec::new();
         for (j, name) in [(0, "slip_torque_nm_joint1"), (1, "slip_torque_nm_joint2")] {
             let widths = [delta, 2.0 * delta, 4.0 * delta];

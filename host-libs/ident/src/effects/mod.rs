@@ -25,12 +25,12 @@ pub enum Experiment {
 }
 
 impl std::str::FromStr for Experiment {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = crate::IdentError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
             "dynamic" => Ok(Experiment::Dynamic),
             "step" => Ok(Experiment::Step),
-            _ => Err(format!("unknown experiment `{s}` (dynamic | step)")),
+            _ => Err(crate::IdentError::UnknownExperiment(s.to_string())),
         }
     }
 }
@@ -157,16 +157,14 @@ impl std::fmt::Display for Family {
 }
 
 impl std::str::FromStr for Family {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = crate::IdentError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
         Family::ALL
             .into_iter()
             .find(|f| f.name() == s)
-            .ok_or_else(|| {
-                format!(
-                    "unknown family `{s}` (known: {})",
-                    Family::ALL.map(|f| f.name()).join(", ")
-                )
+            .ok_or_else(|| crate::IdentError::UnknownFamily {
+                name: s.to_string(),
+                known: Family::ALL.map(|f| f.name()).join(", "),
             })
     }
 }
@@ -220,17 +218,63 @@ impl<'a> DynCtx<'a> {
     }
 }
 
+/// A nonlinear (shape) parameter of an effect: the catalog's, or a custom effect's own.
+/// Typed, so a misspelt name is a compile error rather than a silent zero.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ShapeParam {
+    QuadraticForm,
+    Width,
+    BreakawayRad,
+    SmoothingMS,
+    StribeckMS,
+    PreslidingM,
+    DelayS,
+    TimeConstantS,
+    JointSpace,
+    BacklashRad,
+    HoldTorqueNm,
+    FromNeutralPose,
+    /// A parameter of an effect outside the catalog (its name as reported).
+    Custom(&'static str),
+}
+
+impl ShapeParam {
+    /// The name in reports and `--json` (with its unit as a suffix).
+    pub fn name(self) -> &'static str {
+        match self {
+            ShapeParam::QuadraticForm => "quadratic_form",
+            ShapeParam::Width => "width",
+            ShapeParam::BreakawayRad => "breakaway_rad",
+            ShapeParam::SmoothingMS => "smoothing_m_s",
+            ShapeParam::StribeckMS => "stribeck_m_s",
+            ShapeParam::PreslidingM => "presliding_m",
+            ShapeParam::DelayS => "delay_s",
+            ShapeParam::TimeConstantS => "time_constant_s",
+            ShapeParam::JointSpace => "joint_space",
+            ShapeParam::BacklashRad => "backlash_rad",
+            ShapeParam::HoldTorqueNm => "hold_torque_nm",
+            ShapeParam::FromNeutralPose => "from_neutral_pose",
+            ShapeParam::Custom(n) => n,
+        }
+    }
+}
+
 /// One setting of an effect's nonlinear (shape) parameters, e.g. a delay.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Shape(pub Vec<(&'static str, f64)>);
+pub struct Shape(pub Vec<(ShapeParam, f64)>);
 
 impl Shape {
-    pub fn get(&self, name: &str) -> f64 {
-        self.0
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|p| p.1)
-            .unwrap_or(0.0)
+    /// The parameter's value, if this shape sets it.
+    pub fn get(&self, p: ShapeParam) -> Option<f64> {
+        self.0.iter().find(|(n, _)| *n == p).map(|x| x.1)
+    }
+    /// A two-way choice of form (e.g. joint space or Cartesian): set and non-zero.
+    pub fn flag(&self, p: ShapeParam) -> bool {
+        self.get(p).is_some_and(|v| v != 0.0)
+    }
+    /// The parameters as (name, value) for reports.
+    pub fn named(&self) -> impl Iterator<Item = (String, f64)> + '_ {
+        self.0.iter().map(|(n, x)| (n.name().to_string(), *x))
     }
 }
 
@@ -278,7 +322,7 @@ pub trait ModelEffect: Sync {
         shape: &Shape,
     ) -> Vec<(String, f64)> {
         let mut v: Vec<(String, f64)> = fitted.to_vec();
-        v.extend(shape.0.iter().map(|(n, x)| (n.to_string(), *x)));
+        v.extend(shape.named());
         v
     }
     /// Extra parameters of the second-order step response, for step trials.
@@ -372,13 +416,13 @@ pub(crate) fn at_start(p: &Prepared, f: impl Fn(usize) -> f64) -> f64 {
 /// model's muscles are pretensioned) or the start of the trial.
 pub(crate) fn reference_shapes() -> Vec<Shape> {
     vec![
-        Shape(vec![("from_neutral_pose", 1.0)]),
-        Shape(vec![("from_neutral_pose", 0.0)]),
+        Shape(vec![(ShapeParam::FromNeutralPose, 1.0)]),
+        Shape(vec![(ShapeParam::FromNeutralPose, 0.0)]),
     ]
 }
 
 pub(crate) fn from_neutral(s: &Shape) -> bool {
-    s.get("from_neutral_pose") != 0.0
+    s.flag(ShapeParam::FromNeutralPose)
 }
 
 mod friction;
@@ -428,7 +472,7 @@ pub fn ids() -> Vec<&'static str> {
 pub fn lookup<'a>(
     catalog: &[&'a dyn ModelEffect],
     ids: &[String],
-) -> Result<Vec<&'a dyn ModelEffect>, String> {
+) -> Result<Vec<&'a dyn ModelEffect>, crate::IdentError> {
     let mut out: Vec<&dyn ModelEffect> = Vec::new();
     for id in ids
         .iter()
@@ -449,19 +493,55 @@ pub fn lookup<'a>(
                     .iter()
                     .find(|e| family.is_some() && e.family() == family)
             })
-            .ok_or_else(|| {
-                format!(
-                    "unknown effect `{id}` (known: {})",
-                    catalog
-                        .iter()
-                        .map(|e| e.id())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
+            .ok_or_else(|| crate::IdentError::UnknownEffect {
+                name: id.to_string(),
+                known: catalog
+                    .iter()
+                    .map(|e| e.id())
+                    .collect::<Vec<_>>()
+                    .join(", "),
             })?;
         if !out.iter().any(|o| o.id() == id) {
             out.push(*e);
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod shape_tests {
+    use super::*;
+
+    #[test]
+    fn a_shape_reports_only_what_it_sets_under_unique_names() {
+        let s = Shape(vec![
+            (ShapeParam::DelayS, 0.04),
+            (ShapeParam::JointSpace, 1.0),
+        ]);
+        assert_eq!(s.get(ShapeParam::DelayS), Some(0.04));
+        assert_eq!(s.get(ShapeParam::Width), None);
+        assert!(s.flag(ShapeParam::JointSpace));
+        assert!(!s.flag(ShapeParam::FromNeutralPose));
+        let named: Vec<(String, f64)> = s.named().collect();
+        assert_eq!(named[0], ("delay_s".to_string(), 0.04));
+        // every catalog shape's parameters have distinct report names
+        let mut names = Vec::new();
+        for p in [
+            ShapeParam::QuadraticForm,
+            ShapeParam::Width,
+            ShapeParam::BreakawayRad,
+            ShapeParam::SmoothingMS,
+            ShapeParam::StribeckMS,
+            ShapeParam::PreslidingM,
+            ShapeParam::DelayS,
+            ShapeParam::TimeConstantS,
+            ShapeParam::JointSpace,
+            ShapeParam::BacklashRad,
+            ShapeParam::HoldTorqueNm,
+            ShapeParam::FromNeutralPose,
+        ] {
+            assert!(!names.contains(&p.name()), "{} twice", p.name());
+            names.push(p.name());
+        }
+    }
 }

@@ -33,17 +33,19 @@ impl ModelEffect for PoseDependence {
         let mut v = Vec::new();
         if joint_pressures(ctx.p, ctx.model).is_some() {
             for r in reference_shapes() {
-                v.push(Shape([vec![("quadratic_form", 0.0)], r.0].concat()));
+                v.push(Shape(
+                    [vec![(ShapeParam::QuadraticForm, 0.0)], r.0].concat(),
+                ));
             }
         }
-        v.push(Shape(vec![("quadratic_form", 1.0)]));
+        v.push(Shape(vec![(ShapeParam::QuadraticForm, 1.0)]));
         v
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         // with the pressures known (currents in the log): the pressure part of each joint's
         // torque scaled by a plane in (α1, α2) — the gain plane of eq. 5.2 acting on the
         // muscles; the parameters are the plane's slopes
-        let pressures = if shape.get("quadratic_form") == 0.0 {
+        let pressures = if !shape.flag(ShapeParam::QuadraticForm) {
             joint_pressures(ctx.p, ctx.model)
         } else {
             None

@@ -32,8 +32,8 @@ impl ModelEffect for CableSlip {
         for b in [0.0, 0.002, 0.004, 0.008, 0.016] {
             for frac in [0.3, 0.5, 0.7, 0.85] {
                 v.push(Shape(vec![
-                    ("backlash_rad", b),
-                    ("hold_torque_nm", frac * tmax),
+                    (ShapeParam::BacklashRad, b),
+                    (ShapeParam::HoldTorqueNm, frac * tmax),
                 ]));
             }
         }
@@ -43,8 +43,8 @@ impl ModelEffect for CableSlip {
         let p = ctx.p;
         let n = p.len();
         let a = &p.alpha_smooth_rad[0];
-        let half = 0.5 * shape.get("backlash_rad");
-        let hold = shape.get("hold_torque_nm");
+        let half = 0.5 * shape.get(ShapeParam::BacklashRad).unwrap_or(0.0);
+        let hold = shape.get(ShapeParam::HoldTorqueNm).unwrap_or(0.0);
         // play operator minus the angle: what the muscles do not see
         let mut play = vec![0.0; n];
         let mut t = a[0];
@@ -105,12 +105,12 @@ impl ModelEffect for JointPlay {
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         [0.0005, 0.001, 0.002, 0.004, 0.008, 0.012]
             .iter()
-            .map(|&b| Shape(vec![("backlash_rad", b)]))
+            .map(|&b| Shape(vec![(ShapeParam::BacklashRad, b)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         let p = ctx.p;
-        let half = 0.5 * shape.get("backlash_rad");
+        let half = 0.5 * shape.get(ShapeParam::BacklashRad).unwrap_or(0.0);
         let mut cols = Vec::new();
         for (j, name) in [
             (0, "play_stiffness_nm_per_rad_joint1"),

@@ -36,13 +36,13 @@ impl ModelEffect for TransportDelay {
         (1..)
             .map(|k| k as f64 * every * dt)
             .take_while(|d| *d <= 0.15 + 1e-9)
-            .map(|d| Shape(vec![("delay_s", d)]))
+            .map(|d| Shape(vec![(ShapeParam::DelayS, d)]))
             .collect()
     }
     fn dynamic_term(&self, _ctx: &DynCtx, shape: &Shape) -> DynTerm {
         DynTerm {
             columns: vec![],
-            base_delay_s: shape.get("delay_s"),
+            base_delay_s: shape.get(ShapeParam::DelayS).unwrap_or(0.0),
             ..Default::default()
         }
     }
@@ -198,11 +198,11 @@ impl ModelEffect for SettlingDrift {
         let span = p.t_s[p.len() - 1] - p.t_s[0];
         [0.1, 0.25, 0.5, 1.0]
             .iter()
-            .map(|f| Shape(vec![("time_constant_s", f * span)]))
+            .map(|f| Shape(vec![(ShapeParam::TimeConstantS, f * span)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, s: &Shape) -> DynTerm {
-        let tau = s.get("time_constant_s").max(1e-3);
+        let tau = s.get(ShapeParam::TimeConstantS).unwrap_or(0.0).max(1e-3);
         let t0 = ctx.p.t_s[0];
         DynTerm {
             columns: sensor_frame_columns(

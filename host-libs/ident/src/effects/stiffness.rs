@@ -69,7 +69,7 @@ impl ModelEffect for NonlinearStiffness {
         s: &Shape,
     ) -> Vec<(String, f64)> {
         let mut v = fitted.to_vec();
-        v.extend(s.0.iter().map(|(n, x)| (n.to_string(), *x)));
+        v.extend(s.named());
         // one cubic coefficient for both joints (the twin's parameter), from the two fits
         // weighted towards the joint that moved most is approximated by their mean
         let c = fitted.iter().map(|p| p.1).sum::<f64>() / fitted.len().max(1) as f64;
@@ -103,13 +103,13 @@ impl ModelEffect for CubicAboutEquilibrium {
     }
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         vec![
-            Shape(vec![("joint_space", 1.0)]),
-            Shape(vec![("joint_space", 0.0)]),
+            Shape(vec![(ShapeParam::JointSpace, 1.0)]),
+            Shape(vec![(ShapeParam::JointSpace, 0.0)]),
         ]
     }
     fn dynamic_term(&self, ctx: &DynCtx, s: &Shape) -> DynTerm {
         let p = ctx.p;
-        let cols = if s.get("joint_space") != 0.0 {
+        let cols = if s.flag(ShapeParam::JointSpace) {
             (0..2)
                 .map(|j| {
                     let a = &p.alpha_smooth_rad[j];
