@@ -3,7 +3,7 @@
 //! accuracy, false alarms and timings.
 //!
 //! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
-//!  [--experiment dynamic|step] [--family F] [--jobs 2] [--out DIR] [--json FILE]`
+//!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE]`
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -24,6 +24,9 @@ struct Args {
     /// Only this family (no controls): to look at one family's misses.
     family: Option<Family>,
     jobs: usize,
+    /// Every log sampled at this period instead of the generator's draw (e.g. the thesis
+    /// rig's 30–40 ms, which the generator does not draw); the length is kept in seconds.
+    period_s: Option<f64>,
     out: Option<PathBuf>,
     json: Option<PathBuf>,
 }
@@ -35,6 +38,7 @@ fn parse() -> Result<Args, String> {
         experiment: None,
         family: None,
         jobs: 2,
+        period_s: None,
         out: None,
         json: None,
     };
@@ -50,6 +54,9 @@ fn parse() -> Result<Args, String> {
             }
             "--family" => a.family = Some(Family::parse(&v()?).map_err(|e| e.to_string())?),
             "--jobs" => a.jobs = v()?.parse().map_err(|e| format!("--jobs: {e}"))?,
+            "--period-s" => {
+                a.period_s = Some(v()?.parse().map_err(|e| format!("--period-s: {e}"))?)
+            }
             "--out" => a.out = Some(PathBuf::from(v()?)),
             "--json" => a.json = Some(PathBuf::from(v()?)),
             other => return Err(format!("unknown argument `{other}`")),
@@ -111,7 +118,7 @@ fn main() {
     let a = match parse() {
         Ok(a) => a,
         Err(e) => {
-            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--jobs 2] [--out DIR] [--json FILE]");
+            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE]");
             std::process::exit(2);
         }
     };
@@ -124,6 +131,19 @@ fn main() {
             .map(|i| CaseSpec::random(a.seed0 + i, a.experiment, Some(f)))
             .collect::<Result<Vec<_>, _>>()
             .unwrap_or_else(|e| panic!("--family {}: {e}", f.name())),
+    };
+    let specs: Vec<CaseSpec> = match a.period_s {
+        None => specs,
+        // a mains tone cannot be drawn slower than 5 ms: those cases are left out
+        Some(dt) => specs
+            .into_iter()
+            .filter(|s| !(s.shape.needs_fast_sampling() && dt > pam_synth::case::TONE_MAX_PERIOD_S))
+            .map(|mut s| {
+                s.duration_s = f64::min(s.duration_s, pam_synth::case::MAX_SAMPLES as f64 * dt);
+                s.dt_s = dt;
+                s
+            })
+            .collect(),
     };
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);

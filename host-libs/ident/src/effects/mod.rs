@@ -461,6 +461,7 @@ pub fn catalog() -> Vec<&'static dyn ModelEffect> {
         &MaxwellSlip,
         &CubicAboutEquilibrium,
         &ForceSaturation,
+        &MusclePressureCap,
     ]
 }
 

@@ -144,6 +144,33 @@ impl ModelEffect for PressureSaturation {
     }
 }
 
+/// One muscle's converter cannot deliver more than a cap (a kinked supply line, a worn
+/// converter, a regulator set low): only the steps that drive that muscle high fall short.
+pub struct MusclePressureCap;
+impl ModelEffect for MusclePressureCap {
+    fn id(&self) -> &'static str {
+        "muscle_pressure_cap"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Saturation)
+    }
+    fn shape_name(&self) -> &'static str {
+        "one_muscle_cap"
+    }
+    fn summary(&self) -> &'static str {
+        "one converter's pressure is capped: steps that need that muscle high fall short"
+    }
+    fn signature(&self) -> &'static str {
+        "steps fall short only in the directions one muscle drives, and only when it is driven high"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Step
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::ChannelCap]
+    }
+}
+
 /// The delivered force saturates in magnitude: each axis's force is compressed above a knee
 /// toward a maximum (N), whatever the pressures behind it.
 pub struct ForceSaturation;

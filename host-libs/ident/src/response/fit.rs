@@ -1,0 +1,316 @@
+//! Fitting the step model: grids of starts where the cost is flat or has several basins
+//! (rates, knees, caps, delays), screened by cost, the best few refined by
+//! Levenberg–Marquardt.
+
+use super::params::{lower_bounds, pack, unpack};
+use super::simulate::peak_rate;
+use super::*;
+use crate::lm;
+
+/// Least-squares fit of the step-trial model on rows [0, fit_end) of `axes`, from `start`
+/// (the base's values; extras start from several inactive-to-strong settings).
+pub fn fit(
+    p: &Prepared,
+    d: &Drive,
+    start: &Response,
+    extras: &[StepExtra],
+    axes: &[usize],
+    fit_end: usize,
+) -> Response {
+    let n = fit_end.min(p.len());
+    if n < 4 || axes.is_empty() {
+        return *start;
+    }
+    // a command slew is the rate limits acting on the set-points: the same parameters
+    if extras.contains(&StepExtra::CommandSlew) {
+        let mapped: Vec<StepExtra> = extras
+            .iter()
+            .map(|x| match x {
+                StepExtra::CommandSlew => StepExtra::SlewRate,
+                other => *other,
+            })
+            .collect();
+        let start = Response {
+            slew_command: true,
+            ..*start
+        };
+        return fit(p, d, &start, &mapped, axes, fit_end);
+    }
+    // the simulation runs on every sample; residuals every ≥ 5 ms keep 1 kHz logs cheap
+    let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
+    let rows: Vec<usize> = (0..n).step_by(stride).collect();
+    let t = &p.t_s[..n];
+    let alpha = [&p.alpha_rad[0][..n], &p.alpha_rad[1][..n]];
+    let mut buf = [vec![0.0; n], vec![0.0; n]];
+
+    // two extras with their own grids: the rates first, then the saturation's wider grid
+    // from there
+    let rates_inactive = !(start.rise_per_s.is_finite() || start.fall_per_s.is_finite());
+    let knee_inactive = !start.knee.is_finite();
+    if extras.contains(&StepExtra::SlewRate)
+        && extras.contains(&StepExtra::Saturation)
+        && rates_inactive
+        && knee_inactive
+    {
+        let first: Vec<StepExtra> = extras
+            .iter()
+            .copied()
+            .filter(|x| *x != StepExtra::Saturation)
+            .collect();
+        let stage = fit(p, d, start, &first, axes, fit_end);
+        return fit(p, d, &stage, extras, axes, fit_end);
+    }
+    // the fastest rate the base reaches: the scale of the rate limits' starts and floor
+    let peak = if extras.contains(&StepExtra::SlewRate) {
+        peak_rate(start, d, n).max(1e-6)
+    } else {
+        1.0
+    };
+    let mut starts = vec![*start];
+    if extras.contains(&StepExtra::SlewRate) && rates_inactive {
+        // the cost is flat where a limit is inactive: start at fractions of the fastest
+        // rate the base reaches, alike and unlike up and down, with the base's dynamics and
+        // with the converters' own (a base fitted without the limit has slowed itself down)
+        let (zeta0, omega0) = d.prior_zeta_omega;
+        let own = Response {
+            zeta: zeta0,
+            omega_n_rad_s: omega0,
+            ..*start
+        };
+        let peak_own = peak_rate(&own, d, n).max(1e-6);
+        let mut v = Vec::new();
+        for fast in [false, true] {
+            // down to 1 %: a converter that needs 20 s to fill never reaches its set-point
+            let pairs = [0.7, 0.35, 0.15, 0.06, 0.025, 0.01]
+                .into_iter()
+                .flat_map(|f: f64| [(f, f), (f, f * 0.5), (f * 0.5, f)]);
+            for (fr, ff) in pairs {
+                for s in &starts {
+                    let mut q = *s;
+                    if fast {
+                        q.zeta = zeta0;
+                        q.omega_n_rad_s = omega0;
+                    }
+                    let pk = if fast { peak_own } else { peak };
+                    q.rise_per_s = fr * pk;
+                    q.fall_per_s = ff * pk;
+                    v.push(q);
+                }
+            }
+        }
+        starts = v;
+    }
+    if extras.contains(&StepExtra::Saturation) && knee_inactive {
+        // knees at quantiles of the set-points, from just active to strong
+        let mut all: Vec<f64> = d.set[..n]
+            .iter()
+            .flat_map(|s| s[..d.channels()].iter().map(|v| v.abs()))
+            .collect();
+        all.sort_by(f64::total_cmp);
+        let q = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
+        let top = q(1.0);
+        // the cost has several basins in (knee, span): a grid, screened below
+        // (and below the lowest set-point: a supply that caps every command)
+        let knees = [0.99, 0.95, 0.9, 0.8, 0.65, 0.5, 0.35, 0.2, 0.05]
+            .into_iter()
+            .map(q)
+            .chain([0.8, 0.5].map(|f| f * q(0.0)));
+        starts = knee_grid(
+            &starts,
+            knees,
+            &[0.1, 0.2, 0.35, 0.6, 1.0, 1.7, 3.0],
+            top,
+            |r, knee, span| {
+                r.knee = knee;
+                r.knee_span = span;
+            },
+        );
+    }
+    if extras.contains(&StepExtra::ChannelCap) && start.cap_channel.is_none() {
+        // which channel, and where its cap sits: knees at quantiles of that channel's own
+        // set-points (a cap reached only by its largest commands, or by most of them)
+        let mut v = Vec::new();
+        for c in 0..d.channels() {
+            let mut own: Vec<f64> = d.set[..n]
+                .iter()
+                .map(|s| (scale_of(d, start, c) * s[c]).abs())
+                .collect();
+            own.sort_by(f64::total_cmp);
+            let q = |f: f64| own[((own.len() - 1) as f64 * f) as usize];
+            let top = q(1.0);
+            if !(top > 0.0) {
+                continue;
+            }
+            v.extend(knee_grid(
+                &starts,
+                [0.99, 0.95, 0.9, 0.8, 0.65, 0.5, 0.3].map(q),
+                &[0.1, 0.35, 1.0],
+                top,
+                |r, knee, span| {
+                    r.cap_channel = Some(c);
+                    r.cap = knee;
+                    r.cap_span = span;
+                },
+            ));
+        }
+        if !v.is_empty() {
+            starts = v;
+        }
+    }
+    if extras.contains(&StepExtra::ForceSaturation) && !start.force_knee_n.is_finite() {
+        // knees at quantiles of the measured force's magnitude (a force saturation acts on
+        // the largest steps only), spans from sharp to soft
+        let mut all: Vec<f64> = axes
+            .iter()
+            .flat_map(|&a| rows.iter().map(move |&i| (a, i)))
+            .map(|(a, i)| (p.force_n[a][i] - start.offset_n[a]).abs())
+            .collect();
+        all.sort_by(f64::total_cmp);
+        if let Some(&top) = all.last() {
+            let q = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
+            starts = knee_grid(
+                &starts,
+                [0.97, 0.9, 0.8, 0.65, 0.5, 0.3].map(q),
+                &[0.05, 0.2, 0.6, 2.0],
+                top,
+                |r, knee, span| {
+                    r.force_knee_n = knee;
+                    r.force_span_n = span;
+                },
+            );
+        }
+    }
+    if extras.contains(&StepExtra::Delay) && start.delay_s == 0.0 {
+        // a dead time hides in a base whose dynamics slowed down to absorb it: start at
+        // several delays, with the base's dynamics and with the converters' own
+        let (zeta0, omega0) = d.prior_zeta_omega;
+        let mut v = Vec::new();
+        for delay in [0.0, 0.01, 0.025, 0.045, 0.07, 0.1, 0.14] {
+            for own in [false, true] {
+                for s in &starts {
+                    let mut r = *s;
+                    r.delay_s = delay;
+                    if own {
+                        r.zeta = zeta0;
+                        r.omega_n_rad_s = omega0;
+                    }
+                    v.push(r);
+                }
+            }
+        }
+        starts = v;
+    }
+    let lower = lower_bounds(extras, axes, 1e-3 * peak);
+    // every start gets its least-squares gains and offsets (the output is linear in them),
+    // then the
+    // starts are screened by their cost and the best few refined
+    let mut buf0 = [vec![0.0; n], vec![0.0; n]];
+    let mut screen = |r: &Response| -> (f64, Response) {
+        let mut r = *r;
+        let slopes = r.gain_slope_per_rad;
+        r.gain_slope_per_rad = [[0.0; 2]; 2];
+        r.offset_n = [0.0; 2];
+        r.gain = [1.0; 2];
+        simulate(&r, d, t, alpha, n, &mut buf);
+        r.gain = [0.0; 2];
+        simulate(&r, d, t, alpha, n, &mut buf0);
+        let mut cost = 0.0;
+        let (mut gain, mut offset) = (start.gain, start.offset_n);
+        for &a in axes {
+            // y − rest = G·f + offset, least squares in (G, offset)
+            let (mut sf, mut sff, mut sy, mut sfy, mut m) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for &i in &rows {
+                let f = buf[a][i] - buf0[a][i];
+                let y = p.force_n[a][i] - buf0[a][i];
+                sf += f;
+                sff += f * f;
+                sy += y;
+                sfy += f * y;
+                m += 1.0;
+            }
+            let det = m * sff - sf * sf;
+            let (g, o) = if det.abs() > 1e-12 * (m * sff).max(1e-300) {
+                ((m * sfy - sf * sy) / det, (sff * sy - sf * sfy) / det)
+            } else {
+                (1.0, 0.0)
+            };
+            gain[a] = g;
+            offset[a] = o;
+            for &i in &rows {
+                cost += (buf0[a][i] + g * (buf[a][i] - buf0[a][i]) + o - p.force_n[a][i]).powi(2);
+            }
+        }
+        r.gain = gain;
+        r.offset_n = offset;
+        r.gain_slope_per_rad = slopes;
+        (cost, r)
+    };
+    let keep = 3;
+    if starts.len() > keep {
+        let mut scored: Vec<(f64, Response)> = starts.iter().map(&mut screen).collect();
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        starts = scored.into_iter().take(keep).map(|s| s.1).collect();
+    }
+    let n_res = rows.len() * axes.len();
+    // each start is its own template: a grid start carries the capped channel, a choice
+    // that is not among the packed parameters
+    let mut best: Option<(Vec<f64>, f64, Response)> = None;
+    for s0 in starts {
+        let init = pack(&s0, extras, axes);
+        let (theta, cost) = lm::minimize(&init, &lower, n_res, 30, |v, res| {
+            let q = unpack(v, extras, axes, &s0);
+            simulate(&q, d, t, alpha, n, &mut buf);
+            let mut j = 0;
+            for &a in axes {
+                for &i in &rows {
+                    res[j] = buf[a][i] - p.force_n[a][i];
+                    j += 1;
+                }
+            }
+        });
+        if best.as_ref().is_none_or(|b| cost < b.1) {
+            best = Some((theta, cost, s0));
+        }
+    }
+    match best {
+        Some((theta, _, s0)) => unpack(&theta, extras, axes, &s0),
+        None => *start,
+    }
+}
+
+/// A channel's set-point scale in the simulation: force channels carry the measured force's
+/// gain, converter channels are bar.
+fn scale_of(d: &Drive, r: &Response, c: usize) -> f64 {
+    if d.units == Units::Force {
+        r.gain[c]
+    } else {
+        1.0
+    }
+}
+
+/// Every start at every (knee, span) of a saturation's grid: spans as fractions of the room
+/// between the knee and the top value (at least 0.1 % of the top), the saturation's two
+/// parameters written by `set`; knees outermost, then spans, then the starts.
+fn knee_grid(
+    starts: &[Response],
+    knees: impl IntoIterator<Item = f64>,
+    span_fractions: &[f64],
+    top: f64,
+    set: impl Fn(&mut Response, f64, f64),
+) -> Vec<Response> {
+    let mut v = Vec::new();
+    for knee in knees {
+        for span_f in span_fractions {
+            for s in starts {
+                let mut r = *s;
+                set(
+                    &mut r,
+                    knee,
+                    ((top - knee) * span_f).max(1e-3 * top.max(1e-3)),
+                );
+                v.push(r);
+            }
+        }
+    }
+    v
+}

@@ -1,0 +1,210 @@
+use super::*;
+
+fn force_drive(set: Vec<f64>, dt: f64) -> (Drive, Vec<f64>) {
+    let n = set.len();
+    let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+    let mut dir = vec![0.0; n];
+    for i in 1..n {
+        dir[i] = if set[i] != set[i - 1] {
+            (set[i] - set[i - 1]).signum()
+        } else {
+            dir[i - 1]
+        };
+    }
+    (
+        Drive {
+            units: Units::Force,
+            set: set.iter().map(|&s| [s, 0.0, 0.0, 0.0]).collect(),
+            coeff: vec![[[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]]; n],
+            force_law: None,
+            direction: [dir, vec![0.0; n]],
+            dt_s: dt,
+            prior_zeta_omega: (0.42, 23.04),
+        },
+        t,
+    )
+}
+
+/// The unlimited model is the second order of Table 5.2: overshoot e^{−πζ/√(1−ζ²)}.
+#[test]
+fn base_is_the_second_order() {
+    let dt = 0.001;
+    let set: Vec<f64> = (0..3000)
+        .map(|i| if i < 100 { 0.0 } else { 10.0 })
+        .collect();
+    let (d, t) = force_drive(set, dt);
+    let zero = vec![0.0; t.len()];
+    let mut out = [vec![0.0; t.len()], vec![0.0; t.len()]];
+    let r = Response::base(0.42, 23.04, [1.0, 1.0]);
+    simulate(&r, &d, &t, [&zero, &zero], t.len(), &mut out);
+    let peak = out[0].iter().cloned().fold(f64::MIN, f64::max);
+    let expected = (-std::f64::consts::PI * 0.42 / (1.0f64 - 0.42 * 0.42).sqrt()).exp();
+    assert!(((peak - 10.0) / 10.0 - expected).abs() < 0.01, "{peak}");
+    assert!((out[0][2999] - 10.0).abs() < 1e-3);
+}
+
+/// A rate limit makes a large step a ramp at that rate; a saturation caps the level.
+#[test]
+fn rate_limit_and_saturation_act_on_the_channels() {
+    let dt = 0.001;
+    let set: Vec<f64> = (0..4000)
+        .map(|i| if i < 100 { 0.0 } else { 10.0 })
+        .collect();
+    let (d, t) = force_drive(set, dt);
+    let zero = vec![0.0; t.len()];
+    let mut out = [vec![0.0; t.len()], vec![0.0; t.len()]];
+    let mut r = Response::base(0.42, 23.04, [1.0, 1.0]);
+    r.rise_per_s = 5.0;
+    simulate(&r, &d, &t, [&zero, &zero], t.len(), &mut out);
+    // halfway through the ramp: 1 s after the step at 5 units/s
+    assert!((out[0][1100] - 5.0).abs() < 0.3, "{}", out[0][1100]);
+    r.rise_per_s = f64::INFINITY;
+    r.knee = 4.0;
+    r.knee_span = 2.0;
+    simulate(&r, &d, &t, [&zero, &zero], t.len(), &mut out);
+    let expected = 4.0 + 2.0 * (6.0f64 / 2.0).tanh();
+    assert!((out[0][3999] - expected).abs() < 1e-3, "{}", out[0][3999]);
+}
+
+/// The fit recovers a delay, rate limits and a saturation from noiseless responses:
+/// each alone, and the rates with the saturation (fitted in two stages).
+#[test]
+fn fit_recovers_the_extras() {
+    let dt = 0.002;
+    let mut set = Vec::new();
+    for k in 0..16 {
+        let level = [0.0, 8.0, -8.0, 16.0, 12.0, -12.0, 20.0, -20.0][k % 8];
+        set.extend(std::iter::repeat_n(level, 750));
+    }
+    let (d, t) = force_drive(set, dt);
+    let n = t.len();
+    let zero = vec![0.0; n];
+    let mut full = Response::base(0.42, 23.04, [0.9, 1.0]);
+    full.delay_s = 0.03;
+    full.rise_per_s = 40.0;
+    full.fall_per_s = 25.0;
+    full.knee = 10.0;
+    full.knee_span = 3.0;
+    let base = Response::base(0.42, 23.04, [0.9, 1.0]);
+    let cases: [(&[StepExtra], Response); 4] = [
+        (
+            &[StepExtra::Delay],
+            Response {
+                delay_s: 0.03,
+                ..base
+            },
+        ),
+        (
+            &[StepExtra::SlewRate],
+            Response {
+                rise_per_s: 40.0,
+                fall_per_s: 25.0,
+                ..base
+            },
+        ),
+        (
+            &[StepExtra::Saturation],
+            Response {
+                knee: 10.0,
+                knee_span: 3.0,
+                ..base
+            },
+        ),
+        (
+            &[StepExtra::SlewRate, StepExtra::Saturation],
+            Response {
+                delay_s: 0.0,
+                ..full
+            },
+        ),
+    ];
+    for (extras, truth) in cases {
+        let mut y = [vec![0.0; n], vec![0.0; n]];
+        simulate(&truth, &d, &t, [&zero, &zero], n, &mut y);
+        let trial = crate::Trial {
+            t_s: t.clone(),
+            alpha_rad: [zero.clone(), zero.clone()],
+            force_n: [y[0].clone(), zero.clone()],
+            force_ref_n: Some([d.set.iter().map(|s| s[0]).collect(), zero.clone()]),
+            current_ma: None,
+        };
+        let p = trial
+            .prepare(&RobotModel::thesis(), Default::default())
+            .unwrap();
+        let start = Response::base(0.6, 18.0, [1.0, 1.0]);
+        let f = fit(&p, &d, &start, extras, &[0], n);
+        let mut checks = vec![("zeta", f.zeta, 0.42), ("gain", f.gain[0], 0.9)];
+        if extras.contains(&StepExtra::Delay) {
+            checks.push(("delay", f.delay_s, 0.03));
+        }
+        if extras.contains(&StepExtra::SlewRate) {
+            checks.push(("rise", f.rise_per_s, 40.0));
+            checks.push(("fall", f.fall_per_s, 25.0));
+        }
+        if extras.contains(&StepExtra::Saturation) {
+            checks.push(("knee", f.knee, 10.0));
+            checks.push(("max", f.knee + f.knee_span, 13.0));
+        }
+        for (name, got, want) in checks {
+            assert!(
+                (got - want).abs() < 0.05 * want,
+                "{extras:?} {name}: {got} vs {want}; {f:?}"
+            );
+        }
+    }
+}
+
+/// A cap on one channel: only that channel's large set-points fall short; the fit finds
+/// which channel and where the cap sits, and leaves the other channel alone.
+#[test]
+fn a_cap_on_one_channel_is_found_on_that_channel() {
+    let dt = 0.002;
+    let levels = [0.0, 8.0, -8.0, 16.0, 12.0, -12.0, 20.0, -20.0];
+    let (mut sx, mut sy) = (Vec::new(), Vec::new());
+    for k in 0..16 {
+        sx.extend(std::iter::repeat_n(levels[k % 8], 750));
+        sy.extend(std::iter::repeat_n(levels[(k + 3) % 8], 750));
+    }
+    let (mut d, t) = force_drive(sx.clone(), dt);
+    let n = t.len();
+    d.set = sx
+        .iter()
+        .zip(&sy)
+        .map(|(&x, &y)| [x, y, 0.0, 0.0])
+        .collect();
+    let zero = vec![0.0; n];
+    let truth = Response {
+        cap_channel: Some(1),
+        cap: 10.0,
+        cap_span: 1.0,
+        ..Response::base(0.42, 23.04, [1.0, 1.0])
+    };
+    let mut y = [vec![0.0; n], vec![0.0; n]];
+    simulate(&truth, &d, &t, [&zero, &zero], n, &mut y);
+    // the capped channel falls short on its largest steps only, the other follows
+    let i_high = (0..n).find(|&i| sy[i] == 20.0).unwrap() + 700;
+    assert!((y[1][i_high] - 11.0).abs() < 0.1, "{}", y[1][i_high]);
+    let i_x = (0..n).find(|&i| sx[i] == 20.0).unwrap() + 700;
+    assert!((y[0][i_x] - 20.0).abs() < 0.05, "{}", y[0][i_x]);
+    let trial = crate::Trial {
+        t_s: t.clone(),
+        alpha_rad: [zero.clone(), zero.clone()],
+        force_n: y.clone(),
+        force_ref_n: Some([sx.clone(), sy.clone()]),
+        current_ma: None,
+    };
+    let p = trial
+        .prepare(&RobotModel::thesis(), Default::default())
+        .unwrap();
+    let start = Response::base(0.6, 18.0, [1.0, 1.0]);
+    let f = fit(&p, &d, &start, &[StepExtra::ChannelCap], &[0, 1], n);
+    assert_eq!(f.cap_channel, Some(1), "{f:?}");
+    assert!((f.cap - 10.0).abs() < 0.3, "cap {}", f.cap);
+    assert!(
+        (f.cap + f.cap_span - 11.0).abs() < 0.3,
+        "max {}",
+        f.cap + f.cap_span
+    );
+    let named = f.extra_params(StepExtra::ChannelCap, Units::Force, &[0, 1]);
+    assert_eq!(named[0], ("axis".to_string(), 2.0));
+}
