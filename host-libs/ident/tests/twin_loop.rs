@@ -104,7 +104,9 @@ fn found(d: &Diagnosis, id: &str, label: &str) -> BTreeMap<String, f64> {
 }
 
 fn near(p: &BTreeMap<String, f64>, name: &str, truth: f64, rel: f64, label: &str) {
-    let v = p[name];
+    let Some(&v) = p.get(name) else {
+        panic!("{label}: no {name} in {p:?}");
+    };
     assert!(
         (v - truth).abs() <= rel * truth.abs(),
         "{label}: {name} = {v}, truth {truth} (±{:.0} %); {p:?}",
@@ -436,7 +438,15 @@ fn twin_steps_away_from_the_centre() {
                 "pressure_saturation",
                 &label,
             );
-            near(&p, "knee_bar", 3.2, 0.1, &label);
+            // where only one muscle's set-points pass the knee, a knee on every converter
+            // and a cap on that one muscle are the same model of the data: either shape,
+            // with the twin's knee and maximum
+            let knee = if p.contains_key("cap_bar") {
+                "cap_bar"
+            } else {
+                "knee_bar"
+            };
+            near(&p, knee, 3.2, 0.1, &label);
             near(&p, "max_bar", 4.0, 0.1, &label);
         }
         // slow converters at (15°, −15°), where the muscles' set-points differ by 1.4 bar

@@ -83,8 +83,32 @@ impl Drive {
     /// the currents do not follow the reference (correlation < 0.5 on an axis that steps) —
     /// the force reference itself. `None` without a force reference.
     pub fn new(p: &Prepared, model: &RobotModel<f64>) -> Option<Drive> {
+        let direction = Self::directions(p)?;
+        if let Some(d) = Self::from_currents(p, model, direction.clone()) {
+            return Some(d);
+        }
+        Self::from_reference(p, model, direction)
+    }
+
+    /// Both views a step trial allows: the converters' set-points from the currents (when
+    /// they follow the reference) and the reference itself. The model loop fits its base
+    /// with each and keeps the one the data prefers.
+    pub fn candidates(p: &Prepared, model: &RobotModel<f64>) -> Vec<Drive> {
+        let Some(direction) = Self::directions(p) else {
+            return Vec::new();
+        };
+        let mut v = Vec::new();
+        if let Some(d) = Self::from_currents(p, model, direction.clone()) {
+            v.push(d);
+        }
+        v.extend(Self::from_reference(p, model, direction));
+        v
+    }
+
+    /// Sign of the last change of each axis's reference at each sample.
+    fn directions(p: &Prepared) -> Option<[Vec<f64>; 2]> {
         let reference = p.force_ref_n.as_ref()?;
-        let direction = [0, 1].map(|a| {
+        Some([0, 1].map(|a| {
             let r = &reference[a];
             let mut d = 0.0;
             let mut out = Vec::with_capacity(r.len());
@@ -95,10 +119,16 @@ impl Drive {
                 out.push(d);
             }
             out
-        });
-        if let Some(d) = Self::from_currents(p, model, direction.clone()) {
-            return Some(d);
-        }
+        }))
+    }
+
+    /// Two force channels driven by the reference (the thesis's own view in §5.3).
+    fn from_reference(
+        p: &Prepared,
+        model: &RobotModel<f64>,
+        direction: [Vec<f64>; 2],
+    ) -> Option<Drive> {
+        let reference = p.force_ref_n.as_ref()?;
         let n = p.len();
         Some(Drive {
             units: Units::Force,
