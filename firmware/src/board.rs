@@ -154,9 +154,10 @@ pub fn output_nominal_law() -> pam_firmware_logic::current_loop::ChannelLaw {
 }
 /// The XTR111's EF pins are open drain, low on an output error (open loop, no compliance).
 pub const OUTPUT_ERROR_FLAG_PULL: Pull = Pull::Up;
-/// An error flag must be seen this many consecutive periods before it is a fault: the
-/// flag may glitch while the filter settles after a step.
-pub const OUTPUT_ERROR_DEBOUNCE_PERIODS: u16 = 10;
+/// An error flag must be seen this many consecutive periods before it is a fault (shared
+/// with the emulator).
+pub const OUTPUT_ERROR_DEBOUNCE_PERIODS: u16 =
+    pam_firmware_logic::current_loop::OUTPUT_ERROR_DEBOUNCE_PERIODS;
 /// The output timer, written directly by the panic handler.
 pub const OUTPUT_TIMER_REGS: pac::timer::TimGp16 = pac::TIM3;
 

@@ -16,6 +16,9 @@
 //! connection cannot keep up, whole frames are dropped (the telemetry `seq` shows the gap),
 //! never the real-time loop.
 
+pub mod inject;
+
+use inject::{Board, Injection, Scheduled};
 use pam_control::{Mode, SafetyConfig, State};
 use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
 use pam_model::{RobotModel, RobotParams, Vec2};
@@ -65,6 +68,8 @@ pub struct SimConfig {
     /// The twin's rig: the thesis's model (default) or the rig with the stiffness the
     /// thesis identified (`pam_twin::rig`).
     pub identified_rig: bool,
+    /// Faults to inject at given emulated times (`inject`).
+    pub injections: Vec<Scheduled>,
 }
 
 impl Default for SimConfig {
@@ -75,6 +80,7 @@ impl Default for SimConfig {
             seed: 0,
             command_timeout_s: SafetyConfig::default_1khz().command_timeout_s,
             identified_rig: false,
+            injections: Vec::new(),
         }
     }
 }
@@ -145,6 +151,8 @@ enum Event {
     Opened { conn: u64, out: SyncSender<Vec<u8>> },
     Bytes { conn: u64, bytes: Vec<u8> },
     Closed { conn: u64 },
+    /// A fault to inject now (from the emulator's owner, never from a connection).
+    Inject(Injection),
 }
 
 /// A running emulator. Dropping it stops it.
@@ -154,6 +162,8 @@ pub struct Emulator {
     next_conn: Arc<AtomicU64>,
     pub stats: Arc<LoopStats>,
     threads: Vec<JoinHandle<()>>,
+    /// `injected KIND at time_us=N`, one per injection applied.
+    injected: Receiver<String>,
 }
 
 impl Emulator {
@@ -162,7 +172,8 @@ impl Emulator {
         let (events, rx) = channel();
         let stop = Arc::new(AtomicBool::new(false));
         let stats = Arc::new(LoopStats::default());
-        let plant = Plant::new(&config)?;
+        let (reports, injected) = channel();
+        let plant = Plant::new(&config, reports)?;
         let rt = {
             let stop = stop.clone();
             let stats = stats.clone();
@@ -177,7 +188,20 @@ impl Emulator {
             next_conn: Arc::new(AtomicU64::new(1)),
             stats,
             threads: vec![rt],
+            injected,
         })
+    }
+
+    /// Injects a fault at the next period (see [`inject`]).
+    pub fn inject(&self, injection: Injection) -> Result<(), String> {
+        self.events
+            .send(Event::Inject(injection))
+            .map_err(|_| "the emulator has stopped".to_string())
+    }
+
+    /// Reports of the injections applied since the last call.
+    pub fn injected(&self) -> Vec<String> {
+        self.injected.try_iter().collect()
     }
 
     /// Serves TCP on `address` (port 0: any free port); returns the bound address.
@@ -337,10 +361,17 @@ struct Plant {
     since_s: f64,
     last_mode: (State, Mode),
     t_s: f64,
+    /// The emulated board: injected failures, E-stop, loop timing.
+    board: Board,
+    /// Scheduled injections not applied yet, latest first.
+    schedule: Vec<Scheduled>,
+    reports: Sender<String>,
+    /// Loop currents driven in the last period.
+    last_currents_ma: [f64; 4],
 }
 
 impl Plant {
-    fn new(config: &SimConfig) -> Result<Plant, String> {
+    fn new(config: &SimConfig, reports: Sender<String>) -> Result<Plant, String> {
         let mut twin_cfg = if config.identified_rig {
             TwinConfig::identified_rig()
         } else {
@@ -387,6 +418,9 @@ impl Plant {
             .then(|| OperatorPath::new([0.0; 2], 0.04, (0.1, 2.0), OPERATOR_PATH_S, config.seed));
         let hold_point = twin.state().handle_user_m;
         let last_mode = (device.controller().state(), device.controller().mode());
+        let mut schedule = config.injections.clone();
+        schedule.sort_by(|a, b| b.at_s.total_cmp(&a.at_s));
+        let board = Board::new(device.period_us());
         Ok(Plant {
             device,
             twin,
@@ -398,17 +432,31 @@ impl Plant {
             since_s: 0.0,
             last_mode,
             t_s: 0.0,
+            board,
+            schedule,
+            reports,
+            last_currents_ma: [4.0; 4],
         })
     }
 
+    /// Applies `injection` from the coming period on and reports it.
+    fn inject(&mut self, injection: Injection, device_time_us: u64) {
+        self.board
+            .inject(injection, &self.last, self.last_currents_ma);
+        let _ = self.reports.send(format!(
+            "injected {injection:?} at time_us={}",
+            device_time_us as u32
+        ));
+    }
+
     fn raw_sensors(&self) -> RawSensors {
-        let counts = self
-            .last
+        let seen = self.board.sensors(self.last);
+        let counts = seen
             .encoder_counts
             .map(|c| (c + ENCODER_POWER_ON_COUNTS) as u32);
         RawSensors {
             encoder_counts: counts,
-            loadcell_volts: self.last.loadcell_v.map(|v| v as f32),
+            loadcell_volts: seen.loadcell_v.map(|v| v as f32),
         }
     }
 
@@ -530,13 +578,27 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
                         replies.push((conn, out));
                     }
                 }
+                Ok(Event::Inject(injection)) => plant.inject(injection, device_time_us),
                 Err(TryRecvError::Empty) => break,
                 Err(TryRecvError::Disconnected) => return,
             }
         }
 
-        // 2. the device's control period, then the plant over the same period
+        while plant
+            .schedule
+            .last()
+            .is_some_and(|s| s.at_s <= plant.t_s + 1e-9)
+        {
+            if let Some(s) = plant.schedule.pop() {
+                plant.inject(s.injection, device_time_us);
+            }
+        }
+
+        // 2. the device's control period (inside the emulated board), then the plant over
+        // the same period
+        plant.board.before_step(&mut plant.device);
         let raw = plant.raw_sensors();
+        let step_began = Instant::now();
         let result = plant.device.step(
             raw,
             StepTiming {
@@ -545,11 +607,23 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
                 loop_jitter_us: jitter_us,
             },
         );
+        let stall_us = plant.board.stall_us(period_us as u32);
+        if stall_us > 0 {
+            std::thread::sleep(Duration::from_micros(stall_us as u64));
+        }
+        let board_exec_us = step_began.elapsed().as_micros().min(u32::MAX as u128) as u32;
+        let driven_ma = plant.board.after_step(
+            &mut plant.device,
+            device_time_us as u32,
+            board_exec_us,
+            period_us as u32,
+            result.current_ma,
+        );
         let handle = plant.handle_condition();
         let period_s = period_us as f64 * 1e-6;
-        plant.last = plant
-            .twin
-            .step(period_s, result.current_ma.map(|c| c as f64), &handle);
+        plant.last_currents_ma = driven_ma.map(|c| c as f64);
+        let at_converters = plant.board.converter_currents(plant.last_currents_ma);
+        plant.last = plant.twin.step(period_s, at_converters, &handle);
         plant.t_s += period_s;
         device_time_us += period_us;
 
