@@ -8,8 +8,9 @@
 //!
 //! The check, per joint, while armed:
 //!
-//! * the joint has not moved by more than [`STILL_BAND_RAD`] and no channel's commanded
-//!   pressure by more than [`PRESSURE_BAND_BAR`] for [`BALANCE_WINDOW_S`]: the converters
+//! * the joint has not moved by more than [`STILL_BAND_RAD`] (each joint has its own window)
+//!   and no channel's commanded pressure by more than [`PRESSURE_BAND_BAR`] for
+//!   [`BALANCE_WINDOW_S`]: the converters
 //!   have settled (Table 5.1: a full 0 → 5 bar fill of the slowest converter takes 2.41 s;
 //!   the small-signal second order of Table 5.2 settles in 4/(ζωn) = 0.41 s), and the arm
 //!   is in static equilibrium, so τ_muscles(α, P) = Jᵀ F_handle up to the model's error;
@@ -112,10 +113,11 @@ impl BalanceMonitor {
         pressure_bar: [f32; 4],
     ) -> bool {
         let alpha = sensors.alpha_rad;
-        let moved = !self.started
-            || (0..2).any(|j| (alpha[j] - self.anchor_alpha_rad[j]).abs() > STILL_BAND_RAD)
-            || (0..4).any(|c| (pressure_bar[c] - self.anchor_pressure_bar[c]).abs() > PRESSURE_BAND_BAR);
-        if moved {
+        let steered = !self.started
+            || (0..4).any(|c| {
+                (pressure_bar[c] - self.anchor_pressure_bar[c]).abs() > PRESSURE_BAND_BAR
+            });
+        if steered {
             self.anchor_alpha_rad = alpha;
             self.anchor_pressure_bar = pressure_bar;
             self.unbalanced_periods = [0; 2];
@@ -126,11 +128,16 @@ impl BalanceMonitor {
         let r = imbalance_nm(model, sensors, pressure_bar);
         let tol = tolerance_nm(alpha);
         let mut fault = false;
+        // each joint has its own window: the other joint may still be settling
         for j in 0..2 {
             let jp = &model.params.joints[j];
             let in_range = alpha[j] >= jp.alpha_min_rad && alpha[j] <= jp.alpha_max_rad;
+            let still = (alpha[j] - self.anchor_alpha_rad[j]).abs() <= STILL_BAND_RAD;
+            if !still {
+                self.anchor_alpha_rad[j] = alpha[j];
+            }
             // NaN compares false: an undefined imbalance never counts
-            if in_range && r[j].abs() > tol[j] {
+            if still && in_range && r[j].abs() > tol[j] {
                 self.unbalanced_periods[j] = self.unbalanced_periods[j].saturating_add(1);
             } else {
                 self.unbalanced_periods[j] = 0;
@@ -220,7 +227,7 @@ mod tests {
         };
         let mut m = BalanceMonitor::new();
         assert_eq!(run(&mut m, &model, &s, p, 2_000), None);
-        s.alpha_rad[1] += 2.0 * STILL_BAND_RAD;
+        s.alpha_rad[0] += 2.0 * STILL_BAND_RAD;
         assert_eq!(run(&mut m, &model, &s, p, 2_000), None);
         let mut p2 = p;
         p2[0] += 2.0 * PRESSURE_BAND_BAR;
