@@ -14,6 +14,7 @@
 //! | USB FS device                    | USB               | PA12 DP, PA11 DM              | morpho           |
 //! | Heartbeat LED (LD2)              | GPIO              | PA5                           | Arduino D13      |
 //! | Emergency stop (NC contact)      | EXTI0, GPIO in    | PB0, pull-up; high = stop     | Arduino A3       |
+//! | Output buffers enable (OUT_EN#)  | GPIO out          | PB1, low = enabled            | morpho           |
 //! | embassy-time driver              | TIM15             | none                          | —                |
 //! | Control-loop executor            | UART4 IRQ vector  | none (UART4 unused)           | —                |
 //! | Loop watchdog                    | IWDG (LSI clock)  | none                          | —                |
@@ -39,7 +40,7 @@ use embassy_stm32::gpio::Pull;
 use embassy_stm32::interrupt::Priority;
 use embassy_stm32::pac;
 use embassy_stm32::peripherals::{
-    ADC1, ADC2, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB12, PB13, PB14, PB15, PB2, PC0, PC1, PC12,
+    ADC1, ADC2, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0, PC1, PC12,
     PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
 };
 use embassy_stm32::time::Hertz;
@@ -245,6 +246,9 @@ pub struct Board {
     pub usb: Usb,
     pub watchdog: Peri<'static, IWDG>,
     pub estop: Peri<'static, PB0>,
+    /// OUT_EN#: the four output buffers' /OE (pulled high on the board: disabled until the
+    /// firmware drives it low, after the outputs run at 4 mA; docs/output-stage.md).
+    pub output_enable: Peri<'static, PB1>,
 }
 
 impl Board {
@@ -285,6 +289,7 @@ impl Board {
             },
             watchdog: p.IWDG,
             estop: p.PB0,
+            output_enable: p.PB1,
         }
     }
 }

@@ -133,6 +133,9 @@ fn main() -> ! {
 
     // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
     let outputs = CurrentLoopOutputs::new(board.outputs, [board::output_nominal_law(); CHANNELS]);
+    // the buffers drive VIN only from here on, at the 4 mA compare (revised output stage;
+    // on the first board /OE is tied low and the pin is unconnected). Never dropped.
+    core::mem::forget(Output::new(board.output_enable, Level::Low, Speed::Low));
     // the stop's handler writes the outputs' safe compares: after they exist
     let estop = estop::EStop::new(board.estop);
     panic::paint_stack();
