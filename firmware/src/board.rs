@@ -40,8 +40,8 @@ use embassy_stm32::gpio::Pull;
 use embassy_stm32::interrupt::Priority;
 use embassy_stm32::pac;
 use embassy_stm32::peripherals::{
-    ADC1, ADC2, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0, PC1, PC12,
-    PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
+    ADC1, ADC2, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0, PC1,
+    PC12, PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
 };
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{Peri, Peripherals};

@@ -124,8 +124,11 @@ impl Target {
         let (stdin, lines) = self.control.as_ref()?;
         let lines = lines.lock().unwrap_or_else(|p| p.into_inner());
         while lines.try_recv().is_ok() {}
-        writeln!(stdin.lock().unwrap_or_else(|p| p.into_inner()), "inject {kind}")
-            .expect("write to the emulator");
+        writeln!(
+            stdin.lock().unwrap_or_else(|p| p.into_inner()),
+            "inject {kind}"
+        )
+        .expect("write to the emulator");
         loop {
             let line = lines
                 .recv_timeout(Duration::from_secs(2))

@@ -49,7 +49,10 @@ fn check(scenario: &str, expect: Faults, m: &Measured, c: &Client, max_periods: 
         "{scenario}: faults {:#06x}",
         m.faults
     );
-    assert_eq!(m.gaps_before, 0, "{scenario}: telemetry gaps before the fault");
+    assert_eq!(
+        m.gaps_before, 0,
+        "{scenario}: telemetry gaps before the fault"
+    );
     assert!(
         (0..=max_periods).contains(&m.raised_periods),
         "{scenario}: raised after {} periods, allowed 0–{max_periods}",
@@ -58,7 +61,10 @@ fn check(scenario: &str, expect: Faults, m: &Measured, c: &Client, max_periods: 
     assert!(m.safe_periods >= m.raised_periods);
     assert!(m.stayed_safe, "{scenario}: left the safe state");
     // no panic: the device still answers and reports the latched fault
-    match c.request(RequestBody::GetStatus).expect("status after the fault") {
+    match c
+        .request(RequestBody::GetStatus)
+        .expect("status after the fault")
+    {
         ReplyData::Status(s) => {
             assert_eq!(s.state, State::Faulted);
             assert!(s.faults & expect.0 != 0);
@@ -78,7 +84,8 @@ fn inject_then<'a>(
     move |_| {
         let t0 = target.inject(kind).expect("emulator");
         if let Some(mode) = then {
-            c.command(RequestBody::SetMode(mode.into())).expect("new target");
+            c.command(RequestBody::SetMode(mode.into()))
+                .expect("new target");
         }
         t0
     }
@@ -132,7 +139,13 @@ fn link_loss() {
         TAIL,
     );
     // 0.1 s timeout, then the ramp 2.4 bar at 5 bar/s: 580 periods; link latency slack
-    check("link loss (host silent)", Faults::COMMAND_TIMEOUT, &m, &c, 110);
+    check(
+        "link loss (host silent)",
+        Faults::COMMAND_TIMEOUT,
+        &m,
+        &c,
+        110,
+    );
     assert!(
         m.safe_periods <= 600,
         "safe after {} periods",
@@ -278,7 +291,8 @@ fn emergency_stop_vents_within_a_period_and_latches_until_released() {
     // released: the operator clears it
     target.inject("estop_release").expect("emulator");
     std::thread::sleep(Duration::from_millis(20));
-    c.command(RequestBody::ClearFaults).expect("clear after release");
+    c.command(RequestBody::ClearFaults)
+        .expect("clear after release");
     let (state, bits) = faults(&c);
     assert!(state == State::Disarmed && bits == 0, "{state:?} {bits:#x}");
 }
@@ -300,7 +314,11 @@ fn stream_while(c: &Client, seconds: f64, mut each: impl FnMut(&Client) -> bool)
             last_beat = std::time::Instant::now();
         }
         // what has arrived, without waiting while there is work to do
-        let wait = if busy { Duration::ZERO } else { Duration::from_millis(5) };
+        let wait = if busy {
+            Duration::ZERO
+        } else {
+            Duration::from_millis(5)
+        };
         while let Some(t) = c.next_telemetry(wait).expect("telemetry") {
             samples.push(t);
             if wait.is_zero() {
@@ -383,9 +401,9 @@ fn nan_and_out_of_range_targets_change_nothing() {
     assert_eq!(refused, 20 * bad.len());
     assert!(samples.len() > 900, "{} samples in 1 s", samples.len());
     assert_eq!(gaps(&samples), 0);
-    assert!(samples
-        .iter()
-        .all(|t| t.state == State::Armed && t.faults == 0 && t.mode == pam_protocol::ModeKind::Joint));
+    assert!(samples.iter().all(|t| t.state == State::Armed
+        && t.faults == 0
+        && t.mode == pam_protocol::ModeKind::Joint));
     c.command(RequestBody::Disarm).expect("disarm");
 }
 
@@ -418,7 +436,10 @@ fn a_flood_of_malformed_frames_changes_nothing() {
         None => false,
     });
     // the link recovers at once and nothing was applied
-    match c.request(RequestBody::GetStatus).expect("status after the flood") {
+    match c
+        .request(RequestBody::GetStatus)
+        .expect("status after the flood")
+    {
         ReplyData::Status(s) => {
             assert_eq!(s.state, State::Armed);
             assert_eq!(s.faults, 0);
@@ -433,8 +454,8 @@ fn a_flood_of_malformed_frames_changes_nothing() {
     );
     assert!(samples.len() > 1300, "{} samples in 1.5 s", samples.len());
     assert_eq!(gaps(&samples), 0, "telemetry lost during the flood");
-    assert!(samples
-        .iter()
-        .all(|t| t.state == State::Armed && t.faults == 0 && t.mode == pam_protocol::ModeKind::Joint));
+    assert!(samples.iter().all(|t| t.state == State::Armed
+        && t.faults == 0
+        && t.mode == pam_protocol::ModeKind::Joint));
     c.command(RequestBody::Disarm).expect("disarm");
 }

@@ -16,24 +16,24 @@
 //! connection cannot keep up, whole frames are dropped (the telemetry `seq` shows the gap),
 //! never the real-time loop.
 
+mod conn;
 pub mod inject;
 
+use conn::{attach, push_frame, Connection};
 use inject::{Board, Injection, Scheduled};
 use pam_control::{Mode, SafetyConfig, State};
 use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
 use pam_model::{RobotModel, RobotParams, Vec2};
 use pam_protocol::{
-    encode_frame, Calibration, Config, DeviceMessage, EncoderCalibration, FrameDecoder, Request,
-    RequestBody, Version, MAX_FRAME,
+    Calibration, Config, DeviceMessage, EncoderCalibration, FrameDecoder, Request, RequestBody,
+    Version,
 };
 use pam_twin::experiments::OperatorPath;
 use pam_twin::{EffectSet, HandleCondition, Measurement, Twin, TwinConfig};
-use std::io::{ErrorKind, Read, Write};
+use std::io::ErrorKind;
 use std::net::TcpListener;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{
-    channel, sync_channel, Receiver, Sender, SyncSender, TryRecvError, TrySendError,
-};
+use std::sync::mpsc::{channel, Receiver, Sender, SyncSender, TryRecvError, TrySendError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -102,8 +102,6 @@ pub fn emulator_version() -> Version {
 const ENCODER_COUNTER_BITS: u8 = 16;
 /// Arbitrary power-on value of the encoder counters: homing must not depend on it.
 const ENCODER_POWER_ON_COUNTS: i64 = 0x7A31;
-/// Frames queued per connection before frames are dropped (≈ 0.5 s of telemetry at 1 kHz).
-const WRITE_QUEUE: usize = 512;
 /// Further behind than this (machine suspended, debugger) the loop resynchronises instead
 /// of bursting through the backlog.
 const MAX_CATCH_UP: Duration = Duration::from_secs(1);
@@ -148,9 +146,17 @@ impl LoopStats {
 
 /// What the connections tell the real-time loop.
 enum Event {
-    Opened { conn: u64, out: SyncSender<Vec<u8>> },
-    Bytes { conn: u64, bytes: Vec<u8> },
-    Closed { conn: u64 },
+    Opened {
+        conn: u64,
+        out: SyncSender<Vec<u8>>,
+    },
+    Bytes {
+        conn: u64,
+        bytes: Vec<u8>,
+    },
+    Closed {
+        conn: u64,
+    },
     /// A fault to inject now (from the emulator's owner, never from a connection).
     Inject(Injection),
 }
@@ -291,60 +297,6 @@ impl Drop for Emulator {
     fn drop(&mut self) {
         self.shutdown();
     }
-}
-
-/// Reader and writer threads of one connection.
-fn attach(
-    conn: u64,
-    mut reader: Box<dyn Read + Send>,
-    mut writer: Box<dyn Write + Send>,
-    events: &Sender<Event>,
-    stop: &Arc<AtomicBool>,
-) {
-    let (out, queue): (SyncSender<Vec<u8>>, Receiver<Vec<u8>>) = sync_channel(WRITE_QUEUE);
-    if events.send(Event::Opened { conn, out }).is_err() {
-        return;
-    }
-    let ev = events.clone();
-    let stop_r = stop.clone();
-    std::thread::spawn(move || {
-        let mut buf = [0u8; 1024];
-        while !stop_r.load(Ordering::SeqCst) {
-            match reader.read(&mut buf) {
-                Ok(0) => break,
-                Ok(n) => {
-                    if ev
-                        .send(Event::Bytes {
-                            conn,
-                            bytes: buf[..n].to_vec(),
-                        })
-                        .is_err()
-                    {
-                        break;
-                    }
-                }
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        ErrorKind::Interrupted | ErrorKind::WouldBlock | ErrorKind::TimedOut
-                    ) => {}
-                Err(_) => break,
-            }
-        }
-        let _ = ev.send(Event::Closed { conn });
-    });
-    std::thread::spawn(move || {
-        // ends when the real-time loop drops the sender (connection closed or stop)
-        while let Ok(bytes) = queue.recv() {
-            if writer
-                .write_all(&bytes)
-                .and_then(|_| writer.flush())
-                .is_err()
-            {
-                break;
-            }
-        }
-    });
 }
 
 /// The twin and what holds its handle.
@@ -499,20 +451,6 @@ impl Plant {
             HandleMode::Operator => HandleCondition::Free,
         }
     }
-}
-
-/// Frames for one connection, encoded back to back.
-fn push_frame(buf: &mut Vec<u8>, msg: &DeviceMessage) {
-    let mut frame = [0u8; MAX_FRAME];
-    if let Ok(n) = encode_frame(msg, &mut frame) {
-        buf.extend_from_slice(&frame[..n]);
-    }
-}
-
-struct Connection {
-    id: u64,
-    out: SyncSender<Vec<u8>>,
-    decoder: FrameDecoder<Request>,
 }
 
 fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, stats: &LoopStats) {

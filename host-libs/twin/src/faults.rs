@@ -173,8 +173,8 @@ impl FaultState {
     pub fn measurement(&self, m: Measurement, amplifier_full_scale_v: f64) -> Measurement {
         let mut out = m;
         for j in 0..2 {
-            out.encoder_counts[j] = self.frozen_counts[j]
-                .unwrap_or(m.encoder_counts[j] + self.count_offset[j]);
+            out.encoder_counts[j] =
+                self.frozen_counts[j].unwrap_or(m.encoder_counts[j] + self.count_offset[j]);
         }
         if let Some(v) = self.frozen_volts {
             out.loadcell_v = v;

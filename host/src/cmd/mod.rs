@@ -59,7 +59,10 @@ pub fn fault_names(bits: u16) -> String {
         (Faults::LOOP_OVERRUN, "control loop overrun"),
         (Faults::STACK_LOW, "stack high-water mark near its end"),
         (Faults::ESTOP, "emergency stop"),
-        (Faults::STATIC_IMBALANCE, "joint at rest with an unbalanced torque (encoder or converter)"),
+        (
+            Faults::STATIC_IMBALANCE,
+            "joint at rest with an unbalanced torque (encoder or converter)",
+        ),
     ];
     if bits == 0 {
         return "none".into();

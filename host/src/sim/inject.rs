@@ -60,9 +60,10 @@ impl Injection {
                 };
                 Injection::Overrun { periods }
             }
-            _ => Injection::Plant(PlantFault::parse(text).map_err(|e| {
-                format!("{e}; or estop, estop_release, overrun:periods=N")
-            })?),
+            _ => Injection::Plant(
+                PlantFault::parse(text)
+                    .map_err(|e| format!("{e}; or estop, estop_release, overrun:periods=N"))?,
+            ),
         })
     }
 }
@@ -124,10 +125,8 @@ impl Board {
 
     /// What the device reads this period.
     pub fn sensors(&self, healthy: Measurement) -> Measurement {
-        self.plant.measurement(
-            healthy,
-            pam_control::LOADCELL_AMPLIFIER_FULL_SCALE_V as f64,
-        )
+        self.plant
+            .measurement(healthy, pam_control::LOADCELL_AMPLIFIER_FULL_SCALE_V as f64)
     }
 
     /// Before the step, like the control task: hardware conditions become faults.

@@ -114,9 +114,8 @@ impl BalanceMonitor {
     ) -> bool {
         let alpha = sensors.alpha_rad;
         let steered = !self.started
-            || (0..4).any(|c| {
-                (pressure_bar[c] - self.anchor_pressure_bar[c]).abs() > PRESSURE_BAND_BAR
-            });
+            || (0..4)
+                .any(|c| (pressure_bar[c] - self.anchor_pressure_bar[c]).abs() > PRESSURE_BAND_BAR);
         if steered {
             self.anchor_alpha_rad = alpha;
             self.anchor_pressure_bar = pressure_bar;
