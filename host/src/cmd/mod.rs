@@ -99,7 +99,9 @@ mod tests {
             fault_names(Faults::STACK_LOW.0),
             "stack high-water mark near its end"
         );
-        assert_eq!(fault_names(1 << 12), "unknown bits 0x1000");
+        assert_eq!(fault_names(Faults::ESTOP.0), "emergency stop");
+        assert!(fault_names(Faults::STATIC_IMBALANCE.0).starts_with("joint at rest"));
+        assert_eq!(fault_names(1 << 14), "unknown bits 0x4000");
         assert_eq!(fault_names(0), "none");
     }
 }
