@@ -201,6 +201,75 @@ impl SetPeriodIfChanged for CycleStats {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use pam_control::SafetyConfig;
+    use pam_device::DeviceOptions;
+    use pam_model::RobotParams;
+
+    fn device() -> Device {
+        Device::new(
+            RobotParams::thesis(),
+            SafetyConfig::default_1khz(),
+            DeviceOptions {
+                firmware_version: crate::sim::emulator_version(),
+                encoder_counter_bits: 16,
+            },
+        )
+    }
+
+    fn healthy() -> Measurement {
+        Measurement {
+            t_s: 0.0,
+            encoder_counts: [0; 2],
+            loadcell_v: [0.0; 2],
+            alpha_rad: [0.0; 2],
+            force_sensor_n: [0.0; 2],
+            force_user_n: [0.0; 2],
+            pressure_bar: [0.0; 4],
+        }
+    }
+
+    #[test]
+    fn the_estop_vents_at_once_and_latches_its_fault() {
+        let (mut board, mut d) = (Board::new(1000), device());
+        board.inject(Injection::EStop, &healthy(), [12.0; 4]);
+        board.before_step(&mut d);
+        assert!(d.controller().faults().contains(Faults::ESTOP));
+        assert_eq!(board.after_step(&mut d, 0, 20, 1000, [12.0; 4]), [SAFE_MA; 4]);
+        board.inject(Injection::EStopRelease, &healthy(), [4.0; 4]);
+        assert_eq!(board.after_step(&mut d, 1000, 20, 1000, [5.0; 4]), [5.0; 4]);
+    }
+
+    #[test]
+    fn an_open_loop_is_a_fault_after_the_firmwares_debounce() {
+        let (mut board, mut d) = (Board::new(1000), device());
+        board.inject(
+            Injection::Plant(PlantFault::ConverterOpen { channel: 2 }),
+            &healthy(),
+            [4.0; 4],
+        );
+        for _ in 1..OUTPUT_ERROR_DEBOUNCE_PERIODS {
+            board.before_step(&mut d);
+            assert!(d.controller().faults().is_none());
+        }
+        board.before_step(&mut d);
+        assert!(d.controller().faults().contains(Faults::OUTPUT_OPEN_LOOP));
+        assert_eq!(board.converter_currents([12.0; 4])[2], 0.0);
+    }
+
+    #[test]
+    fn three_overrun_periods_in_a_row_are_a_loop_overrun() {
+        let (mut board, mut d) = (Board::new(1000), device());
+        board.inject(Injection::Overrun { periods: 3 }, &healthy(), [4.0; 4]);
+        for k in 0..3u32 {
+            let stall = board.stall_us(1000);
+            assert_eq!(stall, 2000);
+            let out = board.after_step(&mut d, k * 1000, stall + 20, 1000, [9.0; 4]);
+            let faulted = d.controller().faults().contains(Faults::LOOP_OVERRUN);
+            assert_eq!(faulted, k == 2, "period {k}");
+            assert_eq!(out, if k == 2 { [SAFE_MA; 4] } else { [9.0; 4] });
+        }
+        assert_eq!(board.stall_us(1000), 0);
+    }
 
     #[test]
     fn parses_board_and_plant_injections_with_their_time() {
