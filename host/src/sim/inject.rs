@@ -136,8 +136,9 @@ impl Board {
         }
         let flags = self.plant.open_loop();
         let mut open = false;
-        for c in 0..4 {
-            open |= self.open_loop[c].update(flags[c]);
+        // every debouncer sees its flag each period (no short-circuit)
+        for (debounce, flag) in self.open_loop.iter_mut().zip(flags) {
+            open |= debounce.update(flag);
         }
         if open {
             device.raise(Faults::OUTPUT_OPEN_LOOP);
