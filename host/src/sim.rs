@@ -536,7 +536,7 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
         // the same period
         plant.board.before_step(&mut plant.device);
         let raw = plant.raw_sensors();
-        let step_began = Instant::now();
+        let step_clock = inject::StepClock::start();
         let result = plant.device.step(
             raw,
             StepTiming {
@@ -545,11 +545,12 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
                 loop_jitter_us: jitter_us,
             },
         );
+        let step_us = step_clock.elapsed_us();
         let stall_us = plant.board.stall_us(period_us as u32);
         if stall_us > 0 {
             std::thread::sleep(Duration::from_micros(stall_us as u64));
         }
-        let board_exec_us = step_began.elapsed().as_micros().min(u32::MAX as u128) as u32;
+        let board_exec_us = step_us + stall_us;
         let driven_ma = plant.board.after_step(
             &mut plant.device,
             device_time_us as u32,

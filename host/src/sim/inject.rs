@@ -155,8 +155,9 @@ impl Board {
     }
 
     /// After the step, like the control task: the board's execution time of this period
-    /// (the device step and any stall; the host's scheduling and the twin's physics are
-    /// not the board's) through the firmware's cycle statistics. Returns the currents to
+    /// (the device step's CPU time, [`StepClock`], and any injected stall; the host's
+    /// scheduling and the twin's physics are not the board's) through the firmware's cycle
+    /// statistics. Returns the currents to
     /// drive: the step's, or 4 mA after an overrun fault or while the E-stop is pressed.
     pub fn after_step(
         &mut self,
@@ -184,6 +185,39 @@ impl Board {
     pub fn converter_currents(&self, driven_ma: [f64; 4]) -> [f64; 4] {
         self.plant.currents_ma(driven_ma)
     }
+}
+
+/// What the board's execution time of a step is measured with: the real-time thread's CPU
+/// time (Linux), so that the host descheduling the emulator in the middle of a step is not
+/// taken for the board overrunning; elsewhere the wall clock.
+pub struct StepClock(Option<std::time::Duration>, std::time::Instant);
+
+impl StepClock {
+    pub fn start() -> StepClock {
+        StepClock(thread_cpu_time(), std::time::Instant::now())
+    }
+
+    /// µs of the step so far.
+    pub fn elapsed_us(&self) -> u32 {
+        let spent = match (self.0, thread_cpu_time()) {
+            (Some(a), Some(b)) => b.saturating_sub(a),
+            _ => self.1.elapsed(),
+        };
+        spent.as_micros().min(u32::MAX as u128) as u32
+    }
+}
+
+#[cfg(target_os = "linux")]
+fn thread_cpu_time() -> Option<std::time::Duration> {
+    use nix::time::{clock_gettime, ClockId};
+    clock_gettime(ClockId::CLOCK_THREAD_CPUTIME_ID)
+        .ok()
+        .map(std::time::Duration::from)
+}
+
+#[cfg(not(target_os = "linux"))]
+fn thread_cpu_time() -> Option<std::time::Duration> {
+    None
 }
 
 /// `CycleStats::set_period` restarts the jitter reference: only on a change.
@@ -270,6 +304,14 @@ mod tests {
             assert_eq!(out, if k == 2 { [SAFE_MA; 4] } else { [9.0; 4] });
         }
         assert_eq!(board.stall_us(1000), 0);
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn time_the_thread_does_not_run_is_not_board_time() {
+        let clock = StepClock::start();
+        std::thread::sleep(std::time::Duration::from_millis(30));
+        assert!(clock.elapsed_us() < 5_000, "{} µs", clock.elapsed_us());
     }
 
     #[test]
