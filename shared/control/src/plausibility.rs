@@ -10,10 +10,10 @@
 //!
 //! * the joint has not moved by more than [`STILL_BAND_RAD`] (each joint has its own window)
 //!   and no channel's commanded pressure by more than [`PRESSURE_BAND_BAR`] for
-//!   [`BALANCE_WINDOW_S`]: the converters
-//!   have settled (Table 5.1: a full 0 → 5 bar fill of the slowest converter takes 2.41 s;
-//!   the small-signal second order of Table 5.2 settles in 4/(ζωn) = 0.41 s), and the arm
-//!   is in static equilibrium, so τ_muscles(α, P) = Jᵀ F_handle up to the model's error;
+//!   [`BALANCE_WINDOW_S`]: the converters have settled (Table 5.1: a full 0 → 5 bar fill of
+//!   the slowest converter takes 2.41 s; the small-signal second order of Table 5.2 settles
+//!   in 4/(ζωn) = 0.41 s), and the arm is in static equilibrium, so
+//!   τ_muscles(α, P) = Jᵀ F_handle up to the model's error;
 //! * and during the whole window |τ_model − Jᵀ F_measured| exceeded the model's error bound
 //!   `BALANCE_FLOOR_NM + MODEL_STIFFNESS_EXCESS_NM_PER_RAD · |α|`.
 //!
@@ -28,8 +28,8 @@
 //!
 //! What it catches therefore depends on the pose: near the neutral pose any unbalance above
 //! 8 N·m (a 10° step at the thesis's low joint-1 stiffness of 60 N·m/rad makes 10.5 N·m) is
-//! found 3 s after the pressures settle; at a joint's range end joint 1 needs 8 + 116 · 0.39
-//! = 53 N·m. It is slow by design: it must never fire on a healthy rig, and a stuck encoder
+//! found 3 s after the pressures settle; at the edge of the checked range (0.34 rad) joint 1
+//! needs 8 + 116 · 0.34 ≈ 48 N·m. It is slow by design: it must never fire on a healthy rig, and a stuck encoder
 //! or converter is not an immediate danger in the open-loop modes (the outputs do not depend
 //! on the angle in joint and pressures mode).
 
