@@ -485,7 +485,10 @@ fn a_scheduled_injection_acts_at_its_emulated_time() {
     let start = std::time::Instant::now();
     while first_fault_us.is_none() && start.elapsed() < Duration::from_secs(4) {
         c.heartbeat().expect("heartbeat");
-        while let Some(t) = c.next_telemetry(Duration::from_millis(5)).expect("telemetry") {
+        while let Some(t) = c
+            .next_telemetry(Duration::from_millis(5))
+            .expect("telemetry")
+        {
             if t.faults & Faults::LOADCELL_SATURATED.0 != 0 {
                 first_fault_us = Some(t.time_us);
                 assert_eq!(t.state, State::Faulted);

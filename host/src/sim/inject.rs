@@ -269,7 +269,10 @@ mod tests {
         board.inject(Injection::EStop, &healthy(), [12.0; 4]);
         board.before_step(&mut d);
         assert!(d.controller().faults().contains(Faults::ESTOP));
-        assert_eq!(board.after_step(&mut d, 0, 20, 1000, [12.0; 4]), [SAFE_MA; 4]);
+        assert_eq!(
+            board.after_step(&mut d, 0, 20, 1000, [12.0; 4]),
+            [SAFE_MA; 4]
+        );
         board.inject(Injection::EStopRelease, &healthy(), [4.0; 4]);
         assert_eq!(board.after_step(&mut d, 1000, 20, 1000, [5.0; 4]), [5.0; 4]);
     }

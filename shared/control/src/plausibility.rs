@@ -243,7 +243,10 @@ mod tests {
         let model = model();
         let p = pressures_for(&model, [-15f32.to_radians(), 0.0]);
         let at_stop = Sensors {
-            alpha_rad: [model.params.joints[0].alpha_max_rad - 0.5 * STOP_BAND_RAD, 0.0],
+            alpha_rad: [
+                model.params.joints[0].alpha_max_rad - 0.5 * STOP_BAND_RAD,
+                0.0,
+            ],
             force_sensor_n: [0.0; 2],
         };
         let mut m = BalanceMonitor::new();
