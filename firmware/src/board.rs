@@ -13,6 +13,8 @@
 //! | XTR111 error flags, ch. 1–4      | GPIO in, pull-up  | PB12, PB13, PB14, PB15        | morpho           |
 //! | USB FS device                    | USB               | PA12 DP, PA11 DM              | morpho           |
 //! | Heartbeat LED (LD2)              | GPIO              | PA5                           | Arduino D13      |
+//! | Emergency stop (NC contact)      | EXTI0, GPIO in    | PB0, pull-up; high = stop     | Arduino A3       |
+//! | Output buffers enable (OUT_EN#)  | GPIO out          | PB1, low = enabled            | morpho           |
 //! | embassy-time driver              | TIM15             | none                          | —                |
 //! | Control-loop executor            | UART4 IRQ vector  | none (UART4 unused)           | —                |
 //! | Loop watchdog                    | IWDG (LSI clock)  | none                          | —                |
@@ -38,8 +40,8 @@ use embassy_stm32::gpio::Pull;
 use embassy_stm32::interrupt::Priority;
 use embassy_stm32::pac;
 use embassy_stm32::peripherals::{
-    ADC1, ADC2, IWDG, PA0, PA1, PA11, PA12, PA5, PB12, PB13, PB14, PB15, PB2, PC0, PC1, PC12, PC6,
-    PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
+    ADC1, ADC2, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0, PC1,
+    PC12, PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
 };
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{Peri, Peripherals};
@@ -85,6 +87,16 @@ pub const CONTROL_IRQ: embassy_stm32::interrupt::Interrupt = embassy_stm32::inte
 /// highest; embassy's drivers leave theirs at the reset value, so the ones we use are
 /// lowered in `main`).
 pub const CONTROL_PRIORITY: Priority = Priority::P2;
+/// The emergency-stop input: PB0 on EXTI line 0, which has a vector of its own (EXTI0).
+/// The button's normally-closed contact holds the pin at ground; pressing it, or a cut
+/// wire, lets the pull-up take it high: a rising edge stops (docs/output-stage.md).
+pub const ESTOP_IRQ: embassy_stm32::interrupt::Interrupt = embassy_stm32::interrupt::EXTI0;
+pub const ESTOP_EXTI_LINE: usize = 0;
+/// SYSCFG_EXTICR port code of GPIOB (RM0440 §9.1.3: 0 = A, 1 = B, 2 = C, …).
+pub const ESTOP_EXTI_PORT: u8 = 1;
+pub const ESTOP_PULL: Pull = Pull::Up;
+/// Above the control loop (it must pre-empt a step in progress), below the time driver.
+pub const ESTOP_PRIORITY: Priority = Priority::P1;
 /// Priority of the peripheral interrupts the low-priority tasks use (USB).
 pub const LINK_PRIORITY: Priority = Priority::P6;
 
@@ -154,9 +166,10 @@ pub fn output_nominal_law() -> pam_firmware_logic::current_loop::ChannelLaw {
 }
 /// The XTR111's EF pins are open drain, low on an output error (open loop, no compliance).
 pub const OUTPUT_ERROR_FLAG_PULL: Pull = Pull::Up;
-/// An error flag must be seen this many consecutive periods before it is a fault: the
-/// flag may glitch while the filter settles after a step.
-pub const OUTPUT_ERROR_DEBOUNCE_PERIODS: u16 = 10;
+/// An error flag must be seen this many consecutive periods before it is a fault (shared
+/// with the emulator).
+pub const OUTPUT_ERROR_DEBOUNCE_PERIODS: u16 =
+    pam_firmware_logic::current_loop::OUTPUT_ERROR_DEBOUNCE_PERIODS;
 /// The output timer, written directly by the panic handler.
 pub const OUTPUT_TIMER_REGS: pac::timer::TimGp16 = pac::TIM3;
 
@@ -232,6 +245,10 @@ pub struct Board {
     pub outputs: CurrentOutputs,
     pub usb: Usb,
     pub watchdog: Peri<'static, IWDG>,
+    pub estop: Peri<'static, PB0>,
+    /// OUT_EN#: the four output buffers' /OE (pulled high on the board: disabled until the
+    /// firmware drives it low, after the outputs run at 4 mA; docs/output-stage.md).
+    pub output_enable: Peri<'static, PB1>,
 }
 
 impl Board {
@@ -271,6 +288,8 @@ impl Board {
                 dm: p.PA11,
             },
             watchdog: p.IWDG,
+            estop: p.PB0,
+            output_enable: p.PB1,
         }
     }
 }

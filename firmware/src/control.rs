@@ -23,6 +23,7 @@ use pam_protocol::{FaultEvent, Telemetry};
 use crate::board;
 use crate::current_output::{CurrentLoopOutputs, CHANNELS, LOOP_MIN_MA};
 use crate::encoder::QuadratureEncoder;
+use crate::estop::{self, EStop};
 use crate::load_cell_adc::LoadCellAdc;
 use crate::loop_timing::{self, CycleMeter};
 use crate::watchdog::LoopWatchdog;
@@ -61,6 +62,7 @@ pub struct ControlHardware {
     pub encoder2: QuadratureEncoder<'static, board::Encoder2Timer>,
     pub load_cell: LoadCellAdc,
     pub outputs: CurrentLoopOutputs,
+    pub estop: EStop,
     pub watchdog: LoopWatchdog,
     pub meter: CycleMeter,
 }
@@ -95,6 +97,7 @@ pub async fn control_task(mut hw: ControlHardware) {
             [hw.encoder1.read_counts(), hw.encoder2.read_counts()].map(|count| count as u32);
         let adc = hw.load_cell.read();
         let open_loop = hw.outputs.poll_open_loop();
+        let stopped = hw.estop.poll();
         let (loadcell_volts, saturated) = match adc {
             Ok(sample) => (sample.volts, sample.saturated),
             // No reading this period: NaN makes the supervisor latch NON_FINITE.
@@ -111,6 +114,9 @@ pub async fn control_task(mut hw: ControlHardware) {
         };
 
         let stepped = with_device(|device| {
+            if stopped {
+                device.raise(Faults::ESTOP);
+            }
             if saturated {
                 device.raise(Faults::LOADCELL_SATURATED);
             }
@@ -121,6 +127,8 @@ pub async fn control_task(mut hw: ControlHardware) {
         });
 
         match &stepped {
+            // a press during the step wins over its result (the handler has vented already)
+            Some(_) if estop::tripped() => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
             Some((result, _)) => hw.outputs.write_ma(result.current_ma),
             // No device (cannot happen once main has run): hold the safe state.
             None => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),

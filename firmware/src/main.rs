@@ -20,6 +20,7 @@ mod board;
 mod control;
 mod current_output;
 mod encoder;
+mod estop;
 mod link;
 mod load_cell_adc;
 mod loop_timing;
@@ -132,6 +133,11 @@ fn main() -> ! {
 
     // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
     let outputs = CurrentLoopOutputs::new(board.outputs, [board::output_nominal_law(); CHANNELS]);
+    // the buffers drive VIN only from here on, at the 4 mA compare (revised output stage;
+    // on the first board /OE is tied low and the pin is unconnected). Never dropped.
+    core::mem::forget(Output::new(board.output_enable, Level::Low, Speed::Low));
+    // the stop's handler writes the outputs' safe compares: after they exist
+    let estop = estop::EStop::new(board.estop);
     panic::paint_stack();
     info!(
         "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}",
@@ -210,6 +216,7 @@ fn main() -> ! {
         encoder2,
         load_cell,
         outputs,
+        estop,
         watchdog,
         meter,
     };

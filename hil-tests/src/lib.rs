@@ -6,9 +6,10 @@
 use pam_control::SafetyConfig;
 use pam_protocol::{Config, ConfigSection, ReplyData, RequestBody};
 use pamctl::link::Client;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{channel, Receiver};
 use std::sync::{Mutex, MutexGuard};
 use std::time::Duration;
 
@@ -66,6 +67,9 @@ pub fn ok(device: &str, args: &[&str]) -> String {
 pub struct Target {
     pub address: String,
     emulator: Option<Child>,
+    /// The emulator's standard input (`--stdin-control`: fault injection) and the lines it
+    /// prints after its address.
+    control: Option<(Mutex<ChildStdin>, Mutex<Receiver<String>>)>,
 }
 
 impl Target {
@@ -76,12 +80,14 @@ impl Target {
                 return Target {
                     address: d,
                     emulator: None,
+                    control: None,
                 };
             }
         }
         let mut child = Command::new(pamctl_bin())
-            .args(["sim", "--listen", "127.0.0.1:0"])
+            .args(["sim", "--listen", "127.0.0.1:0", "--stdin-control"])
             .args(sim_args)
+            .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -90,12 +96,15 @@ impl Target {
         let mut line = String::new();
         stdout.read_line(&mut line).expect("sim prints its address");
         // keep reading what it prints so that it never writes into a closed pipe
+        let (lines_tx, lines) = channel();
         std::thread::spawn(move || {
-            let mut sink = String::new();
-            while stdout.read_line(&mut sink).is_ok_and(|n| n > 0) {
-                sink.clear();
+            let mut line = String::new();
+            while stdout.read_line(&mut line).is_ok_and(|n| n > 0) {
+                let _ = lines_tx.send(line.trim().to_string());
+                line.clear();
             }
         });
+        let stdin = child.stdin.take().expect("sim stdin");
         let address = line
             .trim()
             .strip_prefix("listening on ")
@@ -104,6 +113,32 @@ impl Target {
         Target {
             address,
             emulator: Some(child),
+            control: Some((Mutex::new(stdin), Mutex::new(lines))),
+        }
+    }
+
+    /// Injects a fault into the emulator (`pamctl sim` fault injection, never over the
+    /// link): `None` against a board. Returns the device time (µs) of the first period
+    /// the fault acts in, as the emulator reports it.
+    pub fn inject(&self, kind: &str) -> Option<u32> {
+        let (stdin, lines) = self.control.as_ref()?;
+        let lines = lines.lock().unwrap_or_else(|p| p.into_inner());
+        while lines.try_recv().is_ok() {}
+        writeln!(
+            stdin.lock().unwrap_or_else(|p| p.into_inner()),
+            "inject {kind}"
+        )
+        .expect("write to the emulator");
+        loop {
+            let line = lines
+                .recv_timeout(Duration::from_secs(2))
+                .unwrap_or_else(|_| panic!("the emulator did not report injecting {kind}"));
+            if let Some(t) = line
+                .strip_prefix("injected ")
+                .and_then(|l| l.rsplit_once("time_us="))
+            {
+                return Some(t.1.parse().expect("time_us"));
+            }
         }
     }
 
@@ -186,3 +221,4 @@ pub fn seq_gaps(log: &pam_log::Log) -> usize {
     let seq = log.column("seq").expect("seq column");
     seq.windows(2).filter(|w| w[1] != w[0] + 1.0).count()
 }
+pub mod measure;

@@ -16,21 +16,24 @@
 //! connection cannot keep up, whole frames are dropped (the telemetry `seq` shows the gap),
 //! never the real-time loop.
 
+mod conn;
+pub mod inject;
+
+use conn::{attach, push_frame, Connection};
+use inject::{Board, Injection, Scheduled};
 use pam_control::{Mode, SafetyConfig, State};
 use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
 use pam_model::{RobotModel, RobotParams, Vec2};
 use pam_protocol::{
-    encode_frame, Calibration, Config, DeviceMessage, EncoderCalibration, FrameDecoder, Request,
-    RequestBody, Version, MAX_FRAME,
+    Calibration, Config, DeviceMessage, EncoderCalibration, FrameDecoder, Request, RequestBody,
+    Version,
 };
 use pam_twin::experiments::OperatorPath;
 use pam_twin::{EffectSet, HandleCondition, Measurement, Twin, TwinConfig};
-use std::io::{ErrorKind, Read, Write};
+use std::io::ErrorKind;
 use std::net::TcpListener;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{
-    channel, sync_channel, Receiver, Sender, SyncSender, TryRecvError, TrySendError,
-};
+use std::sync::mpsc::{channel, Receiver, Sender, SyncSender, TryRecvError, TrySendError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -65,6 +68,8 @@ pub struct SimConfig {
     /// The twin's rig: the thesis's model (default) or the rig with the stiffness the
     /// thesis identified (`pam_twin::rig`).
     pub identified_rig: bool,
+    /// Faults to inject at given emulated times (`inject`).
+    pub injections: Vec<Scheduled>,
 }
 
 impl Default for SimConfig {
@@ -75,6 +80,7 @@ impl Default for SimConfig {
             seed: 0,
             command_timeout_s: SafetyConfig::default_1khz().command_timeout_s,
             identified_rig: false,
+            injections: Vec::new(),
         }
     }
 }
@@ -96,8 +102,6 @@ pub fn emulator_version() -> Version {
 const ENCODER_COUNTER_BITS: u8 = 16;
 /// Arbitrary power-on value of the encoder counters: homing must not depend on it.
 const ENCODER_POWER_ON_COUNTS: i64 = 0x7A31;
-/// Frames queued per connection before frames are dropped (≈ 0.5 s of telemetry at 1 kHz).
-const WRITE_QUEUE: usize = 512;
 /// Further behind than this (machine suspended, debugger) the loop resynchronises instead
 /// of bursting through the backlog.
 const MAX_CATCH_UP: Duration = Duration::from_secs(1);
@@ -142,9 +146,19 @@ impl LoopStats {
 
 /// What the connections tell the real-time loop.
 enum Event {
-    Opened { conn: u64, out: SyncSender<Vec<u8>> },
-    Bytes { conn: u64, bytes: Vec<u8> },
-    Closed { conn: u64 },
+    Opened {
+        conn: u64,
+        out: SyncSender<Vec<u8>>,
+    },
+    Bytes {
+        conn: u64,
+        bytes: Vec<u8>,
+    },
+    Closed {
+        conn: u64,
+    },
+    /// A fault to inject now (from the emulator's owner, never from a connection).
+    Inject(Injection),
 }
 
 /// A running emulator. Dropping it stops it.
@@ -154,6 +168,8 @@ pub struct Emulator {
     next_conn: Arc<AtomicU64>,
     pub stats: Arc<LoopStats>,
     threads: Vec<JoinHandle<()>>,
+    /// `injected KIND at time_us=N`, one per injection applied.
+    injected: Receiver<String>,
 }
 
 impl Emulator {
@@ -162,7 +178,8 @@ impl Emulator {
         let (events, rx) = channel();
         let stop = Arc::new(AtomicBool::new(false));
         let stats = Arc::new(LoopStats::default());
-        let plant = Plant::new(&config)?;
+        let (reports, injected) = channel();
+        let plant = Plant::new(&config, reports)?;
         let rt = {
             let stop = stop.clone();
             let stats = stats.clone();
@@ -177,7 +194,20 @@ impl Emulator {
             next_conn: Arc::new(AtomicU64::new(1)),
             stats,
             threads: vec![rt],
+            injected,
         })
+    }
+
+    /// Injects a fault at the next period (see [`inject`]).
+    pub fn inject(&self, injection: Injection) -> Result<(), String> {
+        self.events
+            .send(Event::Inject(injection))
+            .map_err(|_| "the emulator has stopped".to_string())
+    }
+
+    /// Reports of the injections applied since the last call.
+    pub fn injected(&self) -> Vec<String> {
+        self.injected.try_iter().collect()
     }
 
     /// Serves TCP on `address` (port 0: any free port); returns the bound address.
@@ -269,60 +299,6 @@ impl Drop for Emulator {
     }
 }
 
-/// Reader and writer threads of one connection.
-fn attach(
-    conn: u64,
-    mut reader: Box<dyn Read + Send>,
-    mut writer: Box<dyn Write + Send>,
-    events: &Sender<Event>,
-    stop: &Arc<AtomicBool>,
-) {
-    let (out, queue): (SyncSender<Vec<u8>>, Receiver<Vec<u8>>) = sync_channel(WRITE_QUEUE);
-    if events.send(Event::Opened { conn, out }).is_err() {
-        return;
-    }
-    let ev = events.clone();
-    let stop_r = stop.clone();
-    std::thread::spawn(move || {
-        let mut buf = [0u8; 1024];
-        while !stop_r.load(Ordering::SeqCst) {
-            match reader.read(&mut buf) {
-                Ok(0) => break,
-                Ok(n) => {
-                    if ev
-                        .send(Event::Bytes {
-                            conn,
-                            bytes: buf[..n].to_vec(),
-                        })
-                        .is_err()
-                    {
-                        break;
-                    }
-                }
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        ErrorKind::Interrupted | ErrorKind::WouldBlock | ErrorKind::TimedOut
-                    ) => {}
-                Err(_) => break,
-            }
-        }
-        let _ = ev.send(Event::Closed { conn });
-    });
-    std::thread::spawn(move || {
-        // ends when the real-time loop drops the sender (connection closed or stop)
-        while let Ok(bytes) = queue.recv() {
-            if writer
-                .write_all(&bytes)
-                .and_then(|_| writer.flush())
-                .is_err()
-            {
-                break;
-            }
-        }
-    });
-}
-
 /// The twin and what holds its handle.
 struct Plant {
     device: Device,
@@ -337,10 +313,17 @@ struct Plant {
     since_s: f64,
     last_mode: (State, Mode),
     t_s: f64,
+    /// The emulated board: injected failures, E-stop, loop timing.
+    board: Board,
+    /// Scheduled injections not applied yet, latest first.
+    schedule: Vec<Scheduled>,
+    reports: Sender<String>,
+    /// Loop currents driven in the last period.
+    last_currents_ma: [f64; 4],
 }
 
 impl Plant {
-    fn new(config: &SimConfig) -> Result<Plant, String> {
+    fn new(config: &SimConfig, reports: Sender<String>) -> Result<Plant, String> {
         let mut twin_cfg = if config.identified_rig {
             TwinConfig::identified_rig()
         } else {
@@ -387,6 +370,9 @@ impl Plant {
             .then(|| OperatorPath::new([0.0; 2], 0.04, (0.1, 2.0), OPERATOR_PATH_S, config.seed));
         let hold_point = twin.state().handle_user_m;
         let last_mode = (device.controller().state(), device.controller().mode());
+        let mut schedule = config.injections.clone();
+        schedule.sort_by(|a, b| b.at_s.total_cmp(&a.at_s));
+        let board = Board::new(device.period_us());
         Ok(Plant {
             device,
             twin,
@@ -398,17 +384,31 @@ impl Plant {
             since_s: 0.0,
             last_mode,
             t_s: 0.0,
+            board,
+            schedule,
+            reports,
+            last_currents_ma: [4.0; 4],
         })
     }
 
+    /// Applies `injection` from the coming period on and reports it.
+    fn inject(&mut self, injection: Injection, device_time_us: u64) {
+        self.board
+            .inject(injection, &self.last, self.last_currents_ma);
+        let _ = self.reports.send(format!(
+            "injected {injection:?} at time_us={}",
+            device_time_us as u32
+        ));
+    }
+
     fn raw_sensors(&self) -> RawSensors {
-        let counts = self
-            .last
+        let seen = self.board.sensors(self.last);
+        let counts = seen
             .encoder_counts
             .map(|c| (c + ENCODER_POWER_ON_COUNTS) as u32);
         RawSensors {
             encoder_counts: counts,
-            loadcell_volts: self.last.loadcell_v.map(|v| v as f32),
+            loadcell_volts: seen.loadcell_v.map(|v| v as f32),
         }
     }
 
@@ -451,20 +451,6 @@ impl Plant {
             HandleMode::Operator => HandleCondition::Free,
         }
     }
-}
-
-/// Frames for one connection, encoded back to back.
-fn push_frame(buf: &mut Vec<u8>, msg: &DeviceMessage) {
-    let mut frame = [0u8; MAX_FRAME];
-    if let Ok(n) = encode_frame(msg, &mut frame) {
-        buf.extend_from_slice(&frame[..n]);
-    }
-}
-
-struct Connection {
-    id: u64,
-    out: SyncSender<Vec<u8>>,
-    decoder: FrameDecoder<Request>,
 }
 
 fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, stats: &LoopStats) {
@@ -530,13 +516,27 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
                         replies.push((conn, out));
                     }
                 }
+                Ok(Event::Inject(injection)) => plant.inject(injection, device_time_us),
                 Err(TryRecvError::Empty) => break,
                 Err(TryRecvError::Disconnected) => return,
             }
         }
 
-        // 2. the device's control period, then the plant over the same period
+        while plant
+            .schedule
+            .last()
+            .is_some_and(|s| s.at_s <= plant.t_s + 1e-9)
+        {
+            if let Some(s) = plant.schedule.pop() {
+                plant.inject(s.injection, device_time_us);
+            }
+        }
+
+        // 2. the device's control period (inside the emulated board), then the plant over
+        // the same period
+        plant.board.before_step(&mut plant.device);
         let raw = plant.raw_sensors();
+        let step_clock = inject::StepClock::start();
         let result = plant.device.step(
             raw,
             StepTiming {
@@ -545,11 +545,24 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
                 loop_jitter_us: jitter_us,
             },
         );
+        let step_us = step_clock.elapsed_us();
+        let stall_us = plant.board.stall_us(period_us as u32);
+        if stall_us > 0 {
+            std::thread::sleep(Duration::from_micros(stall_us as u64));
+        }
+        let board_exec_us = step_us + stall_us;
+        let driven_ma = plant.board.after_step(
+            &mut plant.device,
+            device_time_us as u32,
+            board_exec_us,
+            period_us as u32,
+            result.current_ma,
+        );
         let handle = plant.handle_condition();
         let period_s = period_us as f64 * 1e-6;
-        plant.last = plant
-            .twin
-            .step(period_s, result.current_ma.map(|c| c as f64), &handle);
+        plant.last_currents_ma = driven_ma.map(|c| c as f64);
+        let at_converters = plant.board.converter_currents(plant.last_currents_ma);
+        plant.last = plant.twin.step(period_s, at_converters, &handle);
         plant.t_s += period_s;
         device_time_us += period_us;
 

@@ -7,8 +7,9 @@ pub fn run(out: &mut dyn std::io::Write) -> Result<(), String> {
     if ports.is_empty() {
         writeln!(
             out,
-            "no serial port found: plug the board's USB cable (the NUCLEO's user USB, not the ST-LINK one), \
-             or use the emulator with --device tcp://127.0.0.1:PORT"
+            "no serial port found: plug the board's USB link cable (the NUCLEO-G474RE has no user USB \
+             connector: a cable wired to PA11/PA12, see firmware/README.md \"USB link\"; the ST-LINK \
+             port only flashes), or use the emulator with --device tcp://127.0.0.1:PORT"
         )
         .map_err(|e| e.to_string())?;
     }

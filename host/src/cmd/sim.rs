@@ -1,5 +1,6 @@
 //! `pamctl sim`: the device emulator (see [`crate::sim`]) on TCP and a pseudo-terminal.
 
+use crate::sim::inject::{Injection, Scheduled};
 use crate::sim::{Emulator, HandleMode, SimConfig};
 use clap::Args;
 use pam_twin::EffectSet;
@@ -34,6 +35,17 @@ pub struct SimArgs {
     /// host-libs/twin/README.md) instead of the thesis's model.
     #[arg(long)]
     pub identified_rig: bool,
+    /// Inject a fault at a time of the emulated clock, `KIND@SECONDS` (repeatable): a plant
+    /// fault (encoder_stuck:joint=1, encoder_unplugged:joint=2, encoder_jump:joint=1,counts=400,
+    /// loadcell_saturated:channel=x, loadcell_frozen, converter_stuck:channel=1,
+    /// converter_open:channel=3) or a board one (estop, estop_release, overrun:periods=5).
+    /// Each is reported as `injected KIND at time_us=N`. Never possible over the link.
+    #[arg(long = "inject", value_name = "KIND@SECONDS")]
+    pub inject: Vec<String>,
+    /// Read `inject KIND` lines from standard input and inject each at the next period
+    /// (for tests that must choose the moment).
+    #[arg(long)]
+    pub stdin_control: bool,
     /// List the twin's effects and their parameters, then exit.
     #[arg(long)]
     pub list_effects: bool,
@@ -53,7 +65,14 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
         }
     }
     let effects = EffectSet::parse_list(&args.with).map_err(|e| format!("--with: {e}"))?;
+    let injections = args
+        .inject
+        .iter()
+        .map(|t| Scheduled::parse(t))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| format!("--inject: {e}"))?;
     let mut config = SimConfig {
+        injections,
         effects,
         handle: args.handle,
         seed: args.seed,
@@ -86,6 +105,7 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
     )
     .map_err(io)?;
     out.flush().map_err(io)?;
+    let commands = args.stdin_control.then(stdin_commands);
     let started = Instant::now();
     let mut last_report = Instant::now();
     let mut late_reported = 0;
@@ -95,6 +115,19 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
             .is_none_or(|s| started.elapsed().as_secs_f64() < s)
     {
         std::thread::sleep(Duration::from_millis(20));
+        if let Some(commands) = &commands {
+            for line in commands.try_iter() {
+                match line.trim().strip_prefix("inject ").map(Injection::parse) {
+                    Some(Ok(injection)) => emulator.inject(injection)?,
+                    Some(Err(e)) => eprintln!("sim: {e}"),
+                    None => eprintln!("sim: unknown command {line:?} (inject KIND)"),
+                }
+            }
+        }
+        for report in emulator.injected() {
+            writeln!(out, "{report}").map_err(io)?;
+            out.flush().map_err(io)?;
+        }
         // tell about late periods as they happen, at most every 10 s
         let late = emulator.stats.late.load(Ordering::Relaxed);
         if late > late_reported && last_report.elapsed() >= Duration::from_secs(10) {
@@ -111,4 +144,18 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
     emulator.stop();
     eprintln!("sim stopped: {summary}");
     Ok(())
+}
+
+/// Lines of standard input, read on a thread of their own (ends at end of input).
+fn stdin_commands() -> std::sync::mpsc::Receiver<String> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
 }

@@ -424,6 +424,7 @@ pub fn hardware_faults_latch() -> CheckResult {
         Faults::CPU_FAULT,
         Faults::LOOP_OVERRUN,
         Faults::STACK_LOW,
+        Faults::ESTOP,
     ] {
         let mut c = controller();
         c.arm().ok();
@@ -460,6 +461,8 @@ pub fn hardware_faults_latch() -> CheckResult {
         Faults::CPU_FAULT,
         Faults::LOOP_OVERRUN,
         Faults::STACK_LOW,
+        Faults::ESTOP,
+        Faults::STATIC_IMBALANCE,
     ];
     let union = all.iter().fold(0u32, |a, f| a | u32::from(f.0));
     holds(

@@ -22,6 +22,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
+pub mod plausibility;
 pub mod supervisor;
 
 #[cfg(any(test, feature = "checks"))]

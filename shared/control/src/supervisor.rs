@@ -3,6 +3,8 @@
 use pam_model::kinematics::Kinematics;
 use pam_model::params::LoadCell;
 use pam_model::{Limited, Real, RobotModel, Vec2};
+
+use crate::plausibility::BalanceMonitor;
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -63,6 +65,13 @@ impl Faults {
     /// Set by the firmware when the stack's high-water mark came within its margin of the
     /// stack's end (painted-stack measurement).
     pub const STACK_LOW: Faults = Faults(1 << 11);
+    /// Set by the firmware while the emergency-stop input is active (the EXTI handler has
+    /// already vented the outputs); re-raised every period until the button is released.
+    pub const ESTOP: Faults = Faults(1 << 12);
+    /// A joint at rest whose commanded muscle torque the handle force does not balance,
+    /// beyond the model's error (`plausibility`): a stuck or unplugged encoder, a converter
+    /// that no longer follows its current.
+    pub const STATIC_IMBALANCE: Faults = Faults(1 << 13);
 
     pub const fn with(self, o: Faults) -> Faults {
         Faults(self.0 | o.0)
@@ -197,6 +206,7 @@ pub struct Controller {
     last_alpha_rad: Option<Vec2<f32>>,
     last_force_raw: Vec2<f32>,
     same_force_count: u32,
+    balance: BalanceMonitor,
 }
 
 impl Controller {
@@ -213,6 +223,7 @@ impl Controller {
             last_alpha_rad: None,
             last_force_raw: [f32::NAN; 2],
             same_force_count: 0,
+            balance: BalanceMonitor::new(),
         }
     }
 
@@ -272,6 +283,7 @@ impl Controller {
         self.mode = Mode::Idle;
         self.last_alpha_rad = None;
         self.same_force_count = 0;
+        self.balance.reset();
         self.accepted();
         Ok(())
     }
@@ -429,6 +441,18 @@ impl Controller {
         }
         if !faults.contains(Faults::NON_FINITE) {
             self.last_alpha_rad = Some(sensors.alpha_rad);
+        }
+        // static balance against the pressures the converters have been commanded
+        if self.state == State::Armed && !faults.contains(Faults::NON_FINITE) {
+            let period_s = self.safety.period_s;
+            if self
+                .balance
+                .update(&self.model, period_s, sensors, self.pressure_bar)
+            {
+                faults = faults.with(Faults::STATIC_IMBALANCE);
+            }
+        } else {
+            self.balance.reset();
         }
         self.periods_since_command = self.periods_since_command.saturating_add(1);
         let timeout_periods = (self.safety.command_timeout_s / dt + 0.5) as u32;

@@ -44,6 +44,11 @@ impl ChannelLaw {
     }
 }
 
+/// An XTR111 error flag must be seen this many consecutive periods before it is an open
+/// loop: the flag may glitch while the output filter settles after a step. The firmware and
+/// the emulator's board both use it.
+pub const OUTPUT_ERROR_DEBOUNCE_PERIODS: u16 = 10;
+
 /// A requested loop current made safe to apply: inside 4–20 mA, NaN → 4 mA (vent).
 /// Returns the current and whether the request had to be changed.
 pub fn clamp_loop_ma(request_ma: f32) -> (f32, bool) {
