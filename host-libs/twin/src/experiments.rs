@@ -23,31 +23,9 @@ use pam_model::{RobotModel, RobotParams, Vec2};
 use crate::plant::{HandleCondition, Measurement, Twin, TwinConfig};
 use crate::rng::Rng;
 
-/// Joint angles of the five points of interest (Table 4.1), degrees.
-pub const TABLE_4_1_POINTS_DEG: [[f64; 2]; 5] = [
-    [0.0, 0.0],
-    [-16.0, 20.5],
-    [16.5, -26.0],
-    [10.0, 6.5],
-    [-13.5, -11.5],
-];
-
-/// The nine poses of the force-step test (§5.2), degrees.
-pub const STEP_POSES_DEG: [[f64; 2]; 9] = [
-    [0.0, 0.0],
-    [0.0, 15.0],
-    [0.0, -15.0],
-    [15.0, 0.0],
-    [15.0, 15.0],
-    [15.0, -15.0],
-    [-15.0, 0.0],
-    [-15.0, 15.0],
-    [-15.0, -15.0],
-];
-
-/// Force-step size and largest reference (§5.2).
-pub const STEP_N: f64 = 9.1;
-pub const STEP_MAX_N: f64 = 27.3;
+// The thesis's protocols (Table 4.1's points, §5.2's poses and step sizes) live in
+// pam-model, with the robot's parameters; re-exported for the twin's users.
+pub use pam_model::thesis::{STEP_MAX_N, STEP_N, STEP_POSES_DEG, TABLE_4_1_POINTS_DEG};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StiffnessLevel {

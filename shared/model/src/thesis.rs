@@ -10,3 +10,33 @@ pub const TABLE_4_1: [(f64, f64, [f64; 4]); 5] = [
     (10.0, 6.5, [81.2, 113.8, 28.2, 45.9]),
     (-13.5, -11.5, [99.5, 125.3, 31.8, 47.2]),
 ];
+
+/// The five trial points of Table 4.1, (α1, α2) in degrees: the dynamic and static trials'
+/// poses (§4.2).
+pub const TABLE_4_1_POINTS_DEG: [[f64; 2]; 5] = {
+    let mut p = [[0.0; 2]; 5];
+    let mut i = 0;
+    while i < 5 {
+        p[i] = [TABLE_4_1[i].0, TABLE_4_1[i].1];
+        i += 1;
+    }
+    p
+};
+
+/// The nine poses of the force-step test (§5.2), in the thesis's order, degrees.
+pub const STEP_POSES_DEG: [[f64; 2]; 9] = [
+    [0.0, 0.0],
+    [0.0, 15.0],
+    [0.0, -15.0],
+    [15.0, 0.0],
+    [15.0, 15.0],
+    [15.0, -15.0],
+    [-15.0, 0.0],
+    [-15.0, 15.0],
+    [-15.0, -15.0],
+];
+
+/// Force-step size and largest reference of the force-step test (§5.2), N.
+pub const STEP_N: f64 = 9.1;
+/// See [`STEP_N`].
+pub const STEP_MAX_N: f64 = 27.3;

@@ -45,18 +45,7 @@ pub fn point_alpha_rad(site: usize) -> [f64; 2] {
     [a1.to_radians(), a2.to_radians()]
 }
 
-/// §5.2's nine step poses in the thesis's order, degrees.
-pub const STEP_POSES_DEG: [[f64; 2]; 9] = [
-    [0.0, 0.0],
-    [0.0, 15.0],
-    [0.0, -15.0],
-    [15.0, 0.0],
-    [15.0, 15.0],
-    [15.0, -15.0],
-    [-15.0, 0.0],
-    [-15.0, 15.0],
-    [-15.0, -15.0],
-];
+pub use pam_model::thesis::STEP_POSES_DEG;
 
 pub fn step_pose_rad(site: usize) -> [f64; 2] {
     let p = STEP_POSES_DEG[(site - 1).min(8)];
