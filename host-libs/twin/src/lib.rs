@@ -22,6 +22,7 @@ pub mod pneumatics;
 pub mod rig;
 pub mod rng;
 pub mod simulate;
+pub mod step_metrics;
 
 pub use effects::{Effect, EffectSet};
 pub use plant::{

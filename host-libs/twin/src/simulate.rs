@@ -101,6 +101,10 @@ pub struct TrialSpec {
     pub effects: Vec<String>,
     /// Gain-plane feed-forward in force mode. Default off.
     pub feed_forward: bool,
+    /// Closed-loop force mode (force-step test). Default off.
+    pub closed_loop: bool,
+    /// Multiplier of the closed loop's designed feedback gains. Default 1.
+    pub gain_scale: f64,
     /// The rig with the stiffness the thesis identified (`TwinConfig::identified_rig`)
     /// instead of the thesis's model. Default off.
     pub identified_rig: bool,
@@ -120,6 +124,8 @@ impl TrialSpec {
             loadcell_noise_n: None,
             effects: Vec::new(),
             feed_forward: false,
+            closed_loop: false,
+            gain_scale: 1.0,
             identified_rig: false,
         }
     }
@@ -142,6 +148,8 @@ impl TrialSpec {
         let mut cfg = ExperimentConfig::new(twin);
         cfg.period_s = self.period_s;
         cfg.feed_forward = self.feed_forward;
+        cfg.closed_loop = self.closed_loop;
+        cfg.gain_scale = self.gain_scale;
         Ok(cfg)
     }
 }

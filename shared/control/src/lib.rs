@@ -22,9 +22,11 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
+pub mod force_loop;
 pub mod supervisor;
 
 #[cfg(any(test, feature = "checks"))]
 pub mod checks;
 
+pub use force_loop::{ForceLoop, ForceLoopConfig, GuardTrip, MAX_GAIN_SCALE};
 pub use supervisor::*;

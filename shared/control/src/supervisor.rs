@@ -3,6 +3,8 @@
 use pam_model::kinematics::Kinematics;
 use pam_model::params::LoadCell;
 use pam_model::{Limited, Real, RobotModel, Vec2};
+
+use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -25,6 +27,15 @@ pub enum Mode {
         force_n: Vec2<f32>,
         stiffness_nm_per_rad: Vec2<f32>,
         feed_forward: bool,
+    },
+    /// [`Mode::Force`] with the load cell in the loop (`force_loop`): the same path, its
+    /// command corrected by feedback. `gain_scale` multiplies the designed feedback gains
+    /// (1 = the design; 0 < scale ≤ [`MAX_GAIN_SCALE`]).
+    ForceClosedLoop {
+        force_n: Vec2<f32>,
+        stiffness_nm_per_rad: Vec2<f32>,
+        feed_forward: bool,
+        gain_scale: f32,
     },
 }
 
@@ -63,6 +74,8 @@ impl Faults {
     /// Set by the firmware when the stack's high-water mark came within its margin of the
     /// stack's end (painted-stack measurement).
     pub const STACK_LOW: Faults = Faults(1 << 11);
+    /// Set by the closed force loop's guard: sustained oscillation or a persistent error.
+    pub const CONTROL_UNSTABLE: Faults = Faults(1 << 12);
 
     pub const fn with(self, o: Faults) -> Faults {
         Faults(self.0 | o.0)
@@ -197,6 +210,10 @@ pub struct Controller {
     last_alpha_rad: Option<Vec2<f32>>,
     last_force_raw: Vec2<f32>,
     same_force_count: u32,
+    force_loop_cfg: ForceLoopConfig,
+    force_loop: ForceLoop,
+    /// The last command was clamped on its way out (the force loop's anti-windup).
+    last_saturated: bool,
 }
 
 impl Controller {
@@ -213,6 +230,9 @@ impl Controller {
             last_alpha_rad: None,
             last_force_raw: [f32::NAN; 2],
             same_force_count: 0,
+            force_loop_cfg: ForceLoopConfig::designed(),
+            force_loop: ForceLoop::new(),
+            last_saturated: false,
         }
     }
 
@@ -231,6 +251,25 @@ impl Controller {
     pub fn model(&self) -> &RobotModel<f32> {
         &self.model
     }
+    pub fn force_loop_config(&self) -> &ForceLoopConfig {
+        &self.force_loop_cfg
+    }
+    pub fn force_loop(&self) -> &ForceLoop {
+        &self.force_loop
+    }
+
+    /// Replaces the closed force loop's gains and guard. Refused while armed.
+    pub fn set_force_loop_config(&mut self, cfg: ForceLoopConfig) -> Result<(), Reject> {
+        if !cfg.is_valid() {
+            return Err(Reject::OutOfRange);
+        }
+        if self.state == State::Armed {
+            return Err(Reject::WrongState);
+        }
+        self.force_loop_cfg = cfg;
+        self.accepted();
+        Ok(())
+    }
 
     /// Any accepted command resets the command timeout.
     fn accepted(&mut self) {
@@ -246,6 +285,7 @@ impl Controller {
         match self.state {
             State::Disarmed if self.faults.is_none() => {
                 self.state = State::Armed;
+                self.force_loop.reset();
                 self.accepted();
                 Ok(())
             }
@@ -319,9 +359,34 @@ impl Controller {
                         s.max_request_stiffness_nm_per_rad,
                     )
             }),
+            Mode::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                gain_scale,
+                ..
+            } => {
+                gain_scale.is_finite()
+                    && *gain_scale > 0.0
+                    && *gain_scale <= MAX_GAIN_SCALE
+                    && (0..2).all(|j| {
+                        finite_in(force_n[j], -s.max_request_force_n, s.max_request_force_n)
+                            && finite_in(
+                                stiffness_nm_per_rad[j],
+                                0.0,
+                                s.max_request_stiffness_nm_per_rad,
+                            )
+                    })
+            }
         };
         if !ok {
             return Err(Reject::OutOfRange);
+        }
+        // a new target keeps the loop's state (bumpless); entering the mode starts afresh
+        if !matches!(
+            (self.mode, mode),
+            (Mode::ForceClosedLoop { .. }, Mode::ForceClosedLoop { .. })
+        ) {
+            self.force_loop.reset();
         }
         self.mode = mode;
         self.accepted();
@@ -495,6 +560,38 @@ impl Controller {
                             cmd.joints[1].pressure_bar,
                         ])
                     }
+                    Mode::ForceClosedLoop {
+                        force_n,
+                        stiffness_nm_per_rad,
+                        feed_forward,
+                        gain_scale,
+                    } => {
+                        let fl = self.force_loop.step(
+                            &self.force_loop_cfg,
+                            ip,
+                            force_n,
+                            force_user_n,
+                            gain_scale,
+                            self.last_saturated,
+                            dt,
+                        );
+                        if fl.trip.is_some() {
+                            self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
+                            self.state = State::Faulted;
+                        }
+                        let cmd = self.model.force_command_at(
+                            alpha,
+                            &trig,
+                            fl.command_n,
+                            stiffness_nm_per_rad,
+                            feed_forward,
+                        );
+                        limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
+                        self.model.channel_pressures_bar([
+                            cmd.joints[0].pressure_bar,
+                            cmd.joints[1].pressure_bar,
+                        ])
+                    }
                 };
                 (target, self.safety.slew_bar_per_s, false)
             }
@@ -503,6 +600,12 @@ impl Controller {
                 ([vent; 4], self.safety.timeout_ramp_bar_per_s, false)
             }
             State::Faulted | State::Disarmed => ([vent; 4], 0.0, true),
+        };
+        // the force loop's guard faults inside the armed branch: vent this very period
+        let (target, slew, cut) = if self.faults.contains(Faults::CONTROL_UNSTABLE) {
+            ([vent; 4], 0.0, true)
+        } else {
+            (target, slew, cut)
         };
 
         let mut output_limited = false;
@@ -540,6 +643,9 @@ impl Controller {
             };
         }
         self.pressure_bar = out;
+        self.last_saturated = output_limited
+            || limited.contains(Limited::TORQUE)
+            || limited.contains(Limited::PRESSURE);
         StepOutput {
             pressure_bar: out,
             current_ma: current,
