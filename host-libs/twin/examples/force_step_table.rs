@@ -4,6 +4,7 @@
 //! ```sh
 //! cargo run --release -p pam-twin --example force_step_table -- [--closed-loop] \
 //!     [--feed-forward] [--identified-rig] [--gain-scale S] [--with EFFECT]... [--per-pose]
+//!     [--per-step]
 //! ```
 //! Prints one markdown row: worst / mean 5 % settling, worst overshoot, mean |gain − 1|,
 //! gain range, and how many poses faulted.
@@ -14,6 +15,7 @@ use pam_twin::step_metrics::{force_steps, summarize, StepFigures};
 fn main() {
     let mut spec = TrialSpec::new(Experiment::ForceStep);
     let mut per_pose = false;
+    let mut per_step = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -21,6 +23,7 @@ fn main() {
             "--feed-forward" => spec.feed_forward = true,
             "--identified-rig" => spec.identified_rig = true,
             "--per-pose" => per_pose = true,
+            "--per-step" => per_step = true,
             "--gain-scale" => spec.gain_scale = args.next().and_then(|v| v.parse().ok()).expect("--gain-scale S"),
             "--with" => spec.effects.push(args.next().expect("--with EFFECT")),
             other => panic!("unknown argument {other}"),
@@ -33,6 +36,14 @@ fn main() {
         match run_trial(&spec) {
             Ok(log) => {
                 let steps = force_steps(&log).expect("force-step log");
+                if per_step {
+                    for s in &steps {
+                        println!(
+                            "pose {pose} axis {} {:6.1} → {:6.1} N: settle {:.3} s, overshoot {:.1} %, gain {:.3}",
+                            s.axis, s.from_n, s.to_n, s.settling_s, s.overshoot_pct, s.gain
+                        );
+                    }
+                }
                 if per_pose {
                     let s = summarize(&steps);
                     println!(

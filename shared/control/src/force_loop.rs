@@ -59,10 +59,10 @@ impl ForceLoopConfig {
     /// The design of docs/closed-loop.md for the thesis's converters (ωn 23 rad/s, ζ 0.42).
     pub const fn designed() -> Self {
         ForceLoopConfig {
-            reference_bandwidth_rad_s: 30.0,
-            kp: 0.6,
-            ki_per_s: 12.0,
-            kd_s: 0.04,
+            reference_bandwidth_rad_s: 40.0,
+            kp: 1.0,
+            ki_per_s: 20.0,
+            kd_s: 0.06,
             derivative_filter_rad_s: 60.0,
             force_rate_n_per_s: 300.0,
             integral_limit_n: 40.0,
