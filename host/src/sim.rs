@@ -428,7 +428,7 @@ impl Plant {
             };
         }
         let armed = state == State::Armed;
-        let force = matches!(mode, Mode::Force { .. });
+        let force = matches!(mode, Mode::Force { .. } | Mode::ForceClosedLoop { .. });
         let joint = matches!(mode, Mode::Joint { .. });
         match self.handle_mode {
             HandleMode::Free => HandleCondition::Free,

@@ -45,7 +45,7 @@ pub fn interrupted() -> Arc<AtomicBool> {
 /// Names of the latched fault bits (`pam_control::Faults`).
 pub fn fault_names(bits: u16) -> String {
     use pam_control::Faults;
-    const NAMES: [(Faults, &str); 12] = [
+    const NAMES: [(Faults, &str); 13] = [
         (Faults::COMMAND_TIMEOUT, "command timeout"),
         (Faults::NON_FINITE, "non-finite sensor value"),
         (Faults::ANGLE_OUT_OF_RANGE, "angle out of range"),
@@ -58,6 +58,10 @@ pub fn fault_names(bits: u16) -> String {
         (Faults::CPU_FAULT, "CPU fault exception (last run)"),
         (Faults::LOOP_OVERRUN, "control loop overrun"),
         (Faults::STACK_LOW, "stack high-water mark near its end"),
+        (
+            Faults::CONTROL_UNSTABLE,
+            "closed loop unstable (oscillation or persistent force error)",
+        ),
     ];
     if bits == 0 {
         return "none".into();
@@ -94,7 +98,11 @@ mod tests {
             fault_names(Faults::STACK_LOW.0),
             "stack high-water mark near its end"
         );
-        assert_eq!(fault_names(1 << 12), "unknown bits 0x1000");
+        assert_eq!(
+            fault_names(Faults::CONTROL_UNSTABLE.0),
+            "closed loop unstable (oscillation or persistent force error)"
+        );
+        assert_eq!(fault_names(1 << 13), "unknown bits 0x2000");
         assert_eq!(fault_names(0), "none");
     }
 }

@@ -55,6 +55,13 @@ pub enum SetMode {
         /// Correct the force with the gain plane (thesis eq. 5.2).
         #[arg(long)]
         feed_forward: bool,
+        /// Close the loop on the load cell (docs/closed-loop.md).
+        #[arg(long)]
+        closed_loop: bool,
+        /// With --closed-loop: multiplier of the designed feedback gains (0 < S ≤ 20; the
+        /// device's guard faults an unstable loop).
+        #[arg(long, default_value_t = 1.0, value_name = "S", requires = "closed_loop")]
+        gain_scale: f64,
     },
 }
 
@@ -94,10 +101,24 @@ pub fn mode_of(m: &SetMode) -> Result<Mode, String> {
             force_n,
             stiffness_nm_per_rad,
             feed_forward,
+            closed_loop: false,
+            ..
         } => Mode::Force {
             force_n: values::<2>("--force-n", force_n)?,
             stiffness_nm_per_rad: values::<2>("--stiffness-nm-per-rad", stiffness_nm_per_rad)?,
             feed_forward: *feed_forward,
+        },
+        SetMode::Force {
+            force_n,
+            stiffness_nm_per_rad,
+            feed_forward,
+            closed_loop: true,
+            gain_scale,
+        } => Mode::ForceClosedLoop {
+            force_n: values::<2>("--force-n", force_n)?,
+            stiffness_nm_per_rad: values::<2>("--stiffness-nm-per-rad", stiffness_nm_per_rad)?,
+            feed_forward: *feed_forward,
+            gain_scale: values::<1>("--gain-scale", &[*gain_scale])?[0],
         },
     })
 }

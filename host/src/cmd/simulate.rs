@@ -12,6 +12,7 @@ use std::path::PathBuf;
 #[command(after_help = "Examples:
   pamctl simulate --experiment dynamic --point 1 --with carrier_ball_friction:coulomb_n=3 --out trial.csv
   pamctl simulate --experiment force_step --pose 4 --period 0.05 --seed 7 --out step.csv
+  pamctl simulate --experiment force_step --pose 4 --closed-loop --out step_cl.csv
   pamctl simulate --list-effects")]
 pub struct SimulateArgs {
     /// The experiment: dynamic (§4.2, operator path), static (§4.2, nine holds) or
@@ -46,6 +47,13 @@ pub struct SimulateArgs {
     /// Gain-plane feed-forward in force mode (off: as the thesis measured its steps).
     #[arg(long)]
     pub feed_forward: bool,
+    /// Force mode with the load cell in the loop (force_step; docs/closed-loop.md).
+    #[arg(long)]
+    pub closed_loop: bool,
+    /// Multiplier of the closed loop's designed feedback gains (1 = the design; up to 20,
+    /// to see the guard catch an unstable loop).
+    #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = finite)]
+    pub gain_scale: f64,
     /// Simulate the rig with the stiffness the thesis identified (host-libs/twin/README.md)
     /// instead of the thesis's model.
     #[arg(long)]
@@ -97,6 +105,8 @@ pub fn run(args: SimulateArgs, out: &mut dyn Write) -> Result<(), String> {
         loadcell_noise_n: args.noise,
         effects: args.with,
         feed_forward: args.feed_forward,
+        closed_loop: args.closed_loop,
+        gain_scale: args.gain_scale,
         identified_rig: args.identified_rig,
     };
     let log = run_trial(&spec).map_err(|e| e.to_string())?;

@@ -38,6 +38,21 @@ pub fn describe_mode(mode: &Mode) -> String {
             stiffness_nm_per_rad[1],
             if *feed_forward { "on" } else { "off" }
         ),
+        Mode::ForceClosedLoop {
+            force_n,
+            stiffness_nm_per_rad,
+            feed_forward,
+            gain_scale,
+        } => format!(
+            "force ({:+.2}, {:+.2}) N closed loop (gain ×{:.2}), K {:.1}, {:.1} N·m/rad, \
+             gain-plane feed-forward {}",
+            force_n[0],
+            force_n[1],
+            gain_scale,
+            stiffness_nm_per_rad[0],
+            stiffness_nm_per_rad[1],
+            if *feed_forward { "on" } else { "off" }
+        ),
     }
 }
 

@@ -20,6 +20,13 @@ wire_enum! {
             stiffness_nm_per_rad: [f32; 2],
             feed_forward: bool,
         },
+        /// Appended (issue 14): the variants before it keep their tags and bytes.
+        ForceClosedLoop {
+            force_n: [f32; 2],
+            stiffness_nm_per_rad: [f32; 2],
+            feed_forward: bool,
+            gain_scale: f32,
+        },
     }
 }
 
@@ -75,6 +82,17 @@ impl From<pam_control::Mode> for Mode {
                 stiffness_nm_per_rad,
                 feed_forward,
             },
+            D::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                gain_scale,
+            } => Mode::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                gain_scale,
+            },
         }
     }
 }
@@ -102,6 +120,17 @@ impl From<Mode> for pam_control::Mode {
                 force_n,
                 stiffness_nm_per_rad,
                 feed_forward,
+            },
+            Mode::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                gain_scale,
+            } => D::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                gain_scale,
             },
         }
     }
