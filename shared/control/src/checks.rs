@@ -460,6 +460,7 @@ pub fn hardware_faults_latch() -> CheckResult {
         Faults::CPU_FAULT,
         Faults::LOOP_OVERRUN,
         Faults::STACK_LOW,
+        Faults::CONTROL_UNSTABLE,
     ];
     let union = all.iter().fold(0u32, |a, f| a | u32::from(f.0));
     holds(

@@ -27,6 +27,8 @@ pub mod supervisor;
 
 #[cfg(any(test, feature = "checks"))]
 pub mod checks;
+#[cfg(any(test, feature = "checks"))]
+pub mod force_loop_checks;
 
 pub use force_loop::{ForceLoop, ForceLoopConfig, GuardTrip, MAX_GAIN_SCALE};
 pub use supervisor::*;
