@@ -13,7 +13,8 @@
 //!   integral is frozen while the previous command was clamped (torque capability,
 //!   pressure range, slew or converter range) in the direction that would grow it, and is
 //!   bounded by `integral_limit_n`.
-//! - **Guard**: an error beyond `guard_error_n` for `guard_time_s`, or sustained oscillation
+//! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
+//!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
 //!   above `guard_flips`), latches `Faults::CONTROL_UNSTABLE` and the supervisor vents.
 //!
@@ -45,6 +46,9 @@ pub struct ForceLoopConfig {
     /// Error (norm over both axes) that, held for `guard_time_s`, is a fault, N.
     pub guard_error_n: f32,
     pub guard_time_s: f32,
+    /// Error (norm) that is a fault at once: a growing oscillation reaches it within a
+    /// period or two of its swing, before the flip count does, N.
+    pub guard_error_max_n: f32,
     /// Hysteresis band of the oscillation detector, N.
     pub guard_band_n: f32,
     /// Leaky count of error sign flips (time constant 1 s) that is a fault.
@@ -68,6 +72,7 @@ impl ForceLoopConfig {
             integral_limit_n: 40.0,
             guard_error_n: 12.0,
             guard_time_s: 0.5,
+            guard_error_max_n: 25.0,
             guard_band_n: 2.0,
             guard_flips: 6.0,
         }
@@ -81,6 +86,7 @@ impl ForceLoopConfig {
             self.integral_limit_n,
             self.guard_error_n,
             self.guard_time_s,
+            self.guard_error_max_n,
             self.guard_band_n,
             self.guard_flips,
         ];
@@ -107,6 +113,8 @@ pub enum GuardTrip {
     PersistentError,
     /// The error oscillates.
     Oscillation,
+    /// The error passed `guard_error_max_n`.
+    ErrorBound,
 }
 
 /// The loop's state: reference, reference model, integral, guard.
@@ -257,7 +265,9 @@ impl ForceLoop {
             }
             self.sign[a] = s;
         }
-        if self.large_error_s >= cfg.guard_time_s {
+        if err_sq > cfg.guard_error_max_n * cfg.guard_error_max_n {
+            Some(GuardTrip::ErrorBound)
+        } else if self.large_error_s >= cfg.guard_time_s {
             Some(GuardTrip::PersistentError)
         } else if self.flips[0] > cfg.guard_flips || self.flips[1] > cfg.guard_flips {
             Some(GuardTrip::Oscillation)
