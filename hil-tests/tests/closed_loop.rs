@@ -30,13 +30,24 @@ fn closed_loop_force_step_reaches_the_target() {
     let out = ok(d, &["set", "force", "--force-n", "9.1,-4", "--closed-loop"]);
     assert!(out.contains("closed loop"), "{out}");
     let file = tmp("closed_loop.csv");
-    let args = ["record", file.to_str().unwrap(), "--duration", "1.5", "--quiet"];
+    let args = [
+        "record",
+        file.to_str().unwrap(),
+        "--duration",
+        "1.5",
+        "--quiet",
+    ];
     ok(d, &args);
     let log = pam_log::read_path(&file).expect("a valid log");
-    assert!(column(&log, "mode").iter().all(|&m| m == 5.0), "mode code 5");
+    assert!(
+        column(&log, "mode").iter().all(|&m| m == 5.0),
+        "mode code 5"
+    );
     assert!(column(&log, col::FAULTS).iter().all(|&f| f == 0.0));
     assert!(column(&log, col::STATE).iter().all(|&s| s == 1.0));
-    assert!(column(&log, col::FX_REF_N).iter().all(|&f| (f - 9.1).abs() < 1e-4));
+    assert!(column(&log, col::FX_REF_N)
+        .iter()
+        .all(|&f| (f - 9.1).abs() < 1e-4));
     let fx = mean_of_last(column(&log, col::FX_N), 300);
     let fy = mean_of_last(column(&log, col::FY_N), 300);
     eprintln!("closed loop, blocked handle: measured ({fx:.3}, {fy:.3}) N for (9.1, −4) N");
@@ -46,7 +57,9 @@ fn closed_loop_force_step_reaches_the_target() {
         "closed loop: measured ({fx:.3}, {fy:.3}) N for (9.1, −4) N"
     );
     for name in col::CURRENTS_MA {
-        assert!(column(&log, name).iter().all(|&i| (4.0 - 1e-4..=20.0 + 1e-4).contains(&i)));
+        assert!(column(&log, name)
+            .iter()
+            .all(|&i| (4.0 - 1e-4..=20.0 + 1e-4).contains(&i)));
     }
     ok(d, &["disarm"]);
 }
@@ -80,7 +93,8 @@ fn bad_gains_are_caught_by_the_guard_over_the_link() {
         while let Ok(Some(_)) = c.next_telemetry(Duration::ZERO) {}
     }
     // …then step with the most the device accepts: twenty times the designed gains
-    c.command(closed([9.1, 0.0], MAX_GAIN_SCALE)).expect("bad gains accepted");
+    c.command(closed([9.1, 0.0], MAX_GAIN_SCALE))
+        .expect("bad gains accepted");
     let mut peak_n: f32 = 0.0;
     let mut faulted_at = None;
     let t0 = Instant::now();
@@ -96,7 +110,9 @@ fn bad_gains_are_caught_by_the_guard_over_the_link() {
                 faulted_at = Some(t0.elapsed());
             }
             if faulted_at.is_none() {
-                peak_n = peak_n.max(t.force_user_n[0].abs()).max(t.force_user_n[1].abs());
+                peak_n = peak_n
+                    .max(t.force_user_n[0].abs())
+                    .max(t.force_user_n[1].abs());
             }
             let done = faulted_at.is_some_and(|f| t0.elapsed() > f + Duration::from_millis(100));
             last = Some(t);
@@ -107,8 +123,15 @@ fn bad_gains_are_caught_by_the_guard_over_the_link() {
     }
     eprintln!("bad gains: fault after {faulted_at:?}, peak {peak_n:.1} N before it");
     let t = last.expect("telemetry");
-    assert!(faulted_at.is_some_and(|f| f < Duration::from_millis(1500)), "{faulted_at:?}");
-    assert!(t.faults & Faults::CONTROL_UNSTABLE.0 != 0, "{:#x}", t.faults);
+    assert!(
+        faulted_at.is_some_and(|f| f < Duration::from_millis(1500)),
+        "{faulted_at:?}"
+    );
+    assert!(
+        t.faults & Faults::CONTROL_UNSTABLE.0 != 0,
+        "{:#x}",
+        t.faults
+    );
     assert_eq!(t.mode, ModeKind::ForceClosedLoop);
     assert!(
         t.current_ma.iter().all(|&i| i <= vent_ma + 1e-3),
@@ -127,7 +150,15 @@ fn bad_gains_are_caught_by_the_guard_over_the_link() {
     // the host refuses nothing itself: the device refuses a gain scale beyond its range
     let (code, _, stderr) = pamctl(
         &target.address,
-        &["set", "force", "--force-n", "1,0", "--closed-loop", "--gain-scale", "21"],
+        &[
+            "set",
+            "force",
+            "--force-n",
+            "1,0",
+            "--closed-loop",
+            "--gain-scale",
+            "21",
+        ],
     );
     assert_ne!(code, 0);
     assert!(!stderr.is_empty());

@@ -156,6 +156,8 @@ fn help_and_effect_list() {
         "--noise",
         "--with",
         "--feed-forward",
+        "--closed-loop",
+        "--gain-scale",
         "--identified-rig",
         "--out",
         "--list-effects",
@@ -166,4 +168,32 @@ fn help_and_effect_list() {
     assert_eq!(code, 0);
     assert!(out.contains("carrier_ball_friction"), "{out}");
     assert!(out.contains("mains_hum"), "{out}");
+}
+
+#[test]
+fn closed_loop_force_step_is_a_log_that_meets_the_step_goals() {
+    let d = tmpdir("simulate_cl");
+    let out = d.join("step_cl.csv");
+    let (code, _, err) = pamctl(&[
+        "simulate",
+        "--experiment",
+        "force_step",
+        "--pose",
+        "4",
+        "--closed-loop",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let log = pam_log::read_path(&out).expect("a log");
+    assert_eq!(log.meta("closed_loop"), Some("true"));
+    assert_eq!(log.meta("gain_scale"), Some("1"));
+    let s = pam_twin::step_metrics::summarize(
+        &pam_twin::step_metrics::force_steps(&log).expect("step figures"),
+    );
+    assert_eq!(s.steps, 24);
+    assert!(
+        s.overshoot_worst_pct <= 10.0 && s.gain_error_mean <= 0.02,
+        "{s:?}"
+    );
 }

@@ -19,7 +19,10 @@ impl C {
     }
     fn div(self, o: C) -> C {
         let d = o.0 * o.0 + o.1 * o.1;
-        C((self.0 * o.0 + self.1 * o.1) / d, (self.1 * o.0 - self.0 * o.1) / d)
+        C(
+            (self.0 * o.0 + self.1 * o.1) / d,
+            (self.1 * o.0 - self.0 * o.1) / d,
+        )
     }
     fn add(self, o: C) -> C {
         C(self.0 + o.0, self.1 + o.1)
@@ -33,7 +36,13 @@ impl C {
 }
 
 /// (gain margin, its frequency rad/s, phase margin °, crossover rad/s).
-fn margins(cfg: &ForceLoopConfig, wn: f64, zeta: f64, g: f64, delay_s: f64) -> (f64, f64, f64, f64) {
+fn margins(
+    cfg: &ForceLoopConfig,
+    wn: f64,
+    zeta: f64,
+    g: f64,
+    delay_s: f64,
+) -> (f64, f64, f64, f64) {
     let (kp, ki, kd, wf) = (
         cfg.kp as f64,
         cfg.ki_per_s as f64,
@@ -42,7 +51,11 @@ fn margins(cfg: &ForceLoopConfig, wn: f64, zeta: f64, g: f64, delay_s: f64) -> (
     );
     let l = |w: f64| {
         let s = C(0.0, w);
-        let h = C(wn * wn, 0.0).div(s.mul(s).add(C(2.0 * zeta * wn, 0.0).mul(s)).add(C(wn * wn, 0.0)));
+        let h = C(wn * wn, 0.0).div(
+            s.mul(s)
+                .add(C(2.0 * zeta * wn, 0.0).mul(s))
+                .add(C(wn * wn, 0.0)),
+        );
         let c = C(kp, 0.0)
             .add(C(ki, 0.0).div(s))
             .add(C(kd * wf, 0.0).mul(s).div(s.add(C(wf, 0.0))));
@@ -88,7 +101,11 @@ fn main() {
     println!("converters: ωn = {wn} rad/s, ζ = {zeta}; gains kp {} ki {} 1/s kd {} s, derivative filter {} rad/s", cfg.kp, cfg.ki_per_s, cfg.kd_s, cfg.derivative_filter_rad_s);
     println!("| plant gain g | delay τ | gain margin | at | phase margin | crossover |");
     println!("|---|---|---|---|---|---|");
-    for (g, why) in [(1.0, "twin, model"), (0.43, "twin's lowest step gain"), (1.75, "twin with gain plane (1/0.57)")] {
+    for (g, why) in [
+        (1.0, "twin, model"),
+        (0.43, "twin's lowest step gain"),
+        (1.75, "twin with gain plane (1/0.57)"),
+    ] {
         for delay_ms in [1.5, 10.0, 20.0, 41.5] {
             let (gm, wg, pm, wc) = margins(&cfg, wn, zeta, g, delay_ms * 1e-3);
             println!(

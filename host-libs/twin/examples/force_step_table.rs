@@ -24,7 +24,12 @@ fn main() {
             "--identified-rig" => spec.identified_rig = true,
             "--per-pose" => per_pose = true,
             "--per-step" => per_step = true,
-            "--gain-scale" => spec.gain_scale = args.next().and_then(|v| v.parse().ok()).expect("--gain-scale S"),
+            "--gain-scale" => {
+                spec.gain_scale = args
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .expect("--gain-scale S")
+            }
             "--with" => spec.effects.push(args.next().expect("--with EFFECT")),
             other => panic!("unknown argument {other}"),
         }
@@ -60,15 +65,36 @@ fn main() {
     let s = summarize(&all);
     let label = format!(
         "{}{}{}{}",
-        if spec.closed_loop { "closed loop" } else { "open loop" },
-        if spec.feed_forward { " + gain plane" } else { "" },
-        if spec.identified_rig { ", identified rig" } else { "" },
-        if spec.effects.is_empty() { String::new() } else { format!(", {}", spec.effects.join(" ")) },
+        if spec.closed_loop {
+            "closed loop"
+        } else {
+            "open loop"
+        },
+        if spec.feed_forward {
+            " + gain plane"
+        } else {
+            ""
+        },
+        if spec.identified_rig {
+            ", identified rig"
+        } else {
+            ""
+        },
+        if spec.effects.is_empty() {
+            String::new()
+        } else {
+            format!(", {}", spec.effects.join(" "))
+        },
     );
     println!(
         "| {label} | {:.3} | {:.3} | {:.1} | {:.3} | {:.3}–{:.3} | {} |",
-        s.settling_worst_s, s.settling_mean_s, s.overshoot_worst_pct, s.gain_error_mean,
-        s.gain_min, s.gain_max, faulted.len()
+        s.settling_worst_s,
+        s.settling_mean_s,
+        s.overshoot_worst_pct,
+        s.gain_error_mean,
+        s.gain_min,
+        s.gain_max,
+        faulted.len()
     );
     for f in faulted {
         eprintln!("{f}");

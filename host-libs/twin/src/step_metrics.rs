@@ -3,7 +3,8 @@
 //!
 //! - A step is a change of `fx_ref_n` or `fy_ref_n` between two rows; it lasts until the
 //!   next change (or the end of the log).
-//! - The force is smoothed by a centred 21-sample moving average (21 ms at 1 kHz) before the
+//! - The force is smoothed by a centred 21-sample moving average (21 ms at 1 kHz, shortened
+//!   at the step's ends so that neighbouring steps do not leak in) before the
 //!   settling and overshoot are read, so the load cell's noise (0.15 N, 3σ ≈ the 5 % band
 //!   of a 9.1 N step) does not decide the settling time.
 //! - Steady value: the mean of the raw force over the last 20 % of the hold.
@@ -60,7 +61,6 @@ pub fn force_steps(log: &Log) -> Result<Vec<StepFigures>, LogError> {
     let t = log.require(col::T_S)?;
     let refs = [log.require(col::FX_REF_N)?, log.require(col::FY_REF_N)?];
     let force = [log.require(col::FX_N)?, log.require(col::FY_N)?];
-    let smooth = [smoothed(force[0]), smoothed(force[1])];
     let n = t.len();
     // boundaries: row indices where either reference changes
     let mut starts = vec![0usize];
@@ -83,7 +83,8 @@ pub fn force_steps(log: &Log) -> Result<Vec<StepFigures>, LogError> {
         let d_ref = r1 - r0;
         let d_y = y1 - y0;
         let dir = d_ref.signum();
-        let s = &smooth[axis][a..b];
+        // smoothed within the step only: the next step's response must not leak in
+        let s = &smoothed(&force[axis][a..b]);
         let peak = s.iter().map(|v| (v - y1) * dir).fold(0.0, f64::max);
         let band = 0.05 * d_ref.abs();
         let last_out = s.iter().rposition(|v| (v - y1).abs() > band);
@@ -121,7 +122,10 @@ pub fn summarize(steps: &[StepFigures]) -> Summary {
         overshoot_worst_pct: steps.iter().map(|s| s.overshoot_pct).fold(0.0, f64::max),
         gain_error_mean: steps.iter().map(|s| (s.gain - 1.0).abs()).sum::<f64>() / n,
         gain_min: steps.iter().map(|s| s.gain).fold(f64::INFINITY, f64::min),
-        gain_max: steps.iter().map(|s| s.gain).fold(f64::NEG_INFINITY, f64::max),
+        gain_max: steps
+            .iter()
+            .map(|s| s.gain)
+            .fold(f64::NEG_INFINITY, f64::max),
     }
 }
 
@@ -159,7 +163,11 @@ mod tests {
         }
         // 10 N step, gain 0.8: within 0.5 N of 8 N once 8·e^{−t/τ} < 0.5 → t = τ·ln 16
         let expect = 0.05 * (16.0f64).ln();
-        assert!((steps[0].settling_s - expect).abs() < 0.015, "{:?}", steps[0]);
+        assert!(
+            (steps[0].settling_s - expect).abs() < 0.015,
+            "{:?}",
+            steps[0]
+        );
         let sum = summarize(&steps);
         assert!((sum.gain_error_mean - 0.2).abs() < 0.01);
     }

@@ -24,7 +24,10 @@ fn closed_loop_steps_meet_the_goals_where_the_open_loop_does_not() {
         let closed = steps(pose, true);
         println!("pose {pose}: open {open:?}\n        closed {closed:?}");
         assert_eq!(closed.steps, 24);
-        assert!(closed.overshoot_worst_pct <= 10.0, "pose {pose}: {closed:?}");
+        assert!(
+            closed.overshoot_worst_pct <= 10.0,
+            "pose {pose}: {closed:?}"
+        );
         assert!(closed.gain_error_mean <= 0.02, "pose {pose}: {closed:?}");
         assert!(closed.settling_mean_s <= 0.3, "pose {pose}: {closed:?}");
         // the worst step (the largest, where the muscles' model is least right) within 0.45 s
@@ -69,18 +72,31 @@ fn bad_gains_are_caught_in_the_twin_before_the_force_runs_away() {
             force_sensor_n: m.force_sensor_n.map(|f| f as f32),
         });
         if i >= 2000 && faulted_at.is_none() {
-            peak_n = peak_n.max(m.force_user_n[0].abs()).max(m.force_user_n[1].abs());
+            peak_n = peak_n
+                .max(m.force_user_n[0].abs())
+                .max(m.force_user_n[1].abs());
         }
         if out.state == State::Faulted {
             assert!(i >= 2000, "faulted at the designed gains ({i} ms)");
             faulted_at.get_or_insert(i);
-            assert!(out.faults.contains(Faults::CONTROL_UNSTABLE), "{:#x}", out.faults.0);
+            assert!(
+                out.faults.contains(Faults::CONTROL_UNSTABLE),
+                "{:#x}",
+                out.faults.0
+            );
             assert!(out.current_ma.iter().all(|&c| c == 4.0), "vented");
         }
-        m = twin.step(0.001, out.current_ma.map(|c| c as f64), &HandleCondition::Blocked);
+        m = twin.step(
+            0.001,
+            out.current_ma.map(|c| c as f64),
+            &HandleCondition::Blocked,
+        );
     }
     let at = faulted_at.expect("the guard latched");
-    println!("ten-times gains: fault {} ms after the step, peak {peak_n:.1} N", at - 2000);
+    println!(
+        "ten-times gains: fault {} ms after the step, peak {peak_n:.1} N",
+        at - 2000
+    );
     assert!(at - 2000 < 1000, "{} ms", at - 2000);
     assert!(peak_n < 9.1 + 1.5 * bound, "peak {peak_n:.1} N");
 }

@@ -60,7 +60,12 @@ pub enum SetMode {
         closed_loop: bool,
         /// With --closed-loop: multiplier of the designed feedback gains (0 < S ≤ 20; the
         /// device's guard faults an unstable loop).
-        #[arg(long, default_value_t = 1.0, value_name = "S", requires = "closed_loop")]
+        #[arg(
+            long,
+            default_value_t = 1.0,
+            value_name = "S",
+            requires = "closed_loop"
+        )]
         gain_scale: f64,
     },
 }
@@ -174,4 +179,62 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), St
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(subcommand)]
+        mode: SetMode,
+    }
+
+    fn mode(args: &[&str]) -> Result<Mode, String> {
+        let cli = Cli::try_parse_from(std::iter::once("set").chain(args.iter().copied()))
+            .map_err(|e| e.to_string())?;
+        mode_of(&cli.mode)
+    }
+
+    #[test]
+    fn force_open_and_closed_loop() {
+        assert_eq!(
+            mode(&["force", "--force-n", "9.1,-4", "--feed-forward"]).unwrap(),
+            Mode::Force {
+                force_n: [9.1, -4.0],
+                stiffness_nm_per_rad: [60.0, 27.0],
+                feed_forward: true,
+            }
+        );
+        assert_eq!(
+            mode(&[
+                "force",
+                "--force-n",
+                "9.1,-4",
+                "--closed-loop",
+                "--gain-scale",
+                "3"
+            ])
+            .unwrap(),
+            Mode::ForceClosedLoop {
+                force_n: [9.1, -4.0],
+                stiffness_nm_per_rad: [60.0, 27.0],
+                feed_forward: false,
+                gain_scale: 3.0,
+            }
+        );
+        // the gain scale means nothing open loop
+        assert!(mode(&["force", "--force-n", "1,0", "--gain-scale", "3"]).is_err());
+        assert!(mode(&[
+            "force",
+            "--force-n",
+            "1,0",
+            "--closed-loop",
+            "--gain-scale",
+            "nan"
+        ])
+        .is_err());
+    }
 }

@@ -209,17 +209,15 @@ impl ForceLoop {
         let mut command_n = [0.0; 2];
         let mut err_sq = 0.0;
         for a in 0..2 {
-            let r = self.reference_n[a]
-                + (target_n[a] - self.reference_n[a]).clamp_to(-max_df, max_df);
+            let r =
+                self.reference_n[a] + (target_n[a] - self.reference_n[a]).clamp_to(-max_df, max_df);
             self.reference_n[a] = r;
             // critically damped model, semi-implicit Euler
             let acc = wm * wm * (r - self.model_n[a]) - 2.0 * wm * self.model_rate_n_s[a];
             self.model_rate_n_s[a] += acc * dt_s;
             self.model_n[a] += self.model_rate_n_s[a] * dt_s;
             // H⁻¹ of the converters' second order applied to the model: x + 2ζ/ωn ẋ + ẍ/ωn²
-            let ff = self.model_n[a]
-                + 2.0 * zeta / wn * self.model_rate_n_s[a]
-                + acc / (wn * wn);
+            let ff = self.model_n[a] + 2.0 * zeta / wn * self.model_rate_n_s[a] + acc / (wn * wn);
             let e = self.model_n[a] - measured_n[a];
             let raw_rate = (measured_n[a] - self.last_measured_n[a]) / dt_s;
             self.last_measured_n[a] = measured_n[a];

@@ -36,14 +36,23 @@ impl Plant {
         let jp = self.model.joint_pressures_bar(self.p_bar);
         let d = self.model.direct(POSE_RAD, jp);
         let tau = [d[0].0, d[1].0];
-        let jt_inv = self.model.kinematics.jacobian(POSE_RAD).transpose().inverse();
+        let jt_inv = self
+            .model
+            .kinematics
+            .jacobian(POSE_RAD)
+            .transpose()
+            .inverse();
         let f = jt_inv.map(|m| m.mul_vec(tau)).unwrap_or([0.0; 2]);
         [f[0] * self.gain, f[1] * self.gain]
     }
 
     fn sensors(&mut self) -> Sensors {
         self.k += 1;
-        let d = if self.k.is_multiple_of(2) { 0.01 } else { -0.01 };
+        let d = if self.k.is_multiple_of(2) {
+            0.01
+        } else {
+            -0.01
+        };
         let f = self.force_user_n();
         let s = self.model.kinematics.user_to_sensor(POSE_RAD, f);
         Sensors {
@@ -125,7 +134,10 @@ pub fn closed_loop_reaches_the_force_the_open_loop_misses() -> CheckResult {
     let mut plant = Plant::new(0.7);
     let mut c = armed(closed([0.0; 2], 1.0));
     run(&mut c, &mut plant, 1000);
-    holds("closed loop accepted", c.set_mode(closed(TARGET_N, 1.0)).is_ok())?;
+    holds(
+        "closed loop accepted",
+        c.set_mode(closed(TARGET_N, 1.0)).is_ok(),
+    )?;
     let r = run(&mut c, &mut plant, 1000);
     holds("no fault", r.faulted_at.is_none() && r.out.faults.is_none())?;
     for a in 0..2 {
@@ -159,7 +171,10 @@ pub fn bad_gains_are_caught_by_the_guard_and_vented() -> CheckResult {
     )?;
     let r = run(&mut c, &mut plant, 3000);
     let at = r.faulted_at;
-    holds("the guard latched", r.out.faults.contains(Faults::CONTROL_UNSTABLE))?;
+    holds(
+        "the guard latched",
+        r.out.faults.contains(Faults::CONTROL_UNSTABLE),
+    )?;
     holds("within a second", at.is_some_and(|k| k < 1000))?;
     holds(
         "vented",
@@ -171,7 +186,10 @@ pub fn bad_gains_are_caught_by_the_guard_and_vented() -> CheckResult {
         "force bounded before the trip",
         r.peak_abs_n < TARGET_N[0] + 1.5 * bound,
     )?;
-    holds("re-arm refused while latched", c.arm() == Err(Reject::WrongState))
+    holds(
+        "re-arm refused while latched",
+        c.arm() == Err(Reject::WrongState),
+    )
 }
 
 pub fn a_force_the_plant_cannot_give_is_a_persistent_error() -> CheckResult {
