@@ -3,8 +3,9 @@
 //!
 //! - A step is a change of `fx_ref_n` or `fy_ref_n` between two rows; it lasts until the
 //!   next change (or the end of the log).
-//! - The force is smoothed by a centred 21-sample moving average (21 ms at 1 kHz, shortened
-//!   at the step's ends so that neighbouring steps do not leak in) before the
+//! - The force is smoothed by a centred 21-sample moving average (21 ms at 1 kHz, within
+//!   the step so that neighbouring steps do not leak in; its last 10 samples, averaged over
+//!   a shortened window, are left out) before the
 //!   settling and overshoot are read, so the load cell's noise (0.15 N, 3σ ≈ the 5 % band
 //!   of a 9.1 N step) does not decide the settling time.
 //! - Steady value: the mean of the raw force over the last 20 % of the hold.
@@ -84,7 +85,9 @@ pub fn force_steps(log: &Log) -> Result<Vec<StepFigures>, LogError> {
         let d_y = y1 - y0;
         let dir = d_ref.signum();
         // smoothed within the step only: the next step's response must not leak in
-        let s = &smoothed(&force[axis][a..b]);
+        let full = smoothed(&force[axis][a..b]);
+        // the last half-window is averaged over fewer samples (noisier): left out
+        let s = &full[..full.len().saturating_sub(SMOOTH_HALF).max(1)];
         let peak = s.iter().map(|v| (v - y1) * dir).fold(0.0, f64::max);
         let band = 0.05 * d_ref.abs();
         let last_out = s.iter().rposition(|v| (v - y1).abs() > band);

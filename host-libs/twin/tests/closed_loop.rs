@@ -30,8 +30,9 @@ fn closed_loop_steps_meet_the_goals_where_the_open_loop_does_not() {
         );
         assert!(closed.gain_error_mean <= 0.02, "pose {pose}: {closed:?}");
         assert!(closed.settling_mean_s <= 0.3, "pose {pose}: {closed:?}");
-        // the worst step (the largest, where the muscles' model is least right) within 0.45 s
-        assert!(closed.settling_worst_s <= 0.45, "pose {pose}: {closed:?}");
+        // the worst step (the largest, where the muscles' model is least right): 0.34 s
+        // measured at pose 7 (docs/closed-loop.md), the goal 0.3 s
+        assert!(closed.settling_worst_s <= 0.4, "pose {pose}: {closed:?}");
         // the same measurement sees the open loop's converter overshoot
         assert!(open.overshoot_worst_pct > 20.0, "pose {pose}: {open:?}");
     }

@@ -10,9 +10,10 @@
 //! - **Feedback**: PI on the error between the model and the load-cell force (user frame),
 //!   added before the gain-plane correction, so with `feed_forward` the identified gain
 //!   plane G(α) schedules the loop gain over the pose (the command is divided by G). The
-//!   integral is frozen while the previous command was clamped (torque capability,
-//!   pressure range, slew or converter range) in the direction that would grow it, and is
-//!   bounded by `integral_limit_n`.
+//!   integral is frozen while the previous command was clamped by a capability limit
+//!   (torque quadrilateral, pressure range, converter range; not the slew limit, which
+//!   catches up by itself) in the direction that would grow it, and is bounded by
+//!   `integral_limit_n`.
 //! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
 //!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
@@ -175,8 +176,8 @@ impl ForceLoop {
         self.integral_n
     }
 
-    /// One period. `saturated`: the previous command was clamped somewhere on its way to
-    /// the converters (anti-windup). `gain_scale` multiplies kp and ki (1 = the design).
+    /// One period. `saturated`: the previous command was clamped by a capability limit on
+    /// its way to the converters (torque, pressure or current range; anti-windup). `gain_scale` multiplies kp and ki (1 = the design).
     #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,

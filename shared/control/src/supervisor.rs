@@ -609,6 +609,9 @@ impl Controller {
         };
 
         let mut output_limited = false;
+        // the capability limits only (pressure range, converter range), not the slew limit:
+        // a slew-limited command catches up by itself, a clamped one never does
+        let mut range_limited = false;
         let max_step = slew * dt;
         let mut out = [vent; 4];
         let mut current = [ip.current_min_ma; 4];
@@ -625,12 +628,14 @@ impl Controller {
                 self.model.params.pressure.min_bar,
                 self.model.params.pressure.max_bar,
             );
+            range_limited |= (p - p_in).abs() > 1e-6;
             if !cut {
                 let prev = self.pressure_bar[c];
                 p = p.clamp_to(prev - max_step, prev + max_step);
             }
             let cmd = ip.current_for(p);
             output_limited |= (p - p_in).abs() > 1e-6 || cmd.saturated;
+            range_limited |= cmd.saturated;
             // At the converter's floor (idle, a finished timeout ramp, a 0.1 bar command) the
             // output is the safe state itself, 4 mA: the same 0.1 bar at the converter as the
             // 5.3 mA its law gives, and the current an open or unpowered loop would also give.
@@ -643,7 +648,7 @@ impl Controller {
             };
         }
         self.pressure_bar = out;
-        self.last_saturated = output_limited
+        self.last_saturated = range_limited
             || limited.contains(Limited::TORQUE)
             || limited.contains(Limited::PRESSURE);
         StepOutput {
