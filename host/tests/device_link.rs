@@ -104,7 +104,7 @@ fn protocol_version_mismatch_is_explained() {
     });
     let err = fails(&d.address, &["status"]);
     assert!(
-        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 2"),
+        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 3"),
         "{err}"
     );
 }

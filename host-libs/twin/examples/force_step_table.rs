@@ -4,7 +4,7 @@
 //! ```sh
 //! cargo run --release -p pam-twin --example force_step_table -- [--closed-loop] \
 //!     [--feed-forward] [--identified-rig] [--gain-scale S] [--with EFFECT]... [--per-pose]
-//!     [--per-step]
+//!     [--per-step] [--period SECONDS]
 //! ```
 //! Prints one markdown row: worst / mean 5 % settling, worst overshoot, mean |gain − 1|,
 //! gain range, and how many poses faulted.
@@ -31,6 +31,12 @@ fn main() {
                     .expect("--gain-scale S")
             }
             "--with" => spec.effects.push(args.next().expect("--with EFFECT")),
+            "--period" => {
+                spec.period_s = args
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .expect("--period SECONDS")
+            }
             other => panic!("unknown argument {other}"),
         }
     }

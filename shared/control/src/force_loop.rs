@@ -177,7 +177,8 @@ impl ForceLoop {
     }
 
     /// One period. `saturated`: the previous command was clamped by a capability limit on
-    /// its way to the converters (torque, pressure or current range; anti-windup). `gain_scale` multiplies kp and ki (1 = the design).
+    /// its way to the converters (torque, pressure or current range; anti-windup).
+    /// `gain_scale` multiplies kp, ki and kd (1 = the design).
     #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,
@@ -264,7 +265,8 @@ impl ForceLoop {
             }
             self.sign[a] = s;
         }
-        if err_sq > cfg.guard_error_max_n * cfg.guard_error_max_n {
+        // NaN included: nothing downstream may act on a non-finite error
+        if !(err_sq <= cfg.guard_error_max_n * cfg.guard_error_max_n) {
             Some(GuardTrip::ErrorBound)
         } else if self.large_error_s >= cfg.guard_time_s {
             Some(GuardTrip::PersistentError)
