@@ -277,9 +277,9 @@ impl OperatorPath {
 }
 
 /// The controller, the twin and the log, stepping together.
-struct Rig {
-    twin: Twin,
-    ctl: Controller,
+pub(crate) struct Rig {
+    pub(crate) twin: Twin,
+    pub(crate) ctl: Controller,
     period_s: f64,
     last: Measurement,
     log: Log,
@@ -316,7 +316,7 @@ fn columns(with_ref: bool, with_hand_ref: bool) -> Vec<&'static str> {
 }
 
 impl Rig {
-    fn new(
+    pub(crate) fn new(
         cfg: &ExperimentConfig,
         alpha_start_rad: Vec2<f64>,
         with_ref: bool,
@@ -365,7 +365,7 @@ impl Rig {
         })
     }
 
-    fn arm(&mut self, mode: Mode) -> Result<(), ExperimentError> {
+    pub(crate) fn arm(&mut self, mode: Mode) -> Result<(), ExperimentError> {
         self.ctl
             .arm()
             .map_err(|e| err(format!("controller refused to arm: {e:?}")))?;
@@ -381,7 +381,7 @@ impl Rig {
     /// One period. `handle_at(offset_s)` says what holds the handle at `offset_s` into the
     /// period: the hand is updated every millisecond even when the loop runs at 50 ms (a real
     /// hand moves continuously). `record` adds a log row.
-    fn period(
+    pub(crate) fn period(
         &mut self,
         handle_at: impl Fn(f64) -> HandleCondition,
         force_ref: Option<Vec2<f64>>,
@@ -445,11 +445,16 @@ impl Rig {
         Ok(())
     }
 
-    fn periods(&self, seconds: f64) -> usize {
+    pub(crate) fn periods(&self, seconds: f64) -> usize {
         (seconds / self.period_s).round().max(0.0) as usize
     }
 
-    fn finish(mut self, cfg: &ExperimentConfig, experiment: &str, extra: &[(&str, String)]) -> Log {
+    pub(crate) fn finish(
+        mut self,
+        cfg: &ExperimentConfig,
+        experiment: &str,
+        extra: &[(&str, String)],
+    ) -> Log {
         self.log.set_meta("experiment", experiment);
         for (k, v) in extra {
             self.log.set_meta(k, v);
@@ -463,7 +468,7 @@ impl Rig {
     }
 }
 
-fn point_alpha(point: usize) -> Result<Vec2<f64>, ExperimentError> {
+pub(crate) fn point_alpha(point: usize) -> Result<Vec2<f64>, ExperimentError> {
     if !(1..=5).contains(&point) {
         return Err(err(format!(
             "point {point} is not one of the five Table 4.1 points (1–5)"

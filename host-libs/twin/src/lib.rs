@@ -17,6 +17,7 @@
 
 pub mod effects;
 pub mod experiments;
+pub mod impedance_trial;
 pub mod plant;
 pub mod pneumatics;
 pub mod rig;

@@ -75,6 +75,7 @@ fn mode_code(m: ModeKind) -> f64 {
         ModeKind::Force => 3.0,
         ModeKind::ForceFeedForward => 4.0,
         ModeKind::ForceClosedLoop => 5.0,
+        ModeKind::Impedance => 6.0,
     }
 }
 

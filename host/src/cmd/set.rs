@@ -68,6 +68,16 @@ pub enum SetMode {
         )]
         gain_scale: f64,
     },
+    /// A Cartesian spring-damper about a point (user frame), rendered by the closed force
+    /// loop: K = 0 with a small B is transparent (docs/closed-loop.md).
+    Impedance {
+        #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], allow_negative_numbers = true, value_name = "X,Y")]
+        target_m: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], allow_negative_numbers = true, value_name = "KX,KY")]
+        stiffness_n_per_m: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_values_t = [5.0, 5.0], allow_negative_numbers = true, value_name = "BX,BY")]
+        damping_n_s_per_m: Vec<f64>,
+    },
 }
 
 fn values<const N: usize>(name: &str, v: &[f64]) -> Result<[f32; N], String> {
@@ -124,6 +134,15 @@ pub fn mode_of(m: &SetMode) -> Result<Mode, String> {
             stiffness_nm_per_rad: values::<2>("--stiffness-nm-per-rad", stiffness_nm_per_rad)?,
             feed_forward: *feed_forward,
             gain_scale: values::<1>("--gain-scale", &[*gain_scale])?[0],
+        },
+        SetMode::Impedance {
+            target_m,
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+        } => Mode::Impedance {
+            target_user_m: values::<2>("--target-m", target_m)?,
+            stiffness_n_per_m: values::<2>("--stiffness-n-per-m", stiffness_n_per_m)?,
+            damping_n_s_per_m: values::<2>("--damping-n-s-per-m", damping_n_s_per_m)?,
         },
     })
 }
@@ -236,5 +255,25 @@ mod tests {
             "nan"
         ])
         .is_err());
+    }
+
+    #[test]
+    fn impedance() {
+        assert_eq!(
+            mode(&[
+                "impedance",
+                "--target-m",
+                "0.02,-0.01",
+                "--stiffness-n-per-m",
+                "300,200"
+            ])
+            .unwrap(),
+            Mode::Impedance {
+                target_user_m: [0.02, -0.01],
+                stiffness_n_per_m: [300.0, 200.0],
+                damping_n_s_per_m: [5.0, 5.0],
+            }
+        );
+        assert!(mode(&["impedance", "--stiffness-n-per-m", "300"]).is_err());
     }
 }

@@ -53,6 +53,19 @@ pub fn describe_mode(mode: &Mode) -> String {
             stiffness_nm_per_rad[1],
             if *feed_forward { "on" } else { "off" }
         ),
+        Mode::Impedance {
+            target_user_m,
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+        } => format!(
+            "impedance about ({:+.3}, {:+.3}) m, K {:.0}, {:.0} N/m, B {:.1}, {:.1} N·s/m",
+            target_user_m[0],
+            target_user_m[1],
+            stiffness_n_per_m[0],
+            stiffness_n_per_m[1],
+            damping_n_s_per_m[0],
+            damping_n_s_per_m[1]
+        ),
     }
 }
 

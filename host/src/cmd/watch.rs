@@ -221,6 +221,7 @@ pub fn mode_name(m: ModeKind) -> &'static str {
         ModeKind::Force => "force",
         ModeKind::ForceFeedForward => "force+ff",
         ModeKind::ForceClosedLoop => "force closed loop",
+        ModeKind::Impedance => "impedance",
     }
 }
 

@@ -190,12 +190,53 @@ impl ForceLoop {
         saturated: bool,
         dt_s: f32,
     ) -> ForceLoopOutput {
+        self.run(
+            cfg, ip, target_n, measured_n, gain_scale, saturated, dt_s, true,
+        )
+    }
+
+    /// [`ForceLoop::step`] without the rate limit and the reference model: the target is
+    /// followed as it comes (impedance mode, where the target is itself a function of the
+    /// measured motion and any lag would change the rendered impedance).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_direct(
+        &mut self,
+        cfg: &ForceLoopConfig,
+        ip: &IpConverter<f32>,
+        target_n: Vec2<f32>,
+        measured_n: Vec2<f32>,
+        gain_scale: f32,
+        saturated: bool,
+        dt_s: f32,
+    ) -> ForceLoopOutput {
+        self.run(
+            cfg, ip, target_n, measured_n, gain_scale, saturated, dt_s, false,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &mut self,
+        cfg: &ForceLoopConfig,
+        ip: &IpConverter<f32>,
+        target_n: Vec2<f32>,
+        measured_n: Vec2<f32>,
+        gain_scale: f32,
+        saturated: bool,
+        dt_s: f32,
+        shaped: bool,
+    ) -> ForceLoopOutput {
         if self.fresh {
             // start where the plant is: no jump in the command at entry
             self.reference_n = measured_n;
             self.model_n = measured_n;
             self.last_measured_n = measured_n;
             self.fresh = false;
+        }
+        if !shaped {
+            self.reference_n = target_n;
+            self.model_n = target_n;
+            self.model_rate_n_s = [0.0; 2];
         }
         let wm = cfg.reference_bandwidth_rad_s;
         let wn = ip.natural_freq_rad_s;
@@ -215,7 +256,11 @@ impl ForceLoop {
                 self.reference_n[a] + (target_n[a] - self.reference_n[a]).clamp_to(-max_df, max_df);
             self.reference_n[a] = r;
             // critically damped model, semi-implicit Euler
-            let acc = wm * wm * (r - self.model_n[a]) - 2.0 * wm * self.model_rate_n_s[a];
+            let acc = if shaped {
+                wm * wm * (r - self.model_n[a]) - 2.0 * wm * self.model_rate_n_s[a]
+            } else {
+                0.0
+            };
             self.model_rate_n_s[a] += acc * dt_s;
             self.model_n[a] += self.model_rate_n_s[a] * dt_s;
             // H⁻¹ of the converters' second order applied to the model: x + 2ζ/ωn ẋ + ẍ/ωn²

@@ -3,6 +3,7 @@
 //! the direct model, F = J⁻ᵀ τ times a gain the controller does not know), one period of delay.
 
 use crate::force_loop::*;
+use crate::impedance::MAX_IMPEDANCE_STIFFNESS_N_PER_M;
 use crate::supervisor::*;
 use pam_model::checks::holds_that as holds;
 use pam_model::{RobotModel, Vec2};
@@ -277,10 +278,50 @@ pub fn reference_rate_limit_anti_windup_and_bumpless_entry() -> CheckResult {
     )
 }
 
+pub fn impedance_renders_the_spring_force_and_refuses_out_of_range() -> CheckResult {
+    // the blocked plant holds the handle 2 cm left of the target: the virtual spring pulls
+    // with K·2 cm, and the load cell must read it
+    let model = RobotModel::<f32>::thesis();
+    let x = model.kinematics.forward_user(POSE_RAD);
+    let target = [x[0] + 0.02, x[1] - 0.01];
+    let k = [300.0, 500.0];
+    let mut plant = Plant::new(0.7);
+    let mut c = armed(Mode::Impedance {
+        target_user_m: target,
+        stiffness_n_per_m: k,
+        damping_n_s_per_m: [5.0, 5.0],
+    });
+    let r = run(&mut c, &mut plant, 2000);
+    holds("no fault", r.faulted_at.is_none())?;
+    holds(
+        "spring force rendered",
+        (r.mean_force_n[0] - 6.0).abs() < 0.1 && (r.mean_force_n[1] + 5.0).abs() < 0.1,
+    )?;
+    for bad in [
+        ([0.5, 0.0], [100.0, 100.0], [5.0, 5.0]),
+        ([0.0, 0.0], [-1.0, 100.0], [5.0, 5.0]),
+        (
+            [0.0, 0.0],
+            [100.0, MAX_IMPEDANCE_STIFFNESS_N_PER_M * 1.01],
+            [5.0, 5.0],
+        ),
+        ([0.0, 0.0], [100.0, 100.0], [f32::NAN, 5.0]),
+    ] {
+        let m = Mode::Impedance {
+            target_user_m: bad.0,
+            stiffness_n_per_m: bad.1,
+            damping_n_s_per_m: bad.2,
+        };
+        holds("refused", c.set_mode(m) == Err(Reject::OutOfRange))?;
+    }
+    Ok(())
+}
+
 pam_model::register_checks!(
     closed_loop_reaches_the_force_the_open_loop_misses,
     bad_gains_are_caught_by_the_guard_and_vented,
     a_force_the_plant_cannot_give_is_a_persistent_error,
     gain_scale_outside_its_range_is_refused,
     reference_rate_limit_anti_windup_and_bumpless_entry,
+    impedance_renders_the_spring_force_and_refuses_out_of_range,
 );

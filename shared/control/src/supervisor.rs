@@ -5,6 +5,10 @@ use pam_model::params::LoadCell;
 use pam_model::{Limited, Real, RobotModel, Vec2};
 
 use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
+use crate::impedance::{
+    Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_STIFFNESS_N_PER_M,
+    MAX_IMPEDANCE_TARGET_M,
+};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -36,6 +40,13 @@ pub enum Mode {
         stiffness_nm_per_rad: Vec2<f32>,
         feed_forward: bool,
         gain_scale: f32,
+    },
+    /// A Cartesian spring-damper about `target_user_m` (user frame, diagonal K and B),
+    /// rendered by the closed force loop (`impedance`); the muscles at their least stiffness.
+    Impedance {
+        target_user_m: Vec2<f32>,
+        stiffness_n_per_m: Vec2<f32>,
+        damping_n_s_per_m: Vec2<f32>,
     },
 }
 
@@ -212,6 +223,7 @@ pub struct Controller {
     same_force_count: u32,
     force_loop_cfg: ForceLoopConfig,
     force_loop: ForceLoop,
+    impedance: Impedance,
     /// The last command was clamped on its way out (the force loop's anti-windup).
     last_saturated: bool,
 }
@@ -232,6 +244,7 @@ impl Controller {
             same_force_count: 0,
             force_loop_cfg: ForceLoopConfig::designed(),
             force_loop: ForceLoop::new(),
+            impedance: Impedance::new(),
             last_saturated: false,
         }
     }
@@ -286,6 +299,7 @@ impl Controller {
             State::Disarmed if self.faults.is_none() => {
                 self.state = State::Armed;
                 self.force_loop.reset();
+                self.impedance.reset();
                 self.accepted();
                 Ok(())
             }
@@ -377,6 +391,18 @@ impl Controller {
                             )
                     })
             }
+            Mode::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
+            } => (0..2).all(|a| {
+                finite_in(
+                    target_user_m[a],
+                    -MAX_IMPEDANCE_TARGET_M,
+                    MAX_IMPEDANCE_TARGET_M,
+                ) && finite_in(stiffness_n_per_m[a], 0.0, MAX_IMPEDANCE_STIFFNESS_N_PER_M)
+                    && finite_in(damping_n_s_per_m[a], 0.0, MAX_IMPEDANCE_DAMPING_N_S_PER_M)
+            }),
         };
         if !ok {
             return Err(Reject::OutOfRange);
@@ -385,8 +411,10 @@ impl Controller {
         if !matches!(
             (self.mode, mode),
             (Mode::ForceClosedLoop { .. }, Mode::ForceClosedLoop { .. })
+                | (Mode::Impedance { .. }, Mode::Impedance { .. })
         ) {
             self.force_loop.reset();
+            self.impedance.reset();
         }
         self.mode = mode;
         self.accepted();
@@ -585,6 +613,48 @@ impl Controller {
                             fl.command_n,
                             stiffness_nm_per_rad,
                             feed_forward,
+                        );
+                        limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
+                        self.model.channel_pressures_bar([
+                            cmd.joints[0].pressure_bar,
+                            cmd.joints[1].pressure_bar,
+                        ])
+                    }
+                    Mode::Impedance {
+                        target_user_m,
+                        stiffness_n_per_m,
+                        damping_n_s_per_m,
+                    } => {
+                        let w = self.model.kinematics.forward_world_at(&trig);
+                        let home = self.model.kinematics.home_world_m;
+                        let x_m = [w[0] - home[0], w[1] - home[1]];
+                        let f_ref = self.impedance.force_n(
+                            target_user_m,
+                            stiffness_n_per_m,
+                            damping_n_s_per_m,
+                            x_m,
+                            dt,
+                        );
+                        let fl = self.force_loop.step_direct(
+                            &self.force_loop_cfg,
+                            ip,
+                            f_ref,
+                            force_user_n,
+                            1.0,
+                            self.last_saturated,
+                            dt,
+                        );
+                        if fl.trip.is_some() {
+                            self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
+                            self.state = State::Faulted;
+                        }
+                        // stiffness 0: the inverse model gives the least the muscles can
+                        let cmd = self.model.force_command_at(
+                            alpha,
+                            &trig,
+                            fl.command_n,
+                            [0.0; 2],
+                            false,
                         );
                         limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
                         self.model.channel_pressures_bar([

@@ -242,6 +242,8 @@ wire_enum! {
         ForceFeedForward,
         /// Appended (issue 14): closed-loop force, with or without the gain plane.
         ForceClosedLoop,
+        /// Appended (issue 14): Cartesian spring-damper through the closed force loop.
+        Impedance,
     }
 }
 
@@ -260,6 +262,7 @@ impl ModeKind {
                 feed_forward: true, ..
             } => ModeKind::ForceFeedForward,
             M::ForceClosedLoop { .. } => ModeKind::ForceClosedLoop,
+            M::Impedance { .. } => ModeKind::Impedance,
         }
     }
 }

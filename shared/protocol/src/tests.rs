@@ -417,6 +417,16 @@ fn arb_mode() -> impl Strategy<Value = Mode> {
                 feed_forward: ff,
                 gain_scale: g
             }),
+        (
+            prop::array::uniform2(arb_f32()),
+            prop::array::uniform2(arb_f32()),
+            prop::array::uniform2(arb_f32())
+        )
+            .prop_map(|(x, k, b)| Mode::Impedance {
+                target_user_m: x,
+                stiffness_n_per_m: k,
+                damping_n_s_per_m: b
+            }),
     ]
 }
 

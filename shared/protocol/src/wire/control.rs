@@ -27,6 +27,12 @@ wire_enum! {
             feed_forward: bool,
             gain_scale: f32,
         },
+        /// Appended (issue 14).
+        Impedance {
+            target_user_m: [f32; 2],
+            stiffness_n_per_m: [f32; 2],
+            damping_n_s_per_m: [f32; 2],
+        },
     }
 }
 
@@ -93,6 +99,15 @@ impl From<pam_control::Mode> for Mode {
                 feed_forward,
                 gain_scale,
             },
+            D::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
+            } => Mode::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
+            },
         }
     }
 }
@@ -131,6 +146,15 @@ impl From<Mode> for pam_control::Mode {
                 stiffness_nm_per_rad,
                 feed_forward,
                 gain_scale,
+            },
+            Mode::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
+            } => D::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
             },
         }
     }
