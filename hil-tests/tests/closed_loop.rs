@@ -163,3 +163,75 @@ fn bad_gains_are_caught_by_the_guard_over_the_link() {
     assert_ne!(code, 0);
     assert!(!stderr.is_empty());
 }
+
+/// Least-squares slope and intercept of y against x.
+fn slope(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len() as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = x.iter().map(|a| (a - mx) * (a - mx)).sum();
+    sxy / sxx
+}
+
+#[test]
+fn impedance_mode_renders_its_spring_against_the_operator() {
+    let _serial = exclusive();
+    let target = Target::acquire(&["--handle", "operator"]);
+    if !target.is_emulator() {
+        eprintln!("skipped on PAM_DEVICE: needs the emulator's scripted operator");
+        return;
+    }
+    target.prepare(1.0);
+    let d = target.address.as_str();
+    ok(d, &["arm"]);
+    let k = 300.0;
+    let out = ok(d, &["set", "impedance", "--stiffness-n-per-m", "300,300"]);
+    assert!(out.contains("impedance about"), "{out}");
+    // the operator holds 3 s after the mode change, then moves ±4 cm
+    let file = tmp("impedance.csv");
+    ok(
+        d,
+        &[
+            "record",
+            file.to_str().unwrap(),
+            "--duration",
+            "7",
+            "--quiet",
+        ],
+    );
+    let log = pam_log::read_path(&file).expect("a valid log");
+    assert!(
+        column(&log, "mode").iter().all(|&m| m == 6.0),
+        "mode code 6"
+    );
+    assert!(
+        column(&log, col::FAULTS).iter().all(|&f| f == 0.0),
+        "no fault"
+    );
+    let model = pam_model::RobotModel::<f64>::thesis();
+    let t = column(&log, col::T_S);
+    let t0 = t[0];
+    let moving: Vec<usize> = (0..log.len()).filter(|&i| t[i] - t0 > 3.5).collect();
+    let (a1, a2) = (column(&log, col::ALPHA1_RAD), column(&log, col::ALPHA2_RAD));
+    let x: Vec<[f64; 2]> = moving
+        .iter()
+        .map(|&i| model.kinematics.forward_user([a1[i], a2[i]]))
+        .collect();
+    for (axis, name) in [(0, col::FX_N), (1, col::FY_N)] {
+        let f: Vec<f64> = moving.iter().map(|&i| column(&log, name)[i]).collect();
+        let xa: Vec<f64> = x.iter().map(|p| p[axis]).collect();
+        let span = xa.iter().cloned().fold(f64::MIN, f64::max)
+            - xa.iter().cloned().fold(f64::MAX, f64::min);
+        let k_seen = -slope(&xa, &f);
+        eprintln!(
+            "impedance axis {axis}: K seen {k_seen:.1} N/m over a {:.1} cm motion",
+            span * 100.0
+        );
+        assert!(span > 0.01, "the operator moved the handle: {span} m");
+        assert!(
+            (k_seen - k).abs() < 0.15 * k,
+            "axis {axis}: K {k_seen:.1} N/m for {k}"
+        );
+    }
+    ok(d, &["disarm"]);
+}

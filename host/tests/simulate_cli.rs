@@ -92,7 +92,9 @@ fn bad_values_are_clear_errors() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--experiment"), "{err}");
     assert!(
-        err.contains("unknown experiment `sideways` (expected dynamic, static, force_step)"),
+        err.contains(
+            "unknown experiment `sideways` (expected dynamic, static, force_step, impedance)"
+        ),
         "{err}"
     );
     let (code, _, err) = pamctl(&[
