@@ -3,7 +3,7 @@
 //! in transparent mode (K = 0).
 //!
 //! ```sh
-//! cargo run --release -p pam-ident --example impedance_check -- [POINT] [SECONDS]
+//! cargo run --release -p pam-ident --example impedance_check -- [POINT] [SECONDS] [EFFECT]
 //! ```
 
 use pam_ident::msd;
@@ -21,6 +21,7 @@ fn main() {
         .next()
         .map(|v| v.parse().expect("SECONDS"))
         .unwrap_or(30.0);
+    let effect: Option<String> = args.next();
     let model = RobotModel::<f64>::thesis();
     let alpha = pam_twin::experiments::TABLE_4_1_POINTS_DEG[point - 1].map(f64::to_radians);
     // the open loop's stiffest Cartesian K at the point (K_max per joint), for the scale
@@ -36,7 +37,12 @@ fn main() {
     println!("|---|---|---|---|---|---|");
     let k_top = 1.5 * kc_max.0[0][0].max(kc_max.0[1][1]);
     for k in [0.0, 100.0, 300.0, 600.0, k_top.round()] {
-        let cfg = ExperimentConfig::new(TwinConfig::thesis());
+        let mut twin = TwinConfig::thesis();
+        if let Some(e) = &effect {
+            twin.effects =
+                pam_twin::EffectSet::parse_list(std::slice::from_ref(e)).expect("effect");
+        }
+        let cfg = ExperimentConfig::new(twin);
         let imp = VirtualImpedance {
             stiffness_n_per_m: [k, k],
             damping_n_s_per_m: [5.0, 5.0],
