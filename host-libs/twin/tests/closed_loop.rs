@@ -101,3 +101,61 @@ fn bad_gains_are_caught_in_the_twin_before_the_force_runs_away() {
     assert!(at - 2000 < 1000, "{} ms", at - 2000);
     assert!(peak_n < 9.1 + 1.5 * bound, "peak {peak_n:.1} N");
 }
+
+#[test]
+fn a_released_handle_in_impedance_mode_is_caught_by_the_speed_guard() {
+    let cfg = TwinConfig::thesis();
+    let mut twin = Twin::new(cfg.clone());
+    let mut ctl = Controller::new(
+        RobotModel::new(cfg.params.cast()),
+        SafetyConfig::default_1khz(),
+    );
+    let model = RobotModel::<f64>::new(cfg.params);
+    let mut m = twin.step(1e-9, [4.0; 4], &HandleCondition::Free);
+    let spring = |target_user_m: [f32; 2]| Mode::Impedance {
+        target_user_m,
+        stiffness_n_per_m: [300.0; 2],
+        damping_n_s_per_m: [5.0; 2],
+    };
+    ctl.arm().unwrap();
+    // held at the target while the pressures settle…
+    ctl.set_mode(spring([0.0; 2])).unwrap();
+    let mut faulted_at = None;
+    let mut x_at_fault = [0.0; 2];
+    for i in 0..3000 {
+        if i == 1000 {
+            // …then the patient lets go as the target moves 3 cm away
+            ctl.set_mode(spring([0.03, 0.0])).unwrap();
+        }
+        ctl.heartbeat();
+        let out = ctl.step(&Sensors {
+            alpha_rad: m.alpha_rad.map(|a| a as f32),
+            force_sensor_n: m.force_sensor_n.map(|f| f as f32),
+        });
+        if out.state == State::Faulted && faulted_at.is_none() {
+            faulted_at = Some(i);
+            x_at_fault = model.kinematics.forward_user(m.alpha_rad);
+            assert!(
+                out.faults.contains(Faults::CONTROL_UNSTABLE),
+                "{:#x}",
+                out.faults.0
+            );
+            assert!(out.current_ma.iter().all(|&c| c == 4.0));
+        }
+        let hand = if i < 1000 {
+            HandleCondition::held_at([0.0, 0.0])
+        } else {
+            HandleCondition::Free
+        };
+        m = twin.step(0.001, out.current_ma.map(|c| c as f64), &hand);
+    }
+    let at = faulted_at.expect("the guard latched");
+    let moved_cm = 100.0 * x_at_fault[0].hypot(x_at_fault[1]);
+    println!(
+        "released: fault {} ms after the release, handle {moved_cm:.1} cm from neutral",
+        at as i64 - 1000
+    );
+    assert!(at >= 1000, "faulted while held ({at} ms)");
+    assert!(at < 1300, "{} ms after the release", at - 1000);
+    assert!(moved_cm < 5.0, "{moved_cm:.1} cm");
+}

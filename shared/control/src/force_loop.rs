@@ -54,6 +54,10 @@ pub struct ForceLoopConfig {
     pub guard_band_n: f32,
     /// Leaky count of error sign flips (time constant 1 s) that is a fault.
     pub guard_flips: f32,
+    /// Handle speed that is a fault in the closed-loop modes, m/s: a force loop that
+    /// cannot find its force (the patient let go of the handle, the block gave way) drives
+    /// the arm away; this stops it within a few centimetres.
+    pub guard_speed_m_s: f32,
 }
 
 /// Largest multiplier of the designed feedback gains a mode may request: enough to
@@ -76,6 +80,7 @@ impl ForceLoopConfig {
             guard_error_max_n: 25.0,
             guard_band_n: 2.0,
             guard_flips: 6.0,
+            guard_speed_m_s: 0.5,
         }
     }
 
@@ -90,6 +95,7 @@ impl ForceLoopConfig {
             self.guard_error_max_n,
             self.guard_band_n,
             self.guard_flips,
+            self.guard_speed_m_s,
         ];
         pos.iter().all(|v| v.is_finite() && *v > 0.0)
             && self.kp.is_finite()
@@ -195,8 +201,8 @@ impl ForceLoop {
         )
     }
 
-    /// [`ForceLoop::step`] without the rate limit and the reference model: the target is
-    /// followed as it comes (impedance mode, where the target is itself a function of the
+    /// [`ForceLoop::step`] without the reference model: the target is followed as it comes,
+    /// only rate-limited (impedance mode, where the target is itself a function of the
     /// measured motion and any lag would change the rendered impedance).
     #[allow(clippy::too_many_arguments)]
     pub fn step_direct(
@@ -233,11 +239,6 @@ impl ForceLoop {
             self.last_measured_n = measured_n;
             self.fresh = false;
         }
-        if !shaped {
-            self.reference_n = target_n;
-            self.model_n = target_n;
-            self.model_rate_n_s = [0.0; 2];
-        }
         let wm = cfg.reference_bandwidth_rad_s;
         let wn = ip.natural_freq_rad_s;
         let zeta = ip.damping_ratio;
@@ -255,14 +256,18 @@ impl ForceLoop {
             let r =
                 self.reference_n[a] + (target_n[a] - self.reference_n[a]).clamp_to(-max_df, max_df);
             self.reference_n[a] = r;
-            // critically damped model, semi-implicit Euler
             let acc = if shaped {
-                wm * wm * (r - self.model_n[a]) - 2.0 * wm * self.model_rate_n_s[a]
+                // critically damped model, semi-implicit Euler
+                let acc = wm * wm * (r - self.model_n[a]) - 2.0 * wm * self.model_rate_n_s[a];
+                self.model_rate_n_s[a] += acc * dt_s;
+                self.model_n[a] += self.model_rate_n_s[a] * dt_s;
+                acc
             } else {
+                // direct: the rate-limited target itself
+                self.model_rate_n_s[a] = 0.0;
+                self.model_n[a] = r;
                 0.0
             };
-            self.model_rate_n_s[a] += acc * dt_s;
-            self.model_n[a] += self.model_rate_n_s[a] * dt_s;
             // H⁻¹ of the converters' second order applied to the model: x + 2ζ/ωn ẋ + ẍ/ωn²
             let ff = self.model_n[a] + 2.0 * zeta / wn * self.model_rate_n_s[a] + acc / (wn * wn);
             let e = self.model_n[a] - measured_n[a];

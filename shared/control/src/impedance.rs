@@ -44,29 +44,38 @@ impl Impedance {
         *self = Self::new();
     }
 
-    /// The force to render at handle position `x_m`, N.
-    pub fn force_n(
-        &mut self,
-        target_m: Vec2<f32>,
-        stiffness_n_per_m: Vec2<f32>,
-        damping_n_s_per_m: Vec2<f32>,
-        x_m: Vec2<f32>,
-        dt_s: f32,
-    ) -> Vec2<f32> {
+    pub fn velocity_m_s(&self) -> Vec2<f32> {
+        self.v_m_s
+    }
+
+    /// Updates the handle velocity estimate from handle position `x_m`; returns it, m/s.
+    pub fn track(&mut self, x_m: Vec2<f32>, dt_s: f32) -> Vec2<f32> {
         if self.fresh {
             self.last_x_m = x_m;
             self.fresh = false;
         }
         let wdt = VELOCITY_FILTER_RAD_S * dt_s;
         let alpha = wdt / (1.0 + wdt);
-        let mut f = [0.0; 2];
         for a in 0..2 {
             let raw = (x_m[a] - self.last_x_m[a]) / dt_s;
             self.last_x_m[a] = x_m[a];
             self.v_m_s[a] += alpha * (raw - self.v_m_s[a]);
-            f[a] = stiffness_n_per_m[a] * (target_m[a] - x_m[a])
-                - damping_n_s_per_m[a] * self.v_m_s[a];
         }
-        f
+        self.v_m_s
     }
+}
+
+/// F = K (x₀ − x) − B ẋ, per axis, N.
+pub fn spring_damper_force_n(
+    target_m: Vec2<f32>,
+    stiffness_n_per_m: Vec2<f32>,
+    damping_n_s_per_m: Vec2<f32>,
+    x_m: Vec2<f32>,
+    v_m_s: Vec2<f32>,
+) -> Vec2<f32> {
+    let mut f = [0.0; 2];
+    for a in 0..2 {
+        f[a] = stiffness_n_per_m[a] * (target_m[a] - x_m[a]) - damping_n_s_per_m[a] * v_m_s[a];
+    }
+    f
 }

@@ -33,7 +33,7 @@ pub mod force_loop_checks;
 
 pub use force_loop::{ForceLoop, ForceLoopConfig, GuardTrip, MAX_GAIN_SCALE};
 pub use impedance::{
-    Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_STIFFNESS_N_PER_M,
-    MAX_IMPEDANCE_TARGET_M,
+    spring_damper_force_n, Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M,
+    MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
 };
 pub use supervisor::*;

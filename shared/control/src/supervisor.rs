@@ -6,8 +6,8 @@ use pam_model::{Limited, Real, RobotModel, Vec2};
 
 use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
 use crate::impedance::{
-    Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_STIFFNESS_N_PER_M,
-    MAX_IMPEDANCE_TARGET_M,
+    spring_damper_force_n, Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M,
+    MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
 };
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
@@ -594,6 +594,10 @@ impl Controller {
                         feed_forward,
                         gain_scale,
                     } => {
+                        // the handle is blocked: a loop that moves it lost its force
+                        let w = self.model.kinematics.forward_world_at(&trig);
+                        let too_fast =
+                            handle_too_fast(&mut self.impedance, &self.force_loop_cfg, w, dt);
                         let fl = self.force_loop.step(
                             &self.force_loop_cfg,
                             ip,
@@ -603,7 +607,7 @@ impl Controller {
                             self.last_saturated,
                             dt,
                         );
-                        if fl.trip.is_some() {
+                        if fl.trip.is_some() || too_fast {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
@@ -628,12 +632,14 @@ impl Controller {
                         let w = self.model.kinematics.forward_world_at(&trig);
                         let home = self.model.kinematics.home_world_m;
                         let x_m = [w[0] - home[0], w[1] - home[1]];
-                        let f_ref = self.impedance.force_n(
+                        let too_fast =
+                            handle_too_fast(&mut self.impedance, &self.force_loop_cfg, x_m, dt);
+                        let f_ref = spring_damper_force_n(
                             target_user_m,
                             stiffness_n_per_m,
                             damping_n_s_per_m,
                             x_m,
-                            dt,
+                            self.impedance.velocity_m_s(),
                         );
                         let fl = self.force_loop.step_direct(
                             &self.force_loop_cfg,
@@ -644,7 +650,7 @@ impl Controller {
                             self.last_saturated,
                             dt,
                         );
-                        if fl.trip.is_some() {
+                        if fl.trip.is_some() || too_fast {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
@@ -731,4 +737,11 @@ impl Controller {
             output_limited,
         }
     }
+}
+
+/// Tracks the handle's velocity (any frame origin: `x_m` is only differenced) and says
+/// whether it exceeds the closed loop's speed guard.
+fn handle_too_fast(motion: &mut Impedance, cfg: &ForceLoopConfig, x_m: Vec2<f32>, dt: f32) -> bool {
+    let v = motion.track(x_m, dt);
+    v[0] * v[0] + v[1] * v[1] > cfg.guard_speed_m_s * cfg.guard_speed_m_s
 }
