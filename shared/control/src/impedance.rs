@@ -58,9 +58,9 @@ impl Impedance {
         let alpha = wdt / (1.0 + wdt);
         for a in 0..2 {
             let raw = (x_m[a] - self.last_x_m[a]) / dt_s;
-            self.last_x_m[a] = x_m[a];
             self.v_m_s[a] += alpha * (raw - self.v_m_s[a]);
         }
+        self.last_x_m = x_m;
         self.v_m_s
     }
 }
