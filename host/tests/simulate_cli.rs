@@ -199,3 +199,41 @@ fn closed_loop_force_step_is_a_log_that_meets_the_step_goals() {
         "{s:?}"
     );
 }
+
+#[test]
+fn impedance_trial_then_ident_dynamic_finds_the_commanded_k() {
+    let d = tmpdir("simulate_imp");
+    let out = d.join("imp.csv");
+    let path = out.to_str().unwrap();
+    let (code, _, err) = pamctl(&[
+        "simulate",
+        "--experiment",
+        "impedance",
+        "--virtual-k-n-per-m",
+        "300,300",
+        "--duration",
+        "10",
+        "--out",
+        path,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let log = pam_log::read_path(&out).expect("a log");
+    assert_eq!(log.meta("experiment"), Some("impedance"));
+    assert_eq!(log.meta("virtual_k_n_per_m"), Some("300 300"));
+    let (code, text, err) = pamctl(&["ident", "dynamic", path]);
+    assert_eq!(code, 0, "{err}");
+    // "  K = [[  302.728,     1.034], [    1.034,   307.745]]  ellipse: …"
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("K = [["))
+        .unwrap_or_else(|| panic!("no K in {text}"));
+    let nums: Vec<f64> = line
+        .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+        .filter_map(|s| s.parse().ok())
+        .collect();
+    let (kxx, kyy) = (nums[0], nums[3]);
+    assert!(
+        (kxx - 300.0).abs() < 30.0 && (kyy - 300.0).abs() < 30.0,
+        "{line}"
+    );
+}
