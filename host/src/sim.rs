@@ -424,12 +424,16 @@ impl Plant {
                     .model
                     .kinematics
                     .forward_user([alpha_rad[0] as f64, alpha_rad[1] as f64]),
+                Mode::Impedance { target_user_m, .. } => {
+                    [target_user_m[0] as f64, target_user_m[1] as f64]
+                }
                 _ => self.twin.state().handle_user_m,
             };
         }
         let armed = state == State::Armed;
-        let force = matches!(mode, Mode::Force { .. });
-        let joint = matches!(mode, Mode::Joint { .. });
+        let force = matches!(mode, Mode::Force { .. } | Mode::ForceClosedLoop { .. });
+        // the operator moves the handle about the joint or the impedance target
+        let joint = matches!(mode, Mode::Joint { .. } | Mode::Impedance { .. });
         match self.handle_mode {
             HandleMode::Free => HandleCondition::Free,
             HandleMode::Blocked if armed && force => HandleCondition::Blocked,

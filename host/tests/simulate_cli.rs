@@ -92,7 +92,9 @@ fn bad_values_are_clear_errors() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--experiment"), "{err}");
     assert!(
-        err.contains("unknown experiment `sideways` (expected dynamic, static, force_step)"),
+        err.contains(
+            "unknown experiment `sideways` (expected dynamic, static, force_step, impedance)"
+        ),
         "{err}"
     );
     let (code, _, err) = pamctl(&[
@@ -156,6 +158,8 @@ fn help_and_effect_list() {
         "--noise",
         "--with",
         "--feed-forward",
+        "--closed-loop",
+        "--gain-scale",
         "--identified-rig",
         "--out",
         "--list-effects",
@@ -166,4 +170,70 @@ fn help_and_effect_list() {
     assert_eq!(code, 0);
     assert!(out.contains("carrier_ball_friction"), "{out}");
     assert!(out.contains("mains_hum"), "{out}");
+}
+
+#[test]
+fn closed_loop_force_step_is_a_log_that_meets_the_step_goals() {
+    let d = tmpdir("simulate_cl");
+    let out = d.join("step_cl.csv");
+    let (code, _, err) = pamctl(&[
+        "simulate",
+        "--experiment",
+        "force_step",
+        "--pose",
+        "4",
+        "--closed-loop",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let log = pam_log::read_path(&out).expect("a log");
+    assert_eq!(log.meta("closed_loop"), Some("true"));
+    assert_eq!(log.meta("gain_scale"), Some("1"));
+    let s = pam_twin::step_metrics::summarize(
+        &pam_twin::step_metrics::force_steps(&log).expect("step figures"),
+    );
+    assert_eq!(s.steps, 24);
+    assert!(
+        s.overshoot_worst_pct <= 10.0 && s.gain_error_mean <= 0.02,
+        "{s:?}"
+    );
+}
+
+#[test]
+fn impedance_trial_then_ident_dynamic_finds_the_commanded_k() {
+    let d = tmpdir("simulate_imp");
+    let out = d.join("imp.csv");
+    let path = out.to_str().unwrap();
+    let (code, _, err) = pamctl(&[
+        "simulate",
+        "--experiment",
+        "impedance",
+        "--virtual-k-n-per-m",
+        "300,300",
+        "--duration",
+        "10",
+        "--out",
+        path,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let log = pam_log::read_path(&out).expect("a log");
+    assert_eq!(log.meta("experiment"), Some("impedance"));
+    assert_eq!(log.meta("virtual_k_n_per_m"), Some("300 300"));
+    let (code, text, err) = pamctl(&["ident", "dynamic", path]);
+    assert_eq!(code, 0, "{err}");
+    // "  K = [[  302.728,     1.034], [    1.034,   307.745]]  ellipse: …"
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("K = [["))
+        .unwrap_or_else(|| panic!("no K in {text}"));
+    let nums: Vec<f64> = line
+        .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+        .filter_map(|s| s.parse().ok())
+        .collect();
+    let (kxx, kyy) = (nums[0], nums[3]);
+    assert!(
+        (kxx - 300.0).abs() < 30.0 && (kyy - 300.0).abs() < 30.0,
+        "{line}"
+    );
 }

@@ -82,6 +82,7 @@ fn main() -> ! {
     run("f64", CHECKS_F64, &mut passed, &mut failed);
     for (label, checks) in [
         ("control", pam_control::checks::CHECKS),
+        ("control force loop", pam_control::force_loop_checks::CHECKS),
         ("device", pam_device::checks::CHECKS),
     ] {
         for c in checks {
@@ -238,6 +239,94 @@ fn main() -> ! {
     let per_step = (step_ticks.saturating_sub(heartbeat_ticks)) as f32 * insn_per_tick / n;
     let armed_through_bench = dev.controller().state() == State::Armed;
     hprintln!("bench control step (pam-device: raw counts/volts in -> output currents out, force mode + feed-forward + supervisor + telemetry), f32/{}: {:.0} instructions per step; state {:?}, faults {:#x}", math, per_step, dev.controller().state(), dev.controller().faults().0);
+    // The same step in closed-loop force mode (issue 14): reference model, converter-inverse
+    // feed-forward, PID with anti-windup, guard, then the gain plane and the same force path.
+    // The target is near the dithering load cell's reading so the guard stays quiet (a
+    // faulted device would take the short path).
+    dev.handle(&req(RequestBody::SetMode(
+        Mode::ForceClosedLoop {
+            force_n: [2.0, -1.0],
+            stiffness_nm_per_rad: [60.0, 27.0],
+            feed_forward: true,
+            gain_scale: 1.0,
+        }
+        .into(),
+    )));
+    let cl_ticks = ticks(|| {
+        for _ in 0..REPS {
+            for w in inputs.iter() {
+                dev.handle(&req(RequestBody::Heartbeat));
+                k += 1;
+                let raw = RawSensors {
+                    encoder_counts: [(k & 7).wrapping_sub(4) & 0xFFFF, (k & 3) * 2],
+                    loadcell_volts: [w.torque_nm[0] * 0.001, w.torque_nm[1] * 0.001],
+                };
+                black_box(dev.step(
+                    black_box(raw),
+                    StepTiming {
+                        time_us: k * 1000,
+                        loop_exec_us: 20,
+                        loop_jitter_us: 1,
+                    },
+                ));
+            }
+        }
+    });
+    let per_step_cl = (cl_ticks.saturating_sub(heartbeat_ticks)) as f32 * insn_per_tick / n;
+    let armed_through_cl = dev.controller().state() == State::Armed;
+    hprintln!("bench control step closed loop (pam-device, force mode closed loop + gain plane + supervisor + telemetry), f32/{}: {:.0} instructions per step; state {:?}, faults {:#x}", math, per_step_cl, dev.controller().state(), dev.controller().faults().0);
+    if !armed_through_cl {
+        failed += 1;
+        hprintln!("FAIL bench: the device left the armed state during the closed-loop benchmark");
+    }
+    // impedance mode: handle position, velocity filter, spring-damper, the force loop
+    dev.handle(&req(RequestBody::SetMode(
+        Mode::Impedance {
+            target_user_m: [0.0, 0.0],
+            stiffness_n_per_m: [300.0, 300.0],
+            damping_n_s_per_m: [5.0, 5.0],
+        }
+        .into(),
+    )));
+    let imp_ticks = ticks(|| {
+        for _ in 0..REPS {
+            for w in inputs.iter() {
+                dev.handle(&req(RequestBody::Heartbeat));
+                k += 1;
+                // a handle moving one count every 64 ms: the velocity filter sees a motion,
+                // not the ±4-count jitter per period above (its damping force would make
+                // the guard see an oscillation, as it should)
+                let raw = RawSensors {
+                    encoder_counts: [(k >> 6) & 7, (k >> 6) & 3],
+                    loadcell_volts: [w.torque_nm[0] * 0.001, w.torque_nm[1] * 0.001],
+                };
+                black_box(dev.step(
+                    black_box(raw),
+                    StepTiming {
+                        time_us: k * 1000,
+                        loop_exec_us: 20,
+                        loop_jitter_us: 1,
+                    },
+                ));
+            }
+        }
+    });
+    let per_step_imp = (imp_ticks.saturating_sub(heartbeat_ticks)) as f32 * insn_per_tick / n;
+    let armed_through_imp = dev.controller().state() == State::Armed;
+    hprintln!("bench control step impedance (pam-device, impedance mode through the closed force loop + supervisor + telemetry), f32/{}: {:.0} instructions per step; state {:?}, faults {:#x}", math, per_step_imp, dev.controller().state(), dev.controller().faults().0);
+    if !armed_through_imp {
+        failed += 1;
+        hprintln!("FAIL bench: the device left the armed state during the impedance benchmark");
+    }
+    // issue 4/14 budget of one control step
+    const STEP_BUDGET_INSTRUCTIONS: f32 = 5000.0;
+    if per_step_cl > STEP_BUDGET_INSTRUCTIONS
+        || per_step > STEP_BUDGET_INSTRUCTIONS
+        || per_step_imp > STEP_BUDGET_INSTRUCTIONS
+    {
+        failed += 1;
+        hprintln!("FAIL bench: a control step takes more than {} instructions", STEP_BUDGET_INSTRUCTIONS);
+    }
     // The slowest requests, so the firmware knows what handling one costs wherever it
     // calls it: the handshake (hashes the parameters) and a new parameter set (rebuilds the
     // model's derived constants). Measured disarmed, where SetConfig is allowed.

@@ -53,6 +53,10 @@ pub struct ExperimentConfig {
     /// (Table 5.2, Fig. 5.4–5.5) were measured with the uncorrected command, and §5.4 then
     /// proposes the correction from them.
     pub feed_forward: bool,
+    /// Force mode with the load cell in the loop (`Mode::ForceClosedLoop`). Off by default.
+    pub closed_loop: bool,
+    /// Multiplier of the closed loop's designed feedback gains (1 = the design).
+    pub gain_scale: f64,
     /// Hold time of each force level.
     pub step_hold_s: f64,
 }
@@ -67,6 +71,8 @@ impl ExperimentConfig {
             path_amplitude_m: 0.04,
             path_band_hz: (0.1, 2.0),
             feed_forward: false,
+            closed_loop: false,
+            gain_scale: 1.0,
             step_hold_s: 1.5,
         }
     }
@@ -249,9 +255,9 @@ impl OperatorPath {
 }
 
 /// The controller, the twin and the log, stepping together.
-struct Rig {
-    twin: Twin,
-    ctl: Controller,
+pub(crate) struct Rig {
+    pub(crate) twin: Twin,
+    pub(crate) ctl: Controller,
     period_s: f64,
     last: Measurement,
     log: Log,
@@ -288,7 +294,7 @@ fn columns(with_ref: bool, with_hand_ref: bool) -> Vec<&'static str> {
 }
 
 impl Rig {
-    fn new(
+    pub(crate) fn new(
         cfg: &ExperimentConfig,
         alpha_start_rad: Vec2<f64>,
         with_ref: bool,
@@ -337,7 +343,7 @@ impl Rig {
         })
     }
 
-    fn arm(&mut self, mode: Mode) -> Result<(), ExperimentError> {
+    pub(crate) fn arm(&mut self, mode: Mode) -> Result<(), ExperimentError> {
         self.ctl
             .arm()
             .map_err(|e| err(format!("controller refused to arm: {e:?}")))?;
@@ -353,7 +359,7 @@ impl Rig {
     /// One period. `handle_at(offset_s)` says what holds the handle at `offset_s` into the
     /// period: the hand is updated every millisecond even when the loop runs at 50 ms (a real
     /// hand moves continuously). `record` adds a log row.
-    fn period(
+    pub(crate) fn period(
         &mut self,
         handle_at: impl Fn(f64) -> HandleCondition,
         force_ref: Option<Vec2<f64>>,
@@ -417,11 +423,16 @@ impl Rig {
         Ok(())
     }
 
-    fn periods(&self, seconds: f64) -> usize {
+    pub(crate) fn periods(&self, seconds: f64) -> usize {
         (seconds / self.period_s).round().max(0.0) as usize
     }
 
-    fn finish(mut self, cfg: &ExperimentConfig, experiment: &str, extra: &[(&str, String)]) -> Log {
+    pub(crate) fn finish(
+        mut self,
+        cfg: &ExperimentConfig,
+        experiment: &str,
+        extra: &[(&str, String)],
+    ) -> Log {
         self.log.set_meta("experiment", experiment);
         for (k, v) in extra {
             self.log.set_meta(k, v);
@@ -435,7 +446,7 @@ impl Rig {
     }
 }
 
-fn point_alpha(point: usize) -> Result<Vec2<f64>, ExperimentError> {
+pub(crate) fn point_alpha(point: usize) -> Result<Vec2<f64>, ExperimentError> {
     if !(1..=5).contains(&point) {
         return Err(err(format!(
             "point {point} is not one of the five Table 4.1 points (1–5)"
@@ -606,6 +617,24 @@ pub fn step_levels() -> Vec<f64> {
     v
 }
 
+/// The force mode of the configuration: open loop, or closed loop with its gain scale.
+pub fn force_mode(cfg: &ExperimentConfig, force_n: Vec2<f32>, stiffness: Vec2<f32>) -> Mode {
+    if cfg.closed_loop {
+        Mode::ForceClosedLoop {
+            force_n,
+            stiffness_nm_per_rad: stiffness,
+            feed_forward: cfg.feed_forward,
+            gain_scale: cfg.gain_scale as f32,
+        }
+    } else {
+        Mode::Force {
+            force_n,
+            stiffness_nm_per_rad: stiffness,
+            feed_forward: cfg.feed_forward,
+        }
+    }
+}
+
 /// §5.2 force-step test at `pose_deg` (blocked handle): the X sequence then the Y sequence,
 /// one log with `fx_ref_n`, `fy_ref_n`.
 pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log, ExperimentError> {
@@ -624,11 +653,8 @@ pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log
     let mut rig = Rig::new(cfg, alpha, true, false)?;
     let stiffness = [k[0] as f32, k[1] as f32];
     let ff = cfg.feed_forward;
-    rig.arm(Mode::Force {
-        force_n: [0.0; 2],
-        stiffness_nm_per_rad: stiffness,
-        feed_forward: ff,
-    })?;
+    let mode = |f: [f64; 2]| force_mode(cfg, [f[0] as f32, f[1] as f32], stiffness);
+    rig.arm(mode([0.0; 2]))?;
     let blocked = HandleCondition::Blocked;
     for _ in 0..rig.periods(cfg.settle_s) {
         rig.period(|_| blocked, Some([0.0; 2]), None, false)?;
@@ -645,11 +671,7 @@ pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log
         for level in step_levels() {
             let mut f = [0.0f64; 2];
             f[axis] = level;
-            rig.set_mode(Mode::Force {
-                force_n: [f[0] as f32, f[1] as f32],
-                stiffness_nm_per_rad: stiffness,
-                feed_forward: ff,
-            })?;
+            rig.set_mode(mode(f))?;
             for _ in 0..rig.periods(cfg.step_hold_s) {
                 rig.period(|_| blocked, Some(f), None, true)?;
             }
@@ -662,6 +684,8 @@ pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log
             ("pose_deg", format!("{} {}", pose_deg[0], pose_deg[1])),
             ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
             ("feed_forward", ff.to_string()),
+            ("closed_loop", cfg.closed_loop.to_string()),
+            ("gain_scale", cfg.gain_scale.to_string()),
         ],
     ))
 }

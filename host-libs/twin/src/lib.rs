@@ -18,11 +18,13 @@
 pub mod effects;
 pub mod experiments;
 pub mod faults;
+pub mod impedance_trial;
 pub mod plant;
 pub mod pneumatics;
 pub mod rig;
 pub mod rng;
 pub mod simulate;
+pub mod step_metrics;
 
 pub use effects::{Effect, EffectSet};
 pub use plant::{

@@ -21,6 +21,7 @@ use crate::experiments::{
     dynamic_trial, force_step_test, static_trial, ExperimentConfig, ExperimentError,
     StiffnessLevel, STEP_POSES_DEG,
 };
+use crate::impedance_trial::{impedance_trial, VirtualImpedance};
 use crate::plant::TwinConfig;
 
 /// The thesis protocols the twin runs.
@@ -32,14 +33,18 @@ pub enum Experiment {
     Static,
     /// §5.2 force-step test at one of the nine poses (`force_step_test`).
     ForceStep,
+    /// Impedance mode at a Table 4.1 point with the dynamic trial's operator
+    /// (`impedance_trial`, issue 14).
+    Impedance,
 }
 
 impl Experiment {
     /// Every experiment, in the order of their names in messages.
-    pub const ALL: [Experiment; 3] = [
+    pub const ALL: [Experiment; 4] = [
         Experiment::Dynamic,
         Experiment::Static,
         Experiment::ForceStep,
+        Experiment::Impedance,
     ];
 
     /// The name on the command line: `dynamic`, `static`, `force_step`.
@@ -48,6 +53,7 @@ impl Experiment {
             Experiment::Dynamic => "dynamic",
             Experiment::Static => "static",
             Experiment::ForceStep => "force_step",
+            Experiment::Impedance => "impedance",
         }
     }
 }
@@ -101,6 +107,12 @@ pub struct TrialSpec {
     pub effects: Vec<String>,
     /// Gain-plane feed-forward in force mode. Default off.
     pub feed_forward: bool,
+    /// Closed-loop force mode (force-step test). Default off.
+    pub closed_loop: bool,
+    /// Multiplier of the closed loop's designed feedback gains. Default 1.
+    pub gain_scale: f64,
+    /// Impedance trial: the virtual stiffness (N/m) and damping (N·s/m), both axes.
+    pub impedance: VirtualImpedance,
     /// The rig with the stiffness the thesis identified (`TwinConfig::identified_rig`)
     /// instead of the thesis's model. Default off.
     pub identified_rig: bool,
@@ -120,6 +132,12 @@ impl TrialSpec {
             loadcell_noise_n: None,
             effects: Vec::new(),
             feed_forward: false,
+            closed_loop: false,
+            gain_scale: 1.0,
+            impedance: VirtualImpedance {
+                stiffness_n_per_m: [0.0; 2],
+                damping_n_s_per_m: [5.0; 2],
+            },
             identified_rig: false,
         }
     }
@@ -142,6 +160,8 @@ impl TrialSpec {
         let mut cfg = ExperimentConfig::new(twin);
         cfg.period_s = self.period_s;
         cfg.feed_forward = self.feed_forward;
+        cfg.closed_loop = self.closed_loop;
+        cfg.gain_scale = self.gain_scale;
         Ok(cfg)
     }
 }
@@ -205,6 +225,7 @@ pub fn run_trial(spec: &TrialSpec) -> Result<Log, SimulateError> {
                 .ok_or(SimulateError::Pose(spec.pose))?;
             force_step_test(&cfg, pose)
         }
+        Experiment::Impedance => impedance_trial(&cfg, spec.point, spec.impedance, spec.duration_s),
     };
     log.map_err(SimulateError::Experiment)
 }
@@ -221,7 +242,7 @@ mod tests {
         let e = "force-step".parse::<Experiment>().unwrap_err();
         assert_eq!(
             e.to_string(),
-            "unknown experiment `force-step` (expected dynamic, static, force_step)"
+            "unknown experiment `force-step` (expected dynamic, static, force_step, impedance)"
         );
         assert_eq!(
             "high".parse::<StiffnessLevel>().unwrap(),

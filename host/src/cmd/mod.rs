@@ -45,7 +45,7 @@ pub fn interrupted() -> Arc<AtomicBool> {
 /// Names of the latched fault bits (`pam_control::Faults`).
 pub fn fault_names(bits: u16) -> String {
     use pam_control::Faults;
-    const NAMES: [(Faults, &str); 14] = [
+    const NAMES: [(Faults, &str); 15] = [
         (Faults::COMMAND_TIMEOUT, "command timeout"),
         (Faults::NON_FINITE, "non-finite sensor value"),
         (Faults::ANGLE_OUT_OF_RANGE, "angle out of range"),
@@ -62,6 +62,10 @@ pub fn fault_names(bits: u16) -> String {
         (
             Faults::STATIC_IMBALANCE,
             "joint at rest with an unbalanced torque (encoder or converter)",
+        ),
+        (
+            Faults::CONTROL_UNSTABLE,
+            "closed loop unstable (oscillation or persistent force error)",
         ),
     ];
     if bits == 0 {
@@ -101,7 +105,11 @@ mod tests {
         );
         assert_eq!(fault_names(Faults::ESTOP.0), "emergency stop");
         assert!(fault_names(Faults::STATIC_IMBALANCE.0).starts_with("joint at rest"));
-        assert_eq!(fault_names(1 << 14), "unknown bits 0x4000");
+                assert_eq!(
+            fault_names(Faults::CONTROL_UNSTABLE.0),
+            "closed loop unstable (oscillation or persistent force error)"
+        );
+        assert_eq!(fault_names(1 << 15), "unknown bits 0x8000");
         assert_eq!(fault_names(0), "none");
     }
 }

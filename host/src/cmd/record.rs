@@ -74,6 +74,8 @@ fn mode_code(m: ModeKind) -> f64 {
         ModeKind::Joint => 2.0,
         ModeKind::Force => 3.0,
         ModeKind::ForceFeedForward => 4.0,
+        ModeKind::ForceClosedLoop => 5.0,
+        ModeKind::Impedance => 6.0,
     }
 }
 
@@ -188,7 +190,10 @@ pub fn record(
             .map_err(|e| e.to_string())?;
     }
     let divider = status.telemetry_divider.max(1) as u32;
-    let with_force_ref = matches!(status.mode, pam_protocol::wire::Mode::Force { .. });
+    let with_force_ref = matches!(
+        status.mode,
+        pam_protocol::wire::Mode::Force { .. } | pam_protocol::wire::Mode::ForceClosedLoop { .. }
+    );
     let info = client.info();
     meta_owned.extend([
         ("device".to_string(), device.to_string()),

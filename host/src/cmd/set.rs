@@ -55,6 +55,28 @@ pub enum SetMode {
         /// Correct the force with the gain plane (thesis eq. 5.2).
         #[arg(long)]
         feed_forward: bool,
+        /// Close the loop on the load cell (docs/closed-loop.md).
+        #[arg(long)]
+        closed_loop: bool,
+        /// With --closed-loop: multiplier of the designed feedback gains (0 < S ≤ 20; the
+        /// device's guard faults an unstable loop).
+        #[arg(
+            long,
+            default_value_t = 1.0,
+            value_name = "S",
+            requires = "closed_loop"
+        )]
+        gain_scale: f64,
+    },
+    /// A Cartesian spring-damper about a point (user frame), rendered by the closed force
+    /// loop: K = 0 with a small B is transparent (docs/closed-loop.md).
+    Impedance {
+        #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], allow_negative_numbers = true, value_name = "X,Y")]
+        target_m: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], allow_negative_numbers = true, value_name = "KX,KY")]
+        stiffness_n_per_m: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_values_t = [5.0, 5.0], allow_negative_numbers = true, value_name = "BX,BY")]
+        damping_n_s_per_m: Vec<f64>,
     },
 }
 
@@ -94,10 +116,33 @@ pub fn mode_of(m: &SetMode) -> Result<Mode, String> {
             force_n,
             stiffness_nm_per_rad,
             feed_forward,
+            closed_loop: false,
+            ..
         } => Mode::Force {
             force_n: values::<2>("--force-n", force_n)?,
             stiffness_nm_per_rad: values::<2>("--stiffness-nm-per-rad", stiffness_nm_per_rad)?,
             feed_forward: *feed_forward,
+        },
+        SetMode::Force {
+            force_n,
+            stiffness_nm_per_rad,
+            feed_forward,
+            closed_loop: true,
+            gain_scale,
+        } => Mode::ForceClosedLoop {
+            force_n: values::<2>("--force-n", force_n)?,
+            stiffness_nm_per_rad: values::<2>("--stiffness-nm-per-rad", stiffness_nm_per_rad)?,
+            feed_forward: *feed_forward,
+            gain_scale: values::<1>("--gain-scale", &[*gain_scale])?[0],
+        },
+        SetMode::Impedance {
+            target_m,
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+        } => Mode::Impedance {
+            target_user_m: values::<2>("--target-m", target_m)?,
+            stiffness_n_per_m: values::<2>("--stiffness-n-per-m", stiffness_n_per_m)?,
+            damping_n_s_per_m: values::<2>("--damping-n-s-per-m", damping_n_s_per_m)?,
         },
     })
 }
@@ -153,4 +198,82 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), St
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(subcommand)]
+        mode: SetMode,
+    }
+
+    fn mode(args: &[&str]) -> Result<Mode, String> {
+        let cli = Cli::try_parse_from(std::iter::once("set").chain(args.iter().copied()))
+            .map_err(|e| e.to_string())?;
+        mode_of(&cli.mode)
+    }
+
+    #[test]
+    fn force_open_and_closed_loop() {
+        assert_eq!(
+            mode(&["force", "--force-n", "9.1,-4", "--feed-forward"]).unwrap(),
+            Mode::Force {
+                force_n: [9.1, -4.0],
+                stiffness_nm_per_rad: [60.0, 27.0],
+                feed_forward: true,
+            }
+        );
+        assert_eq!(
+            mode(&[
+                "force",
+                "--force-n",
+                "9.1,-4",
+                "--closed-loop",
+                "--gain-scale",
+                "3"
+            ])
+            .unwrap(),
+            Mode::ForceClosedLoop {
+                force_n: [9.1, -4.0],
+                stiffness_nm_per_rad: [60.0, 27.0],
+                feed_forward: false,
+                gain_scale: 3.0,
+            }
+        );
+        // the gain scale means nothing open loop
+        assert!(mode(&["force", "--force-n", "1,0", "--gain-scale", "3"]).is_err());
+        assert!(mode(&[
+            "force",
+            "--force-n",
+            "1,0",
+            "--closed-loop",
+            "--gain-scale",
+            "nan"
+        ])
+        .is_err());
+    }
+
+    #[test]
+    fn impedance() {
+        assert_eq!(
+            mode(&[
+                "impedance",
+                "--target-m",
+                "0.02,-0.01",
+                "--stiffness-n-per-m",
+                "300,200"
+            ])
+            .unwrap(),
+            Mode::Impedance {
+                target_user_m: [0.02, -0.01],
+                stiffness_n_per_m: [300.0, 200.0],
+                damping_n_s_per_m: [5.0, 5.0],
+            }
+        );
+        assert!(mode(&["impedance", "--stiffness-n-per-m", "300"]).is_err());
+    }
 }

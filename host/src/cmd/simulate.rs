@@ -4,6 +4,7 @@
 
 use clap::Args;
 use pam_twin::experiments::StiffnessLevel;
+use pam_twin::impedance_trial::VirtualImpedance;
 use pam_twin::simulate::{run_trial, Experiment, TrialSpec};
 use std::io::Write;
 use std::path::PathBuf;
@@ -12,10 +13,11 @@ use std::path::PathBuf;
 #[command(after_help = "Examples:
   pamctl simulate --experiment dynamic --point 1 --with carrier_ball_friction:coulomb_n=3 --out trial.csv
   pamctl simulate --experiment force_step --pose 4 --period 0.05 --seed 7 --out step.csv
+  pamctl simulate --experiment force_step --pose 4 --closed-loop --out step_cl.csv
   pamctl simulate --list-effects")]
 pub struct SimulateArgs {
-    /// The experiment: dynamic (§4.2, operator path), static (§4.2, nine holds) or
-    /// force_step (§5.2, blocked handle).
+    /// The experiment: dynamic (§4.2, operator path), static (§4.2, nine holds),
+    /// force_step (§5.2, blocked handle) or impedance (impedance mode, operator path).
     #[arg(long, value_name = "EXPERIMENT", value_parser = parse_experiment,
           required_unless_present = "list_effects")]
     pub experiment: Option<Experiment>,
@@ -46,6 +48,19 @@ pub struct SimulateArgs {
     /// Gain-plane feed-forward in force mode (off: as the thesis measured its steps).
     #[arg(long)]
     pub feed_forward: bool,
+    /// Force mode with the load cell in the loop (force_step; docs/closed-loop.md).
+    #[arg(long)]
+    pub closed_loop: bool,
+    /// Multiplier of the closed loop's designed feedback gains (1 = the design; up to 20,
+    /// to see the guard catch an unstable loop).
+    #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = finite)]
+    pub gain_scale: f64,
+    /// Impedance trial: virtual stiffness KX,KY, N/m (0: transparent).
+    #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], value_name = "KX,KY")]
+    pub virtual_k_n_per_m: Vec<f64>,
+    /// Impedance trial: virtual damping BX,BY, N·s/m.
+    #[arg(long, value_delimiter = ',', default_values_t = [5.0, 5.0], value_name = "BX,BY")]
+    pub virtual_b_n_s_per_m: Vec<f64>,
     /// Simulate the rig with the stiffness the thesis identified (host-libs/twin/README.md)
     /// instead of the thesis's model.
     #[arg(long)]
@@ -66,6 +81,13 @@ fn parse_experiment(s: &str) -> Result<Experiment, String> {
 fn parse_stiffness(s: &str) -> Result<StiffnessLevel, String> {
     s.parse()
         .map_err(|e: pam_twin::simulate::SimulateError| e.to_string())
+}
+
+fn pair(name: &str, v: &[f64]) -> Result<[f64; 2], String> {
+    match v {
+        [a, b] if a.is_finite() && b.is_finite() => Ok([*a, *b]),
+        _ => Err(format!("{name} takes two comma-separated numbers")),
+    }
 }
 
 fn finite(s: &str) -> Result<f64, String> {
@@ -97,6 +119,12 @@ pub fn run(args: SimulateArgs, out: &mut dyn Write) -> Result<(), String> {
         loadcell_noise_n: args.noise,
         effects: args.with,
         feed_forward: args.feed_forward,
+        closed_loop: args.closed_loop,
+        gain_scale: args.gain_scale,
+        impedance: VirtualImpedance {
+            stiffness_n_per_m: pair("--virtual-k-n-per-m", &args.virtual_k_n_per_m)?,
+            damping_n_s_per_m: pair("--virtual-b-n-s-per-m", &args.virtual_b_n_s_per_m)?,
+        },
         identified_rig: args.identified_rig,
     };
     let log = run_trial(&spec).map_err(|e| e.to_string())?;

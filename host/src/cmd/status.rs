@@ -38,6 +38,34 @@ pub fn describe_mode(mode: &Mode) -> String {
             stiffness_nm_per_rad[1],
             if *feed_forward { "on" } else { "off" }
         ),
+        Mode::ForceClosedLoop {
+            force_n,
+            stiffness_nm_per_rad,
+            feed_forward,
+            gain_scale,
+        } => format!(
+            "force ({:+.2}, {:+.2}) N closed loop (gain ×{:.2}), K {:.1}, {:.1} N·m/rad, \
+             gain-plane feed-forward {}",
+            force_n[0],
+            force_n[1],
+            gain_scale,
+            stiffness_nm_per_rad[0],
+            stiffness_nm_per_rad[1],
+            if *feed_forward { "on" } else { "off" }
+        ),
+        Mode::Impedance {
+            target_user_m,
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+        } => format!(
+            "impedance about ({:+.3}, {:+.3}) m, K {:.0}, {:.0} N/m, B {:.1}, {:.1} N·s/m",
+            target_user_m[0],
+            target_user_m[1],
+            stiffness_n_per_m[0],
+            stiffness_n_per_m[1],
+            damping_n_s_per_m[0],
+            damping_n_s_per_m[1]
+        ),
     }
 }
 

@@ -220,6 +220,8 @@ pub fn mode_name(m: ModeKind) -> &'static str {
         ModeKind::Joint => "joint",
         ModeKind::Force => "force",
         ModeKind::ForceFeedForward => "force+ff",
+        ModeKind::ForceClosedLoop => "force closed loop",
+        ModeKind::Impedance => "impedance",
     }
 }
 

@@ -463,6 +463,7 @@ pub fn hardware_faults_latch() -> CheckResult {
         Faults::STACK_LOW,
         Faults::ESTOP,
         Faults::STATIC_IMBALANCE,
+        Faults::CONTROL_UNSTABLE,
     ];
     let union = all.iter().fold(0u32, |a, f| a | u32::from(f.0));
     holds(

@@ -23,9 +23,18 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod plausibility;
+pub mod force_loop;
+pub mod impedance;
 pub mod supervisor;
 
 #[cfg(any(test, feature = "checks"))]
 pub mod checks;
+#[cfg(any(test, feature = "checks"))]
+pub mod force_loop_checks;
 
+pub use force_loop::{ForceLoop, ForceLoopConfig, GuardTrip, MAX_GAIN_SCALE};
+pub use impedance::{
+    spring_damper_force_n, Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M,
+    MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
+};
 pub use supervisor::*;

@@ -5,6 +5,11 @@ use pam_model::params::LoadCell;
 use pam_model::{Limited, Real, RobotModel, Vec2};
 
 use crate::plausibility::BalanceMonitor;
+use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
+use crate::impedance::{
+    spring_damper_force_n, Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M,
+    MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
+};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -27,6 +32,22 @@ pub enum Mode {
         force_n: Vec2<f32>,
         stiffness_nm_per_rad: Vec2<f32>,
         feed_forward: bool,
+    },
+    /// [`Mode::Force`] with the load cell in the loop (`force_loop`): the same path, its
+    /// command corrected by feedback. `gain_scale` multiplies the designed feedback gains
+    /// (1 = the design; 0 < scale ≤ [`MAX_GAIN_SCALE`]).
+    ForceClosedLoop {
+        force_n: Vec2<f32>,
+        stiffness_nm_per_rad: Vec2<f32>,
+        feed_forward: bool,
+        gain_scale: f32,
+    },
+    /// A Cartesian spring-damper about `target_user_m` (user frame, diagonal K and B),
+    /// rendered by the closed force loop (`impedance`); the muscles at their least stiffness.
+    Impedance {
+        target_user_m: Vec2<f32>,
+        stiffness_n_per_m: Vec2<f32>,
+        damping_n_s_per_m: Vec2<f32>,
     },
 }
 
@@ -72,6 +93,8 @@ impl Faults {
     /// beyond the model's error (`plausibility`): a stuck or unplugged encoder, a converter
     /// that no longer follows its current.
     pub const STATIC_IMBALANCE: Faults = Faults(1 << 13);
+    /// Set by the closed force loop's guard: sustained oscillation or a persistent error.
+    pub const CONTROL_UNSTABLE: Faults = Faults(1 << 14);
 
     pub const fn with(self, o: Faults) -> Faults {
         Faults(self.0 | o.0)
@@ -207,6 +230,11 @@ pub struct Controller {
     last_force_raw: Vec2<f32>,
     same_force_count: u32,
     balance: BalanceMonitor,
+    force_loop_cfg: ForceLoopConfig,
+    force_loop: ForceLoop,
+    impedance: Impedance,
+    /// The last command was clamped on its way out (the force loop's anti-windup).
+    last_saturated: bool,
 }
 
 impl Controller {
@@ -224,6 +252,10 @@ impl Controller {
             last_force_raw: [f32::NAN; 2],
             same_force_count: 0,
             balance: BalanceMonitor::new(),
+            force_loop_cfg: ForceLoopConfig::designed(),
+            force_loop: ForceLoop::new(),
+            impedance: Impedance::new(),
+            last_saturated: false,
         }
     }
 
@@ -242,6 +274,25 @@ impl Controller {
     pub fn model(&self) -> &RobotModel<f32> {
         &self.model
     }
+    pub fn force_loop_config(&self) -> &ForceLoopConfig {
+        &self.force_loop_cfg
+    }
+    pub fn force_loop(&self) -> &ForceLoop {
+        &self.force_loop
+    }
+
+    /// Replaces the closed force loop's gains and guard. Refused while armed.
+    pub fn set_force_loop_config(&mut self, cfg: ForceLoopConfig) -> Result<(), Reject> {
+        if !cfg.is_valid() {
+            return Err(Reject::OutOfRange);
+        }
+        if self.state == State::Armed {
+            return Err(Reject::WrongState);
+        }
+        self.force_loop_cfg = cfg;
+        self.accepted();
+        Ok(())
+    }
 
     /// Any accepted command resets the command timeout.
     fn accepted(&mut self) {
@@ -257,6 +308,8 @@ impl Controller {
         match self.state {
             State::Disarmed if self.faults.is_none() => {
                 self.state = State::Armed;
+                self.force_loop.reset();
+                self.impedance.reset();
                 self.accepted();
                 Ok(())
             }
@@ -331,9 +384,48 @@ impl Controller {
                         s.max_request_stiffness_nm_per_rad,
                     )
             }),
+            Mode::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                gain_scale,
+                ..
+            } => {
+                gain_scale.is_finite()
+                    && *gain_scale > 0.0
+                    && *gain_scale <= MAX_GAIN_SCALE
+                    && (0..2).all(|j| {
+                        finite_in(force_n[j], -s.max_request_force_n, s.max_request_force_n)
+                            && finite_in(
+                                stiffness_nm_per_rad[j],
+                                0.0,
+                                s.max_request_stiffness_nm_per_rad,
+                            )
+                    })
+            }
+            Mode::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
+            } => (0..2).all(|a| {
+                finite_in(
+                    target_user_m[a],
+                    -MAX_IMPEDANCE_TARGET_M,
+                    MAX_IMPEDANCE_TARGET_M,
+                ) && finite_in(stiffness_n_per_m[a], 0.0, MAX_IMPEDANCE_STIFFNESS_N_PER_M)
+                    && finite_in(damping_n_s_per_m[a], 0.0, MAX_IMPEDANCE_DAMPING_N_S_PER_M)
+            }),
         };
         if !ok {
             return Err(Reject::OutOfRange);
+        }
+        // a new target keeps the loop's state (bumpless); entering the mode starts afresh
+        if !matches!(
+            (self.mode, mode),
+            (Mode::ForceClosedLoop { .. }, Mode::ForceClosedLoop { .. })
+                | (Mode::Impedance { .. }, Mode::Impedance { .. })
+        ) {
+            self.force_loop.reset();
+            self.impedance.reset();
         }
         self.mode = mode;
         self.accepted();
@@ -519,6 +611,86 @@ impl Controller {
                             cmd.joints[1].pressure_bar,
                         ])
                     }
+                    Mode::ForceClosedLoop {
+                        force_n,
+                        stiffness_nm_per_rad,
+                        feed_forward,
+                        gain_scale,
+                    } => {
+                        // the handle is blocked: a loop that moves it lost its force
+                        let w = self.model.kinematics.forward_world_at(&trig);
+                        let too_fast =
+                            handle_too_fast(&mut self.impedance, &self.force_loop_cfg, w, dt);
+                        let fl = self.force_loop.step(
+                            &self.force_loop_cfg,
+                            ip,
+                            force_n,
+                            force_user_n,
+                            gain_scale,
+                            self.last_saturated,
+                            dt,
+                        );
+                        if fl.trip.is_some() || too_fast {
+                            self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
+                            self.state = State::Faulted;
+                        }
+                        let cmd = self.model.force_command_at(
+                            alpha,
+                            &trig,
+                            fl.command_n,
+                            stiffness_nm_per_rad,
+                            feed_forward,
+                        );
+                        limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
+                        self.model.channel_pressures_bar([
+                            cmd.joints[0].pressure_bar,
+                            cmd.joints[1].pressure_bar,
+                        ])
+                    }
+                    Mode::Impedance {
+                        target_user_m,
+                        stiffness_n_per_m,
+                        damping_n_s_per_m,
+                    } => {
+                        let w = self.model.kinematics.forward_world_at(&trig);
+                        let home = self.model.kinematics.home_world_m;
+                        let x_m = [w[0] - home[0], w[1] - home[1]];
+                        let too_fast =
+                            handle_too_fast(&mut self.impedance, &self.force_loop_cfg, x_m, dt);
+                        let f_ref = spring_damper_force_n(
+                            target_user_m,
+                            stiffness_n_per_m,
+                            damping_n_s_per_m,
+                            x_m,
+                            self.impedance.velocity_m_s(),
+                        );
+                        let fl = self.force_loop.step_direct(
+                            &self.force_loop_cfg,
+                            ip,
+                            f_ref,
+                            force_user_n,
+                            1.0,
+                            self.last_saturated,
+                            dt,
+                        );
+                        if fl.trip.is_some() || too_fast {
+                            self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
+                            self.state = State::Faulted;
+                        }
+                        // stiffness 0: the inverse model gives the least the muscles can
+                        let cmd = self.model.force_command_at(
+                            alpha,
+                            &trig,
+                            fl.command_n,
+                            [0.0; 2],
+                            false,
+                        );
+                        limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
+                        self.model.channel_pressures_bar([
+                            cmd.joints[0].pressure_bar,
+                            cmd.joints[1].pressure_bar,
+                        ])
+                    }
                 };
                 (target, self.safety.slew_bar_per_s, false)
             }
@@ -528,8 +700,17 @@ impl Controller {
             }
             State::Faulted | State::Disarmed => ([vent; 4], 0.0, true),
         };
+        // the force loop's guard faults inside the armed branch: vent this very period
+        let (target, slew, cut) = if self.faults.contains(Faults::CONTROL_UNSTABLE) {
+            ([vent; 4], 0.0, true)
+        } else {
+            (target, slew, cut)
+        };
 
         let mut output_limited = false;
+        // the capability limits only (pressure range, converter range), not the slew limit:
+        // a slew-limited command catches up by itself, a clamped one never does
+        let mut range_limited = false;
         let max_step = slew * dt;
         let mut out = [vent; 4];
         let mut current = [ip.current_min_ma; 4];
@@ -546,12 +727,14 @@ impl Controller {
                 self.model.params.pressure.min_bar,
                 self.model.params.pressure.max_bar,
             );
+            range_limited |= (p - p_in).abs() > 1e-6;
             if !cut {
                 let prev = self.pressure_bar[c];
                 p = p.clamp_to(prev - max_step, prev + max_step);
             }
             let cmd = ip.current_for(p);
             output_limited |= (p - p_in).abs() > 1e-6 || cmd.saturated;
+            range_limited |= cmd.saturated;
             // At the converter's floor (idle, a finished timeout ramp, a 0.1 bar command) the
             // output is the safe state itself, 4 mA: the same 0.1 bar at the converter as the
             // 5.3 mA its law gives, and the current an open or unpowered loop would also give.
@@ -564,6 +747,9 @@ impl Controller {
             };
         }
         self.pressure_bar = out;
+        self.last_saturated = range_limited
+            || limited.contains(Limited::TORQUE)
+            || limited.contains(Limited::PRESSURE);
         StepOutput {
             pressure_bar: out,
             current_ma: current,
@@ -574,4 +760,11 @@ impl Controller {
             output_limited,
         }
     }
+}
+
+/// Tracks the handle's velocity (any frame origin: `x_m` is only differenced) and says
+/// whether it exceeds the closed loop's speed guard.
+fn handle_too_fast(motion: &mut Impedance, cfg: &ForceLoopConfig, x_m: Vec2<f32>, dt: f32) -> bool {
+    let v = motion.track(x_m, dt);
+    v[0] * v[0] + v[1] * v[1] > cfg.guard_speed_m_s * cfg.guard_speed_m_s
 }

@@ -203,7 +203,9 @@ impl Device {
                     alpha_rad: sensors.alpha_rad,
                     force_user_n: out.force_user_n,
                     force_ref_n: match mode {
-                        Mode::Force { force_n, .. } => Some(force_n),
+                        Mode::Force { force_n, .. } | Mode::ForceClosedLoop { force_n, .. } => {
+                            Some(force_n)
+                        }
                         _ => None,
                     },
                     current_ma: out.current_ma,

@@ -149,7 +149,7 @@ fn calibration() -> Calibration {
     }
 }
 
-fn modes() -> [wire::Mode; 4] {
+fn modes() -> [wire::Mode; 6] {
     [
         wire::Mode::Idle,
         wire::Mode::Pressures {
@@ -164,6 +164,17 @@ fn modes() -> [wire::Mode; 4] {
             force_n: [1.0, 2.0],
             stiffness_nm_per_rad: [3.0, 4.0],
             feed_forward: true,
+        },
+        wire::Mode::ForceClosedLoop {
+            force_n: [1.0, 2.0],
+            stiffness_nm_per_rad: [3.0, 4.0],
+            feed_forward: true,
+            gain_scale: 5.0,
+        },
+        wire::Mode::Impedance {
+            target_user_m: [1.0, 2.0],
+            stiffness_n_per_m: [3.0, 4.0],
+            damping_n_s_per_m: [5.0, 6.0],
         },
     ]
 }
@@ -222,7 +233,7 @@ fn device_variant(m: &DeviceMessage) -> String {
 
 /// (instance, golden hex). Requests carry id 300 (`ac 02`).
 fn golden_requests() -> Vec<(Request, &'static str)> {
-    let [idle, pressures, joint, force] = modes();
+    let [idle, pressures, joint, force, force_closed_loop, impedance] = modes();
     let r = |body| Request { id: 300, body };
     vec![
         (
@@ -251,6 +262,15 @@ fn golden_requests() -> Vec<(Request, &'static str)> {
         (
             r(RequestBody::SetMode(force)),
             "ac 02 08 03 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01",
+        ),
+        (
+            r(RequestBody::SetMode(force_closed_loop)),
+            "ac 02 08 04 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01 00 00 a0 40",
+        ),
+        (
+            r(RequestBody::SetMode(impedance)),
+            "ac 02 08 05 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 a0 40 \
+            00 00 c0 40",
         ),
         (
             r(RequestBody::GetConfig(ConfigSection::Robot)),
@@ -298,7 +318,7 @@ fn golden_requests() -> Vec<(Request, &'static str)> {
 /// (instance, golden hex). Replies carry id 300 (`ac 02`).
 fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
     let reply = |result| DeviceMessage::Reply(Reply { id: 300, result });
-    let [_, _, _, force] = modes();
+    let [_, _, _, force, _, _] = modes();
     let mut v = vec![
         // 00 Reply, ac 02 id 300, 00 Ok, 00 Done
         (reply(Ok(ReplyData::Done)), "00 ac 02 00 00"),
@@ -453,7 +473,7 @@ fn the_goldens_cover_every_variant() {
             _ => None,
         })
         .collect();
-    assert_eq!(modes.len(), 4);
+    assert_eq!(modes.len(), 6);
     let msgs: std::collections::BTreeSet<_> = golden_device_messages()
         .iter()
         .map(|(m, _)| device_variant(m))
@@ -468,7 +488,7 @@ fn the_schema_fingerprint_is_pinned() {
     // the same commit as the golden bytes above.
     println!("SCHEMA_FINGERPRINT = {SCHEMA_FINGERPRINT:#010x}");
     assert_eq!(
-        SCHEMA_FINGERPRINT, 0x5597_28c1,
+        SCHEMA_FINGERPRINT, 0xf893_7e26,
         "{SCHEMA_FINGERPRINT:#010x}"
     );
 }

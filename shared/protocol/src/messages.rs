@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 /// Version of everything in this module. Bump on any change of the wire format.
 /// 2: the protocol's own wire types, `DeviceInfo::schema_fingerprint`.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// Fingerprint of the wire format: FNV-1a over [`PROTOCOL_VERSION`] and the shape of
 /// [`Request`] and [`DeviceMessage`] (every type they contain, see [`crate::wire::schema`]),
@@ -240,6 +240,10 @@ wire_enum! {
         Joint,
         Force,
         ForceFeedForward,
+        /// Appended (issue 14): closed-loop force, with or without the gain plane.
+        ForceClosedLoop,
+        /// Appended (issue 14): Cartesian spring-damper through the closed force loop.
+        Impedance,
     }
 }
 
@@ -257,6 +261,8 @@ impl ModeKind {
             M::Force {
                 feed_forward: true, ..
             } => ModeKind::ForceFeedForward,
+            M::ForceClosedLoop { .. } => ModeKind::ForceClosedLoop,
+            M::Impedance { .. } => ModeKind::Impedance,
         }
     }
 }

@@ -59,6 +59,15 @@ fn every_request() -> Vec<Request> {
             }
             .into(),
         ),
+        RequestBody::SetMode(
+            Mode::ForceClosedLoop {
+                force_n: [9.1, -4.0],
+                stiffness_nm_per_rad: [60.0, 27.0],
+                feed_forward: false,
+                gain_scale: 1.0,
+            }
+            .into(),
+        ),
         RequestBody::GetConfig(ConfigSection::Robot),
         RequestBody::GetConfig(ConfigSection::Calibration),
         RequestBody::GetConfig(ConfigSection::Limits),
@@ -395,6 +404,28 @@ fn arb_mode() -> impl Strategy<Value = Mode> {
                 force_n: f,
                 stiffness_nm_per_rad: k,
                 feed_forward: ff
+            }),
+        (
+            prop::array::uniform2(arb_f32()),
+            prop::array::uniform2(arb_f32()),
+            any::<bool>(),
+            arb_f32()
+        )
+            .prop_map(|(f, k, ff, g)| Mode::ForceClosedLoop {
+                force_n: f,
+                stiffness_nm_per_rad: k,
+                feed_forward: ff,
+                gain_scale: g
+            }),
+        (
+            prop::array::uniform2(arb_f32()),
+            prop::array::uniform2(arb_f32()),
+            prop::array::uniform2(arb_f32())
+        )
+            .prop_map(|(x, k, b)| Mode::Impedance {
+                target_user_m: x,
+                stiffness_n_per_m: k,
+                damping_n_s_per_m: b
             }),
     ]
 }

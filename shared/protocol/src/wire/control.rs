@@ -20,6 +20,19 @@ wire_enum! {
             stiffness_nm_per_rad: [f32; 2],
             feed_forward: bool,
         },
+        /// Appended (issue 14): the variants before it keep their tags and bytes.
+        ForceClosedLoop {
+            force_n: [f32; 2],
+            stiffness_nm_per_rad: [f32; 2],
+            feed_forward: bool,
+            gain_scale: f32,
+        },
+        /// Appended (issue 14).
+        Impedance {
+            target_user_m: [f32; 2],
+            stiffness_n_per_m: [f32; 2],
+            damping_n_s_per_m: [f32; 2],
+        },
     }
 }
 
@@ -75,6 +88,26 @@ impl From<pam_control::Mode> for Mode {
                 stiffness_nm_per_rad,
                 feed_forward,
             },
+            D::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                gain_scale,
+            } => Mode::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                gain_scale,
+            },
+            D::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
+            } => Mode::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
+            },
         }
     }
 }
@@ -102,6 +135,26 @@ impl From<Mode> for pam_control::Mode {
                 force_n,
                 stiffness_nm_per_rad,
                 feed_forward,
+            },
+            Mode::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                gain_scale,
+            } => D::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                gain_scale,
+            },
+            Mode::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
+            } => D::Impedance {
+                target_user_m,
+                stiffness_n_per_m,
+                damping_n_s_per_m,
             },
         }
     }

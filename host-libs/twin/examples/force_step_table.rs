@@ -1,0 +1,108 @@
+//! Issue 14's force-step table: the §5.2 force steps at the nine poses on the twin, measured
+//! from the logs (`pam_twin::step_metrics`).
+//!
+//! ```sh
+//! cargo run --release -p pam-twin --example force_step_table -- [--closed-loop] \
+//!     [--feed-forward] [--identified-rig] [--gain-scale S] [--with EFFECT]... [--per-pose]
+//!     [--per-step] [--period SECONDS]
+//! ```
+//! Prints one markdown row: worst / mean 5 % settling, worst overshoot, mean |gain − 1|,
+//! gain range, and how many poses faulted.
+
+use pam_twin::simulate::{run_trial, Experiment, TrialSpec};
+use pam_twin::step_metrics::{force_steps, summarize, StepFigures};
+
+fn main() {
+    let mut spec = TrialSpec::new(Experiment::ForceStep);
+    let mut per_pose = false;
+    let mut per_step = false;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--closed-loop" => spec.closed_loop = true,
+            "--feed-forward" => spec.feed_forward = true,
+            "--identified-rig" => spec.identified_rig = true,
+            "--per-pose" => per_pose = true,
+            "--per-step" => per_step = true,
+            "--gain-scale" => {
+                spec.gain_scale = args
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .expect("--gain-scale S")
+            }
+            "--with" => spec.effects.push(args.next().expect("--with EFFECT")),
+            "--period" => {
+                spec.period_s = args
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .expect("--period SECONDS")
+            }
+            other => panic!("unknown argument {other}"),
+        }
+    }
+    let mut all: Vec<StepFigures> = Vec::new();
+    let mut faulted = Vec::new();
+    for pose in 0..9 {
+        spec.pose = pose;
+        match run_trial(&spec) {
+            Ok(log) => {
+                let steps = force_steps(&log).expect("force-step log");
+                if per_step {
+                    for s in &steps {
+                        println!(
+                            "pose {pose} axis {} {:6.1} → {:6.1} N: settle {:.3} s, overshoot {:.1} %, gain {:.3}",
+                            s.axis, s.from_n, s.to_n, s.settling_s, s.overshoot_pct, s.gain
+                        );
+                    }
+                }
+                if per_pose {
+                    let s = summarize(&steps);
+                    println!(
+                        "pose {pose}: settle worst {:.3} s mean {:.3} s, overshoot {:.1} %, |g−1| {:.3}, gain {:.3}–{:.3}",
+                        s.settling_worst_s, s.settling_mean_s, s.overshoot_worst_pct,
+                        s.gain_error_mean, s.gain_min, s.gain_max
+                    );
+                }
+                all.extend(steps);
+            }
+            Err(e) => faulted.push(format!("pose {pose}: {e}")),
+        }
+    }
+    let s = summarize(&all);
+    let label = format!(
+        "{}{}{}{}",
+        if spec.closed_loop {
+            "closed loop"
+        } else {
+            "open loop"
+        },
+        if spec.feed_forward {
+            " + gain plane"
+        } else {
+            ""
+        },
+        if spec.identified_rig {
+            ", identified rig"
+        } else {
+            ""
+        },
+        if spec.effects.is_empty() {
+            String::new()
+        } else {
+            format!(", {}", spec.effects.join(" "))
+        },
+    );
+    println!(
+        "| {label} | {:.3} | {:.3} | {:.1} | {:.3} | {:.3}–{:.3} | {} |",
+        s.settling_worst_s,
+        s.settling_mean_s,
+        s.overshoot_worst_pct,
+        s.gain_error_mean,
+        s.gain_min,
+        s.gain_max,
+        faulted.len()
+    );
+    for f in faulted {
+        eprintln!("{f}");
+    }
+}

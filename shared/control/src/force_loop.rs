@@ -1,0 +1,329 @@
+//! Closed-loop handle force (issue 14): a two-degree-of-freedom controller around the
+//! open-loop force path (gain plane, τ = Jᵀ F, inverse model).
+//!
+//! - **Reference**: the target is rate-limited (`force_rate_n_per_s`), then follows a
+//!   critically damped reference model of bandwidth `reference_bandwidth_rad_s`.
+//! - **Feed-forward**: the reference model's output passed through the inverse of the
+//!   converters' identified second order (Table 5.2, `params.ip`): the command that makes
+//!   the plant follow the model, computed from the model's own states (no differentiation
+//!   of a measured signal).
+//! - **Feedback**: PI on the error between the model and the load-cell force (user frame),
+//!   added before the gain-plane correction, so with `feed_forward` the identified gain
+//!   plane G(α) schedules the loop gain over the pose (the command is divided by G). The
+//!   integral is frozen while the previous command was clamped by a capability limit
+//!   (torque quadrilateral, pressure range, converter range; not the slew limit, which
+//!   catches up by itself) in the direction that would grow it, and is bounded by
+//!   `integral_limit_n`.
+//! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
+//!   `guard_time_s`, or sustained oscillation
+//!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
+//!   above `guard_flips`), latches `Faults::CONTROL_UNSTABLE` and the supervisor vents.
+//!
+//! The design, its margins and the measured tables are in docs/closed-loop.md. f32, no heap.
+
+use pam_model::params::IpConverter;
+use pam_model::{Real, Vec2};
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
+
+/// Gains and limits of the closed force loop. Defaults: [`ForceLoopConfig::designed`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+pub struct ForceLoopConfig {
+    /// Bandwidth of the critically damped reference model, rad/s.
+    pub reference_bandwidth_rad_s: f32,
+    /// Proportional gain, N of command per N of error.
+    pub kp: f32,
+    /// Integral gain, 1/s.
+    pub ki_per_s: f32,
+    /// Derivative gain on the error rate, s (damps the converters' resonance).
+    pub kd_s: f32,
+    /// Bandwidth of the first-order filter of the measured force's rate, rad/s.
+    pub derivative_filter_rad_s: f32,
+    /// Largest rate of the force reference, N/s.
+    pub force_rate_n_per_s: f32,
+    /// Bound of the integral term, N.
+    pub integral_limit_n: f32,
+    /// Error (norm over both axes) that, held for `guard_time_s`, is a fault, N.
+    pub guard_error_n: f32,
+    pub guard_time_s: f32,
+    /// Error (norm) that is a fault at once: a growing oscillation reaches it within a
+    /// period or two of its swing, before the flip count does, N.
+    pub guard_error_max_n: f32,
+    /// Hysteresis band of the oscillation detector, N.
+    pub guard_band_n: f32,
+    /// Leaky count of error sign flips (time constant 1 s) that is a fault.
+    pub guard_flips: f32,
+    /// Handle speed that is a fault in the closed-loop modes, m/s: a force loop that
+    /// cannot find its force (the patient let go of the handle, the block gave way) drives
+    /// the arm away; this stops it within a few centimetres.
+    pub guard_speed_m_s: f32,
+}
+
+/// Largest multiplier of the designed feedback gains a mode may request: enough to
+/// demonstrate the guard, bounded so a typo cannot ask for more.
+pub const MAX_GAIN_SCALE: f32 = 20.0;
+
+impl ForceLoopConfig {
+    /// The design of docs/closed-loop.md for the thesis's converters (ωn 23 rad/s, ζ 0.42).
+    pub const fn designed() -> Self {
+        ForceLoopConfig {
+            reference_bandwidth_rad_s: 40.0,
+            kp: 1.0,
+            ki_per_s: 20.0,
+            kd_s: 0.06,
+            derivative_filter_rad_s: 60.0,
+            force_rate_n_per_s: 300.0,
+            integral_limit_n: 40.0,
+            guard_error_n: 12.0,
+            guard_time_s: 0.5,
+            guard_error_max_n: 25.0,
+            guard_band_n: 2.0,
+            guard_flips: 6.0,
+            guard_speed_m_s: 0.5,
+        }
+    }
+
+    pub fn is_valid(&self) -> bool {
+        let pos = [
+            self.reference_bandwidth_rad_s,
+            self.derivative_filter_rad_s,
+            self.force_rate_n_per_s,
+            self.integral_limit_n,
+            self.guard_error_n,
+            self.guard_time_s,
+            self.guard_error_max_n,
+            self.guard_band_n,
+            self.guard_flips,
+            self.guard_speed_m_s,
+        ];
+        pos.iter().all(|v| v.is_finite() && *v > 0.0)
+            && self.kp.is_finite()
+            && self.kp >= 0.0
+            && self.ki_per_s.is_finite()
+            && self.ki_per_s >= 0.0
+            && self.kd_s.is_finite()
+            && self.kd_s >= 0.0
+    }
+}
+
+impl Default for ForceLoopConfig {
+    fn default() -> Self {
+        Self::designed()
+    }
+}
+
+/// Why the guard tripped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GuardTrip {
+    /// The error stayed large (growing error, or a force the plant cannot deliver).
+    PersistentError,
+    /// The error oscillates.
+    Oscillation,
+    /// The error passed `guard_error_max_n`.
+    ErrorBound,
+}
+
+/// The loop's state: reference, reference model, integral, guard.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ForceLoop {
+    fresh: bool,
+    reference_n: Vec2<f32>,
+    model_n: Vec2<f32>,
+    model_rate_n_s: Vec2<f32>,
+    integral_n: Vec2<f32>,
+    error_n: Vec2<f32>,
+    last_measured_n: Vec2<f32>,
+    measured_rate_n_s: Vec2<f32>,
+    large_error_s: f32,
+    sign: [i8; 2],
+    flips: [f32; 2],
+}
+
+impl Default for ForceLoop {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// One step's result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ForceLoopOutput {
+    /// The force command before the gain plane, user frame, N.
+    pub command_n: Vec2<f32>,
+    /// The reference model's force (what the load cell should read now), N.
+    pub model_n: Vec2<f32>,
+    pub trip: Option<GuardTrip>,
+}
+
+impl ForceLoop {
+    pub const fn new() -> Self {
+        ForceLoop {
+            fresh: true,
+            reference_n: [0.0; 2],
+            model_n: [0.0; 2],
+            model_rate_n_s: [0.0; 2],
+            integral_n: [0.0; 2],
+            error_n: [0.0; 2],
+            last_measured_n: [0.0; 2],
+            measured_rate_n_s: [0.0; 2],
+            large_error_s: 0.0,
+            sign: [0; 2],
+            flips: [0.0; 2],
+        }
+    }
+
+    /// Forget everything: the next step starts from the measured force (bumpless entry).
+    pub fn reset(&mut self) {
+        *self = Self::new();
+    }
+
+    pub fn integral_n(&self) -> Vec2<f32> {
+        self.integral_n
+    }
+
+    /// One period. `saturated`: the previous command was clamped by a capability limit on
+    /// its way to the converters (torque, pressure or current range; anti-windup).
+    /// `gain_scale` multiplies kp, ki and kd (1 = the design).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &mut self,
+        cfg: &ForceLoopConfig,
+        ip: &IpConverter<f32>,
+        target_n: Vec2<f32>,
+        measured_n: Vec2<f32>,
+        gain_scale: f32,
+        saturated: bool,
+        dt_s: f32,
+    ) -> ForceLoopOutput {
+        self.run(
+            cfg, ip, target_n, measured_n, gain_scale, saturated, dt_s, true,
+        )
+    }
+
+    /// [`ForceLoop::step`] without the reference model: the target is followed as it comes,
+    /// only rate-limited (impedance mode, where the target is itself a function of the
+    /// measured motion and any lag would change the rendered impedance).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_direct(
+        &mut self,
+        cfg: &ForceLoopConfig,
+        ip: &IpConverter<f32>,
+        target_n: Vec2<f32>,
+        measured_n: Vec2<f32>,
+        gain_scale: f32,
+        saturated: bool,
+        dt_s: f32,
+    ) -> ForceLoopOutput {
+        self.run(
+            cfg, ip, target_n, measured_n, gain_scale, saturated, dt_s, false,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &mut self,
+        cfg: &ForceLoopConfig,
+        ip: &IpConverter<f32>,
+        target_n: Vec2<f32>,
+        measured_n: Vec2<f32>,
+        gain_scale: f32,
+        saturated: bool,
+        dt_s: f32,
+        shaped: bool,
+    ) -> ForceLoopOutput {
+        if self.fresh {
+            // start where the plant is: no jump in the command at entry
+            self.reference_n = measured_n;
+            self.model_n = measured_n;
+            self.last_measured_n = measured_n;
+            self.fresh = false;
+        }
+        let wm = cfg.reference_bandwidth_rad_s;
+        let wn = ip.natural_freq_rad_s;
+        let zeta = ip.damping_ratio;
+        let max_df = cfg.force_rate_n_per_s * dt_s;
+        let (kp, ki, kd) = (
+            cfg.kp * gain_scale,
+            cfg.ki_per_s * gain_scale,
+            cfg.kd_s * gain_scale,
+        );
+        let wf_dt = cfg.derivative_filter_rad_s * dt_s;
+        let alpha = wf_dt / (1.0 + wf_dt);
+        let mut command_n = [0.0; 2];
+        let mut err_sq = 0.0;
+        for a in 0..2 {
+            let r =
+                self.reference_n[a] + (target_n[a] - self.reference_n[a]).clamp_to(-max_df, max_df);
+            self.reference_n[a] = r;
+            let acc = if shaped {
+                // critically damped model, semi-implicit Euler
+                let acc = wm * wm * (r - self.model_n[a]) - 2.0 * wm * self.model_rate_n_s[a];
+                self.model_rate_n_s[a] += acc * dt_s;
+                self.model_n[a] += self.model_rate_n_s[a] * dt_s;
+                acc
+            } else {
+                // direct: the rate-limited target itself
+                self.model_rate_n_s[a] = 0.0;
+                self.model_n[a] = r;
+                0.0
+            };
+            // H⁻¹ of the converters' second order applied to the model: x + 2ζ/ωn ẋ + ẍ/ωn²
+            let ff = self.model_n[a] + 2.0 * zeta / wn * self.model_rate_n_s[a] + acc / (wn * wn);
+            let e = self.model_n[a] - measured_n[a];
+            let raw_rate = (measured_n[a] - self.last_measured_n[a]) / dt_s;
+            self.last_measured_n[a] = measured_n[a];
+            self.measured_rate_n_s[a] += alpha * (raw_rate - self.measured_rate_n_s[a]);
+            let e_rate = self.model_rate_n_s[a] - self.measured_rate_n_s[a];
+            self.error_n[a] = e;
+            err_sq += e * e;
+            // anti-windup: while clamped, the integral may only shrink
+            let grows = e * self.integral_n[a] > 0.0 || self.integral_n[a] == 0.0;
+            if !(saturated && grows) {
+                self.integral_n[a] = (self.integral_n[a] + ki * e * dt_s)
+                    .clamp_to(-cfg.integral_limit_n, cfg.integral_limit_n);
+            }
+            command_n[a] = ff + kp * e + kd * e_rate + self.integral_n[a];
+        }
+        let trip = self.guard(cfg, err_sq, dt_s);
+        ForceLoopOutput {
+            command_n,
+            model_n: self.model_n,
+            trip,
+        }
+    }
+
+    fn guard(&mut self, cfg: &ForceLoopConfig, err_sq: f32, dt_s: f32) -> Option<GuardTrip> {
+        if err_sq > cfg.guard_error_n * cfg.guard_error_n || !err_sq.is_finite() {
+            self.large_error_s += dt_s;
+        } else {
+            self.large_error_s = 0.0;
+        }
+        // per axis, a leaky count with a 1 s time constant (first-order decay per period)
+        for a in 0..2 {
+            self.flips[a] *= 1.0 - dt_s;
+            let e = self.error_n[a];
+            let s = if e > cfg.guard_band_n {
+                1
+            } else if e < -cfg.guard_band_n {
+                -1
+            } else {
+                self.sign[a]
+            };
+            if s != self.sign[a] && self.sign[a] != 0 {
+                self.flips[a] += 1.0;
+            }
+            self.sign[a] = s;
+        }
+        // NaN included: nothing downstream may act on a non-finite error
+        if !(err_sq <= cfg.guard_error_max_n * cfg.guard_error_max_n) {
+            Some(GuardTrip::ErrorBound)
+        } else if self.large_error_s >= cfg.guard_time_s {
+            Some(GuardTrip::PersistentError)
+        } else if self.flips[0] > cfg.guard_flips || self.flips[1] > cfg.guard_flips {
+            Some(GuardTrip::Oscillation)
+        } else {
+            None
+        }
+    }
+}

@@ -1,0 +1,81 @@
+//! Impedance mode (issue 14): a Cartesian virtual spring-damper about a target point,
+//! rendered by the closed force loop. The force the robot should exert on the handle is
+//! F = K (x₀ − x) − B ẋ (user frame, diagonal K and B), and [`crate::ForceLoop::step_direct`]
+//! makes the load cell read it. K = 0 with a small B is the transparent mode: the loop then
+//! cancels the muscles' own stiffness, which open loop cannot go below (K_min).
+
+use pam_model::Vec2;
+
+/// Largest virtual stiffness a request may carry, N/m (above 1.5 × the open loop's K_max).
+pub const MAX_IMPEDANCE_STIFFNESS_N_PER_M: f32 = 5000.0;
+/// Largest virtual damping a request may carry, N·s/m.
+pub const MAX_IMPEDANCE_DAMPING_N_S_PER_M: f32 = 300.0;
+/// Largest distance of the target from the neutral handle, m (the workspace's scale).
+pub const MAX_IMPEDANCE_TARGET_M: f32 = 0.3;
+
+/// Bandwidth of the handle-velocity filter, rad/s (encoder steps differentiated at 1 kHz
+/// are noise; the operator moves below 2 Hz).
+const VELOCITY_FILTER_RAD_S: f32 = 60.0;
+
+/// Handle velocity estimate (filtered difference of the position).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Impedance {
+    fresh: bool,
+    last_x_m: Vec2<f32>,
+    v_m_s: Vec2<f32>,
+}
+
+impl Default for Impedance {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Impedance {
+    pub const fn new() -> Self {
+        Impedance {
+            fresh: true,
+            last_x_m: [0.0; 2],
+            v_m_s: [0.0; 2],
+        }
+    }
+
+    pub fn reset(&mut self) {
+        *self = Self::new();
+    }
+
+    pub fn velocity_m_s(&self) -> Vec2<f32> {
+        self.v_m_s
+    }
+
+    /// Updates the handle velocity estimate from handle position `x_m`; returns it, m/s.
+    pub fn track(&mut self, x_m: Vec2<f32>, dt_s: f32) -> Vec2<f32> {
+        if self.fresh {
+            self.last_x_m = x_m;
+            self.fresh = false;
+        }
+        let wdt = VELOCITY_FILTER_RAD_S * dt_s;
+        let alpha = wdt / (1.0 + wdt);
+        for a in 0..2 {
+            let raw = (x_m[a] - self.last_x_m[a]) / dt_s;
+            self.v_m_s[a] += alpha * (raw - self.v_m_s[a]);
+        }
+        self.last_x_m = x_m;
+        self.v_m_s
+    }
+}
+
+/// F = K (x₀ − x) − B ẋ, per axis, N.
+pub fn spring_damper_force_n(
+    target_m: Vec2<f32>,
+    stiffness_n_per_m: Vec2<f32>,
+    damping_n_s_per_m: Vec2<f32>,
+    x_m: Vec2<f32>,
+    v_m_s: Vec2<f32>,
+) -> Vec2<f32> {
+    let mut f = [0.0; 2];
+    for a in 0..2 {
+        f[a] = stiffness_n_per_m[a] * (target_m[a] - x_m[a]) - damping_n_s_per_m[a] * v_m_s[a];
+    }
+    f
+}
