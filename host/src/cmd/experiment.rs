@@ -22,11 +22,11 @@ use crate::LinkArgs;
 use clap::{Args, Subcommand, ValueEnum};
 use pam_control::{Mode, State};
 use pam_log::LogWriter;
+use pam_model::thesis::{STEP_POSES_DEG, TABLE_4_1_POINTS_DEG};
 use pam_model::{RobotModel, Vec2};
 use pam_protocol::{Config, ConfigSection, ReplyData, RequestBody};
 use pam_twin::experiments::{
     static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
-    STEP_POSES_DEG, TABLE_4_1_POINTS_DEG,
 };
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::{Path, PathBuf};
