@@ -222,3 +222,15 @@ pub fn seq_gaps(log: &pam_log::Log) -> usize {
     seq.windows(2).filter(|w| w[1] != w[0] + 1.0).count()
 }
 pub mod measure;
+
+/// A log column the test needs (panics with its name when the log lacks it).
+pub fn column<'a>(log: &'a pam_log::Log, name: &str) -> &'a [f64] {
+    log.column(name)
+        .unwrap_or_else(|| panic!("column {name} missing"))
+}
+
+/// Mean of the last `n` values (all of them when fewer).
+pub fn mean_of_last(v: &[f64], n: usize) -> f64 {
+    let tail = &v[v.len().saturating_sub(n)..];
+    tail.iter().sum::<f64>() / tail.len().max(1) as f64
+}

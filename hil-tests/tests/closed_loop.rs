@@ -2,22 +2,12 @@
 //! emulator with a blocked handle (on a board: block the handle first).
 
 use pam_control::{Faults, Mode, State, MAX_GAIN_SCALE};
-use pam_hil_tests::{exclusive, ok, pamctl, tmp, Target};
+use pam_hil_tests::{column, exclusive, mean_of_last, ok, pamctl, tmp, Target};
 use pam_log::col;
 use pam_protocol::{ModeKind, RequestBody};
 use std::time::{Duration, Instant};
 
 const SIM: &[&str] = &["--handle", "blocked"];
-
-fn column<'a>(log: &'a pam_log::Log, name: &str) -> &'a [f64] {
-    log.column(name)
-        .unwrap_or_else(|| panic!("column {name} missing"))
-}
-
-fn mean_of_last(v: &[f64], n: usize) -> f64 {
-    let tail = &v[v.len().saturating_sub(n)..];
-    tail.iter().sum::<f64>() / tail.len().max(1) as f64
-}
 
 #[test]
 fn closed_loop_force_step_reaches_the_target() {

@@ -5,7 +5,7 @@
 //! (`pamctl sim --handle blocked`); on a real board block the handle before running.
 
 use pam_control::{Faults, Mode, State};
-use pam_hil_tests::{exclusive, ok, pamctl, seq_gaps, tmp, Target};
+use pam_hil_tests::{column, exclusive, mean_of_last, ok, pamctl, seq_gaps, tmp, Target};
 use pam_log::col;
 use pam_protocol::{
     encode_frame, ErrorCode, ModeKind, ReplyData, Request, RequestBody, Telemetry, MAX_FRAME,
@@ -15,16 +15,6 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const SIM: &[&str] = &["--handle", "blocked"];
-
-fn column<'a>(log: &'a pam_log::Log, name: &str) -> &'a [f64] {
-    log.column(name)
-        .unwrap_or_else(|| panic!("column {name} missing"))
-}
-
-fn mean_of_last(v: &[f64], n: usize) -> f64 {
-    let tail = &v[v.len().saturating_sub(n)..];
-    tail.iter().sum::<f64>() / tail.len().max(1) as f64
-}
 
 /// Every row: commanded pressures within 0–5 bar, loop currents within 4–20 mA, armed,
 /// no fault, the expected mode.
