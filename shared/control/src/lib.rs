@@ -22,9 +22,12 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
-pub mod plausibility;
+pub mod faults;
 pub mod force_loop;
 pub mod impedance;
+pub mod mode;
+pub mod plausibility;
+pub mod safety;
 pub mod supervisor;
 
 #[cfg(any(test, feature = "checks"))]
