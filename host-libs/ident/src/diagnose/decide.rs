@@ -463,11 +463,15 @@ pub fn diagnose_observed(
                 .into(),
         );
     }
-    if lp.p.len() < 200 {
-        warnings.push(format!(
-            "only {} samples: the held-out 20 % is short",
-            lp.p.len()
-        ));
+    let base_params = base.params.get("base").cloned().unwrap_or_default();
+    if dynamic {
+        let delay = reports
+            .iter()
+            .map(|r| &r.report)
+            .find(|r| r.family == Some(Family::Delay));
+        if let Some(w) = lag_warning(&base_params, delay) {
+            warnings.push(w);
+        }
     }
     Ok((
         Diagnosis {
@@ -477,7 +481,7 @@ pub fn diagnose_observed(
             base: BaseReport {
                 nrmse: AxisPair::of(base.nrmse),
                 r2: AxisPair::of(base.r2),
-                params: base.params.get("base").cloned().unwrap_or_default(),
+                params: base_params,
             },
             verdict,
             effects: reports.into_iter().map(|r| r.report).collect(),
@@ -488,6 +492,28 @@ pub fn diagnose_observed(
             warnings,
         },
         fits,
+    ))
+}
+
+/// Honest doubt where the verdict cannot show it: the base describes a force that lags the
+/// motion by the muscles' pneumatic lag (its gains negative) and a sensor-sync delay removes
+/// a little more, but not beyond the fold-to-fold spread. To first order both are the same
+/// lag, so the data cannot say which; the user should know the lag is there.
+fn lag_warning(base: &BTreeMap<String, f64>, delay: Option<&EffectReport>) -> Option<String> {
+    let delay = delay.filter(|d| !d.accepted && d.improvement > 0.005)?;
+    let kp = |k: &str| base.get(k).copied().unwrap_or(0.0);
+    let (kx, ky) = (kp("kp_xx"), kp("kp_yy"));
+    if !(kx < 0.0 || ky < 0.0) {
+        return None;
+    }
+    let delay_ms = 1000.0 * delay.params.get("delay_s").copied().unwrap_or(0.0);
+    Some(format!(
+        "the force lags the motion: the base takes it as the muscles' pressure lag \
+         (kp_xx {kx:.1}, kp_yy {ky:.1} N/m, negative), and a delay of {delay_ms:.0} ms between \
+         the force and the encoder samples removes {:.1} % more, within the fold-to-fold \
+         spread. The data cannot tell a regulation lag from a sampling delay: check the \
+         logger's timestamps, or sample faster (≤ 5 ms) with quick reversals",
+        100.0 * delay.improvement
     ))
 }
 
