@@ -23,17 +23,12 @@ use pam_model::{RobotModel, RobotParams, Vec2};
 use crate::plant::{HandleCondition, Measurement, Twin, TwinConfig};
 use crate::rng::Rng;
 
-// The thesis's protocols (Table 4.1's points, §5.2's poses and step sizes) live in
-// pam-model, with the robot's parameters; re-exported for the twin's users.
+// The thesis's protocols (Table 4.1's points and stiffness levels, §5.2's poses, steps and
+// stiffness, the static trial's holds) live in pam-model; re-exported for the twin's users.
+pub use pam_model::protocols::{
+    static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
+};
 pub use pam_model::thesis::{STEP_MAX_N, STEP_N, STEP_POSES_DEG, TABLE_4_1_POINTS_DEG};
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StiffnessLevel {
-    /// K_low = K_min (Table 4.1).
-    Low,
-    /// K_high = K_max − 0.2 (K_max − K_min).
-    High,
-}
 
 /// What every experiment shares.
 #[derive(Clone, Debug)]
@@ -105,47 +100,6 @@ fn err(message: impl Into<String>) -> ExperimentError {
 
 fn deg2rad(a: [f64; 2]) -> Vec2<f64> {
     [a[0].to_radians(), a[1].to_radians()]
-}
-
-/// Joint stiffness of a Table 4.1 trial at `alpha_rad` (from the model's capability).
-pub fn trial_stiffness(
-    model: &RobotModel<f64>,
-    alpha_rad: Vec2<f64>,
-    level: StiffnessLevel,
-) -> Vec2<f64> {
-    let mut k = [0.0; 2];
-    for j in 0..2 {
-        let (lo, hi) = model.capability(j, alpha_rad[j]).trial_stiffness_levels();
-        k[j] = match level {
-            StiffnessLevel::Low => lo,
-            StiffnessLevel::High => hi,
-        };
-    }
-    k
-}
-
-/// §5.2: per joint, the minimum stiffness at the torques of ±27.3 N along X and along Y; the
-/// highest of those.
-pub fn step_test_stiffness(model: &RobotModel<f64>, alpha_rad: Vec2<f64>) -> Vec2<f64> {
-    let mut k = [0.0f64; 2];
-    let forces = [
-        [STEP_MAX_N, 0.0],
-        [-STEP_MAX_N, 0.0],
-        [0.0, STEP_MAX_N],
-        [0.0, -STEP_MAX_N],
-    ];
-    for f in forces {
-        let tau = model.kinematics.joint_torques(alpha_rad, f);
-        for j in 0..2 {
-            let cap = model.capability(j, alpha_rad[j]);
-            let k_min = match cap.stiffness_range(tau[j]) {
-                Some((lo, _)) => lo,
-                None => cap.k_max.stiffness_nm_per_rad,
-            };
-            k[j] = k[j].max(k_min);
-        }
-    }
-    k
 }
 
 /// A smooth random operator path: per axis a sum of sines log-spaced over the band with
@@ -455,13 +409,6 @@ pub(crate) fn point_alpha(point: usize) -> Result<Vec2<f64>, ExperimentError> {
     Ok(deg2rad(TABLE_4_1_POINTS_DEG[point - 1]))
 }
 
-fn level_name(level: StiffnessLevel) -> &'static str {
-    match level {
-        StiffnessLevel::Low => "low",
-        StiffnessLevel::High => "high",
-    }
-}
-
 /// §4.2 dynamic trial at a Table 4.1 point (1–5).
 pub fn dynamic_trial(
     cfg: &ExperimentConfig,
@@ -495,7 +442,7 @@ pub fn dynamic_trial(
         "dynamic",
         &[
             ("point", point.to_string()),
-            ("stiffness", level_name(level).into()),
+            ("stiffness", level.name().into()),
             ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
             ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
         ],
@@ -524,24 +471,6 @@ fn settle_at_point(
         rig.period(|_| hold, None, None, false)?;
     }
     Ok((rig, centre, k))
-}
-
-/// The nine hold points of a static trial around `centre`: centre, then the square's corners
-/// and edge midpoints (8 cm square, Fig. 4.2b).
-pub fn static_points(centre: Vec2<f64>, half_side_m: f64) -> [Vec2<f64>; 9] {
-    let h = half_side_m;
-    let d = [
-        [0.0, 0.0],
-        [h, 0.0],
-        [h, h],
-        [0.0, h],
-        [-h, h],
-        [-h, 0.0],
-        [-h, -h],
-        [0.0, -h],
-        [h, -h],
-    ];
-    d.map(|o| [centre[0] + o[0], centre[1] + o[1]])
 }
 
 /// §4.2 static trial: 5 s at each of the nine points, 1.5 s smooth moves between them.
@@ -594,27 +523,11 @@ pub fn static_trial(
         "static",
         &[
             ("point", point.to_string()),
-            ("stiffness", level_name(level).into()),
+            ("stiffness", level.name().into()),
             ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
             ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
         ],
     ))
-}
-
-/// The force reference sequence of §5.2 along one axis: 0 → 27.3 in three steps, then down
-/// to −27.3 in six, then back to 0 in three.
-pub fn step_levels() -> Vec<f64> {
-    let mut v = vec![0.0];
-    for k in 1..=3 {
-        v.push(k as f64 * STEP_N);
-    }
-    for k in (-3..=2).rev() {
-        v.push(k as f64 * STEP_N);
-    }
-    for k in -2..=0 {
-        v.push(k as f64 * STEP_N);
-    }
-    v
 }
 
 /// The force mode of the configuration: open loop, or closed loop with its gain scale.

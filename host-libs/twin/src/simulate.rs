@@ -74,15 +74,10 @@ impl FromStr for Experiment {
     }
 }
 
-impl FromStr for StiffnessLevel {
-    type Err = SimulateError;
-    fn from_str(s: &str) -> Result<Self, SimulateError> {
-        match s {
-            "low" => Ok(StiffnessLevel::Low),
-            "high" => Ok(StiffnessLevel::High),
-            _ => Err(SimulateError::UnknownStiffness(s.to_string())),
-        }
-    }
+/// A stiffness level by name (`low`, `high`), with the simulator's error.
+pub fn parse_stiffness(s: &str) -> Result<StiffnessLevel, SimulateError> {
+    s.parse()
+        .map_err(|_| SimulateError::UnknownStiffness(s.to_string()))
 }
 
 /// One trial: the experiment, where and how it runs, and what the twin hides.
@@ -244,12 +239,9 @@ mod tests {
             e.to_string(),
             "unknown experiment `force-step` (expected dynamic, static, force_step, impedance)"
         );
-        assert_eq!(
-            "high".parse::<StiffnessLevel>().unwrap(),
-            StiffnessLevel::High
-        );
+        assert_eq!(parse_stiffness("high").unwrap(), StiffnessLevel::High);
         assert!(matches!(
-            "medium".parse::<StiffnessLevel>(),
+            parse_stiffness("medium"),
             Err(SimulateError::UnknownStiffness(_))
         ));
     }

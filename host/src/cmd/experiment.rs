@@ -22,12 +22,12 @@ use crate::LinkArgs;
 use clap::{Args, Subcommand, ValueEnum};
 use pam_control::{Mode, State};
 use pam_log::LogWriter;
+use pam_model::protocols::{
+    static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
+};
 use pam_model::thesis::{STEP_POSES_DEG, TABLE_4_1_POINTS_DEG};
 use pam_model::{RobotModel, Vec2};
 use pam_protocol::{Config, ConfigSection, ReplyData, RequestBody};
-use pam_twin::experiments::{
-    static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
-};
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -275,15 +275,8 @@ fn point_trial(
         alpha,
         k,
         centre,
-        format!("{kind} point {p} K_{}", level_name(level)),
+        format!("{kind} point {p} K_{}", level.name()),
     )
-}
-
-fn level_name(l: StiffnessLevel) -> &'static str {
-    match l {
-        StiffnessLevel::Low => "low",
-        StiffnessLevel::High => "high",
-    }
 }
 
 fn points(point: Option<usize>) -> Result<Vec<usize>, String> {
@@ -451,7 +444,7 @@ fn run_trials(
                     let mut trial = open_trial(
                         s.client,
                         &args.out,
-                        &format!("static_p{p}_{}.csv", level_name(level)),
+                        &format!("static_p{p}_{}.csv", level.name()),
                         false,
                         &meta_trial("static", p, level, k, centre),
                     )?;
@@ -496,7 +489,7 @@ fn run_trials(
                     let mut trial = open_trial(
                         s.client,
                         &args.out,
-                        &format!("dynamic_p{p}_{}.csv", level_name(level)),
+                        &format!("dynamic_p{p}_{}.csv", level.name()),
                         false,
                         &meta_trial("dynamic", p, level, k, centre),
                     )?;
@@ -593,7 +586,7 @@ fn meta_trial(
     vec![
         ("experiment", kind.to_string()),
         ("point", point.to_string()),
-        ("stiffness", level_name(level).to_string()),
+        ("stiffness", level.name().to_string()),
         ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
         ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
     ]

@@ -105,7 +105,7 @@ mod tests {
         );
         assert_eq!(fault_names(Faults::ESTOP.0), "emergency stop");
         assert!(fault_names(Faults::STATIC_IMBALANCE.0).starts_with("joint at rest"));
-                assert_eq!(
+        assert_eq!(
             fault_names(Faults::CONTROL_UNSTABLE.0),
             "closed loop unstable (oscillation or persistent force error)"
         );

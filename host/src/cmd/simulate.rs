@@ -79,8 +79,7 @@ fn parse_experiment(s: &str) -> Result<Experiment, String> {
 }
 
 fn parse_stiffness(s: &str) -> Result<StiffnessLevel, String> {
-    s.parse()
-        .map_err(|e: pam_twin::simulate::SimulateError| e.to_string())
+    pam_twin::simulate::parse_stiffness(s).map_err(|e| e.to_string())
 }
 
 fn pair(name: &str, v: &[f64]) -> Result<[f64; 2], String> {

@@ -28,6 +28,7 @@ pub mod kinematics;
 pub mod mat2;
 pub mod muscle;
 pub mod params;
+pub mod protocols;
 pub mod real;
 pub mod robot;
 pub mod thesis;
