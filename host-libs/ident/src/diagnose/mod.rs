@@ -260,7 +260,7 @@ fn check_long_enough(trial: &Trial) -> Result<(), crate::IdentError> {
     Ok(())
 }
 
-/// The step trial's drive the data prefers, with its fitted base. The converters'
+/// The step trial's drive the data prefers, with its fitted base and the force it commands. The converters'
 /// set-points (from the currents) are the physical view and the default; the reference
 /// drives two force channels instead when that base leaves clearly less training residual
 /// (< 90 %): then the model's force law, not a missing effect, is what misfits — e.g. a
@@ -270,14 +270,13 @@ fn choose_drive(
     p: &Prepared,
     model: &RobotModel<f64>,
     init: Response,
-) -> Option<(Drive, Response)> {
+) -> Option<(Drive, Response, [Vec<f64>; 2])> {
     let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
-    let mut best: Option<(f64, Drive, Response)> = None;
+    let mut best: Option<(f64, Drive, Response, [Vec<f64>; 2])> = None;
     for (k, d) in Drive::candidates(p, model).into_iter().enumerate() {
         // the axes the drive commands to move (as `Loop::stepping_axes` will see them)
-        let axes: Vec<usize> = (0..2)
-            .filter(|&a| std_dev(&d.commanded(a)) > 1e-9)
-            .collect();
+        let commanded = [d.commanded(0), d.commanded(1)];
+        let axes: Vec<usize> = (0..2).filter(|&a| std_dev(&commanded[a]) > 1e-9).collect();
         let fitted = response::fit(p, &d, &init, &[], &axes, p.split);
         let mut pred = [vec![0.0; p.split], vec![0.0; p.split]];
         response::simulate(&fitted, &d, &p.t_s, alpha, p.split, &mut pred);
@@ -292,13 +291,13 @@ fn choose_drive(
         let better = match &best {
             None => true,
             // the first candidate is the physical view: another must beat it clearly
-            Some((c, _, _)) => k > 0 && cost < 0.9 * c,
+            Some((c, ..)) => k > 0 && cost < 0.9 * c,
         };
         if better {
-            best = Some((cost, d, fitted));
+            best = Some((cost, d, fitted, commanded));
         }
     }
-    best.map(|(_, d, r)| (d, r))
+    best.map(|(_, d, r, commanded)| (d, r, commanded))
 }
 
 impl<'a> Loop<'a> {
@@ -342,12 +341,12 @@ impl<'a> Loop<'a> {
                 avg(&|q| q.omega_n_rad_s, 20.0),
                 [init[0].gain, init[1].gain],
             ));
-            let (d, base) = choose_drive(&p, model, step_init.expect("set above"))
+            let (d, base, commanded) = choose_drive(&p, model, step_init.expect("set above"))
                 .ok_or(crate::IdentError::NoForceReference)?;
             *base_step.lock().expect("base cache") = Some(base);
             // the other views of a step trial (residual spectra, error over the command)
             // use the force the set-points command
-            p.force_ref_n = Some([d.commanded(0), d.commanded(1)]);
+            p.force_ref_n = Some(commanded);
             drive = Some(d);
         }
         // the base model's variants: stiffness in Cartesian or joint space, with or without

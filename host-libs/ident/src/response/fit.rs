@@ -102,12 +102,13 @@ pub fn fit(
     }
     if extras.contains(&StepExtra::Saturation) && knee_inactive {
         // knees at quantiles of the set-points, from just active to strong
-        let mut all: Vec<f64> = d.set[..n]
-            .iter()
-            .flat_map(|s| s[..d.channels()].iter().map(|v| v.abs()))
-            .collect();
-        all.sort_by(f64::total_cmp);
-        let q = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
+        let all = Quantiles::of(
+            d.set[..n]
+                .iter()
+                .flat_map(|s| s[..d.channels()].iter().map(|v| v.abs()))
+                .collect(),
+        );
+        let q = |f: f64| all.at(f);
         let top = q(1.0);
         // the cost has several basins in (knee, span): a grid, screened below
         // (and below the lowest set-point: a supply that caps every command)
@@ -131,12 +132,9 @@ pub fn fit(
         // set-points (a cap reached only by its largest commands, or by most of them)
         let mut v = Vec::new();
         for c in 0..d.channels() {
-            let mut own: Vec<f64> = d.set[..n]
-                .iter()
-                .map(|s| (scale_of(d, start, c) * s[c]).abs())
-                .collect();
-            own.sort_by(f64::total_cmp);
-            let q = |f: f64| own[((own.len() - 1) as f64 * f) as usize];
+            let scale = d.channel_scale(start, c);
+            let own = Quantiles::of(d.set[..n].iter().map(|s| (scale * s[c]).abs()).collect());
+            let q = |f: f64| own.at(f);
             let top = q(1.0);
             if !(top > 0.0) {
                 continue;
@@ -160,14 +158,14 @@ pub fn fit(
     if extras.contains(&StepExtra::ForceSaturation) && !start.force_knee_n.is_finite() {
         // knees at quantiles of the measured force's magnitude (a force saturation acts on
         // the largest steps only), spans from sharp to soft
-        let mut all: Vec<f64> = axes
-            .iter()
-            .flat_map(|&a| rows.iter().map(move |&i| (a, i)))
-            .map(|(a, i)| (p.force_n[a][i] - start.offset_n[a]).abs())
-            .collect();
-        all.sort_by(f64::total_cmp);
-        if let Some(&top) = all.last() {
-            let q = |f: f64| all[((all.len() - 1) as f64 * f) as usize];
+        let all = Quantiles::of(
+            axes.iter()
+                .flat_map(|&a| rows.iter().map(move |&i| (a, i)))
+                .map(|(a, i)| (p.force_n[a][i] - start.offset_n[a]).abs())
+                .collect(),
+        );
+        if let Some(&top) = all.0.last() {
+            let q = |f: f64| all.at(f);
             starts = knee_grid(
                 &starts,
                 [0.97, 0.9, 0.8, 0.65, 0.5, 0.3].map(q),
@@ -278,13 +276,17 @@ pub fn fit(
     }
 }
 
-/// A channel's set-point scale in the simulation: force channels carry the measured force's
-/// gain, converter channels are bar.
-fn scale_of(d: &Drive, r: &Response, c: usize) -> f64 {
-    if d.units == Units::Force {
-        r.gain[c]
-    } else {
-        1.0
+/// Sorted values read at a fraction of their count (0: the smallest, 1: the largest): the
+/// grids' knees.
+struct Quantiles(Vec<f64>);
+
+impl Quantiles {
+    fn of(mut v: Vec<f64>) -> Self {
+        v.sort_by(f64::total_cmp);
+        Quantiles(v)
+    }
+    fn at(&self, f: f64) -> f64 {
+        self.0[((self.0.len() - 1) as f64 * f) as usize]
     }
 }
 

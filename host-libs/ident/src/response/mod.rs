@@ -207,6 +207,16 @@ impl Drive {
         })
     }
 
+    /// A channel's set-point scale in the simulation: force channels carry the measured
+    /// force's gain (their rate limits and saturation are in measured newtons), converter
+    /// channels are bar.
+    pub(super) fn channel_scale(&self, r: &Response, c: usize) -> f64 {
+        match self.units {
+            Units::Force => r.gain[c],
+            Units::Pressure => 1.0,
+        }
+    }
+
     /// Four converters, or two force channels.
     pub fn channels(&self) -> usize {
         match self.units {

@@ -41,10 +41,9 @@ pub fn simulate(
     // Force channels carry the measured force's scale (gain × reference), so that their
     // rate limit and saturation are in the measured newtons; converter channels are bar.
     let force_channels = d.units == Units::Force;
-    let scale = |c: usize| if force_channels { r.gain[c] } else { 1.0 };
     let cap_span = r.cap_span.abs().max(1e-6);
     let set_at = |j: usize, c: usize| {
-        let s = sat(scale(c) * d.set[j.min(n - 1)][c]);
+        let s = sat(d.channel_scale(r, c) * d.set[j.min(n - 1)][c]);
         if r.cap_channel == Some(c) {
             saturate(s, r.cap, cap_span)
         } else {
