@@ -564,6 +564,14 @@ pub fn force_step_test(cfg: &ExperimentConfig, pose_deg: [f64; 2]) -> Result<Log
     }
     let k = step_test_stiffness(&model, alpha);
     let mut rig = Rig::new(cfg, alpha, true, false)?;
+    // the block is in place before the arm is armed: the first sample the controller sees
+    // already carries whatever the vented rig presses on it (a rig with a parallel
+    // stiffness preloads the block away from its rest)
+    rig.last = rig.twin.step(
+        1e-9,
+        [cfg.twin.params.ip.current_min_ma; 4],
+        &HandleCondition::Blocked,
+    );
     let stiffness = [k[0] as f32, k[1] as f32];
     let ff = cfg.feed_forward;
     let mode = |f: [f64; 2]| force_mode(cfg, [f[0] as f32, f[1] as f32], stiffness);

@@ -108,20 +108,33 @@ pub struct MechanicsConfig {
     pub hard_stop_margin_rad: f64,
     pub hard_stop_stiffness_nm_per_rad: f64,
     pub hard_stop_damping_nm_s_per_rad: f64,
-    /// Passive stiffness in parallel with each muscle pair, rest at the neutral pose
-    /// (α = 0). Zero by default (the thesis's model); [`MechanicsConfig::identified_rig`]
-    /// calibrates it from the thesis's identified stiffness ([`crate::rig`]).
+    /// Stiffness in parallel with each muscle pair, an elastoplastic (stick-slip) element:
+    /// a spring anchored where the arm was placed, whose anchor slips once its torque
+    /// exceeds [`MechanicsConfig::parallel_breakaway_nm`]. Zero by default (the thesis's
+    /// model); [`MechanicsConfig::identified_rig`] calibrates it from the thesis's identified
+    /// stiffness ([`crate::rig`]).
     pub parallel_stiffness_nm_per_rad: [f64; 2],
+    /// Torque at which the parallel element's anchor slips (infinite: a plain spring
+    /// anchored at the initial pose).
+    pub parallel_breakaway_nm: [f64; 2],
+    /// The muscles' force on the rig over the force law of eq. 3.1 (the same ratio at every
+    /// strain and pressure). 1 by default (the thesis's model);
+    /// [`MechanicsConfig::identified_rig`] sets Table 5.2's step gain ([`crate::rig`]).
+    pub muscle_force_ratio: f64,
 }
 
 impl MechanicsConfig {
-    /// The rig as the thesis measured it at point 1: the default mechanics plus the parallel
-    /// stiffness of [`crate::rig::parallel_stiffness_from_thesis`].
+    /// The rig as the thesis measured it: the muscles' force ratio of Table 5.2
+    /// ([`crate::rig::MUSCLE_FORCE_RATIO`]) and the parallel stiffness that, with it, gives
+    /// the stiffness identified at point 1 ([`crate::rig::parallel_stiffness_from_thesis`]).
     pub fn identified_rig() -> Self {
+        let ratio = crate::rig::MUSCLE_FORCE_RATIO;
+        let params = RobotParams::thesis();
+        let k = crate::rig::parallel_stiffness_from_thesis(&params, ratio);
         MechanicsConfig {
-            parallel_stiffness_nm_per_rad: crate::rig::parallel_stiffness_from_thesis(
-                &RobotParams::thesis(),
-            ),
+            muscle_force_ratio: ratio,
+            parallel_stiffness_nm_per_rad: k,
+            parallel_breakaway_nm: crate::rig::parallel_breakaway_from_thesis(&params, k),
             ..Self::default()
         }
     }
@@ -131,6 +144,8 @@ impl Default for MechanicsConfig {
     fn default() -> Self {
         MechanicsConfig {
             parallel_stiffness_nm_per_rad: [0.0; 2],
+            parallel_breakaway_nm: [f64::INFINITY; 2],
+            muscle_force_ratio: 1.0,
             joint_damping_nm_s_per_rad: [0.05, 0.05],
             hard_stop_margin_rad: 0.06,
             hard_stop_stiffness_nm_per_rad: 3000.0,
@@ -234,6 +249,8 @@ pub struct Twin {
     /// (joint, model muscle index) of each channel.
     channel_owner: [(usize, usize); 4],
     state: TrueState,
+    /// Where each joint's parallel element is anchored (it slips past its break-away).
+    parallel_anchor_rad: Vec2<f64>,
     rng: Rng,
 }
 
@@ -281,6 +298,7 @@ impl Twin {
                 handle_velocity_user_m_s: [0.0; 2],
                 force_on_holder_user_n: [0.0; 2],
             },
+            parallel_anchor_rad: alpha,
             cfg,
         };
         twin.state.handle_user_m = twin.model.kinematics.forward_user(alpha);
@@ -300,10 +318,29 @@ impl Twin {
         &self.effects
     }
 
+    /// The parallel element's torque on joint `j` (opposing the deflection from its anchor);
+    /// past the break-away the anchor slips along.
+    fn parallel_torque_nm(&mut self, j: usize) -> f64 {
+        let k = self.cfg.mechanics.parallel_stiffness_nm_per_rad[j];
+        if k == 0.0 {
+            return 0.0;
+        }
+        let reach = self.cfg.mechanics.parallel_breakaway_nm[j] / k;
+        let alpha = self.state.alpha_rad[j];
+        let deflection = alpha - self.parallel_anchor_rad[j];
+        if deflection > reach {
+            self.parallel_anchor_rad[j] = alpha - reach;
+        } else if deflection < -reach {
+            self.parallel_anchor_rad[j] = alpha + reach;
+        }
+        k * (alpha - self.parallel_anchor_rad[j])
+    }
+
     /// Puts the arm at rest at `alpha_rad` (e.g. before a blocked test at a pose).
     pub fn place(&mut self, alpha_rad: Vec2<f64>) {
         self.state.alpha_rad = alpha_rad;
         self.state.alpha_dot_rad_s = [0.0; 2];
+        self.parallel_anchor_rad = alpha_rad;
         self.state.handle_user_m = self.model.kinematics.forward_user(alpha_rad);
         self.state.handle_velocity_user_m_s = [0.0; 2];
     }
@@ -449,7 +486,9 @@ impl Twin {
             let ctx = self.ctx(h, blocked);
             for c in 0..4 {
                 let (j, _) = self.channel_owner[c];
-                let mut f = self.cfg.params.muscle.force_n(eps[c], p_force[c]).max(0.0);
+                let mut f = (self.cfg.mechanics.muscle_force_ratio
+                    * self.cfg.params.muscle.force_n(eps[c], p_force[c]))
+                .max(0.0);
                 let view = MuscleView {
                     channel: c,
                     joint: j,
@@ -469,7 +508,7 @@ impl Twin {
             let map = self.cfg.params.joints[j].channel_of_muscle;
             let r = self.cfg.params.joints[j].pulley_radius_m;
             torque[j] = r * (force[(map[1] & 3) as usize] - force[(map[0] & 3) as usize])
-                - self.cfg.mechanics.parallel_stiffness_nm_per_rad[j] * self.state.alpha_rad[j];
+                - self.parallel_torque_nm(j);
         }
         {
             let ctx = self.ctx(h, blocked);
@@ -638,5 +677,37 @@ impl Twin {
             force_user_n,
             pressure_bar: self.state.pressure_bar,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The identified rig's parallel element is a spring while it sticks and slips past its
+    /// break-away: placed at a pose it exerts nothing (no preload toward neutral), deflected
+    /// by half its reach it is a spring, deflected by three reaches it holds the break-away
+    /// and has re-anchored.
+    #[test]
+    fn parallel_element_sticks_then_slips() {
+        let mut cfg = TwinConfig::identified_rig();
+        cfg.initial_alpha_rad = [0.2, -0.3];
+        let k = cfg.mechanics.parallel_stiffness_nm_per_rad;
+        let tb = cfg.mechanics.parallel_breakaway_nm;
+        assert!(k[0] > 50.0 && k[1] > 10.0 && tb[0] > 1.0, "{k:?} {tb:?}");
+        let mut twin = Twin::new(cfg);
+        assert_eq!(twin.parallel_torque_nm(0), 0.0);
+        let reach = tb[0] / k[0];
+        twin.state.alpha_rad[0] = 0.2 + 0.5 * reach;
+        assert!((twin.parallel_torque_nm(0) - 0.5 * tb[0]).abs() < 1e-9);
+        twin.state.alpha_rad[0] = 0.2 + 3.0 * reach;
+        assert!((twin.parallel_torque_nm(0) - tb[0]).abs() < 1e-9);
+        // back by one reach from there: the spring now rests 2 reaches out
+        twin.state.alpha_rad[0] = 0.2 + 2.0 * reach;
+        assert!(twin.parallel_torque_nm(0).abs() < 1e-9);
+        // the default twin has none
+        let mut plain = Twin::new(TwinConfig::thesis());
+        plain.state.alpha_rad = [0.3, 0.3];
+        assert_eq!(plain.parallel_torque_nm(0), 0.0);
     }
 }
