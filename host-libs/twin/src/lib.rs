@@ -25,6 +25,7 @@ pub mod rig;
 pub mod rng;
 pub mod simulate;
 pub mod step_metrics;
+pub mod tune;
 
 pub use effects::{Effect, EffectSet};
 pub use plant::{
