@@ -50,7 +50,10 @@ fn tune_proposes_a_gain_whose_predicted_settling_the_twin_shows() {
         .collect();
     let g = j["axes"][0]["gain"].as_f64().unwrap();
     assert!((0.5..0.65).contains(&g), "identified gain {g}");
-    assert!(scale > 1.5, "a plant of gain {g} needs more than the design's gain: {scale}");
+    assert!(
+        scale > 1.5,
+        "a plant of gain {g} needs more than the design's gain: {scale}"
+    );
     let measured = |scale: f64| {
         let out = d.join(format!("cl_{scale}.csv"));
         let s = format!("{scale}");
@@ -76,7 +79,15 @@ fn tune_proposes_a_gain_whose_predicted_settling_the_twin_shows() {
     println!("gain scale {scale}: predicted {predicted:?} s, measured {tuned:?} s; designed gains measured {designed:?} s");
     for axis in 0..2 {
         let rel = (tuned[axis] - predicted[axis]).abs() / predicted[axis];
-        assert!(rel < 0.15, "axis {axis}: measured {} vs predicted {}", tuned[axis], predicted[axis]);
-        assert!(tuned[axis] < designed[axis], "axis {axis}: {tuned:?} vs designed {designed:?}");
+        assert!(
+            rel < 0.15,
+            "axis {axis}: measured {} vs predicted {}",
+            tuned[axis],
+            predicted[axis]
+        );
+        assert!(
+            tuned[axis] < designed[axis],
+            "axis {axis}: {tuned:?} vs designed {designed:?}"
+        );
     }
 }

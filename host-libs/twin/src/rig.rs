@@ -61,8 +61,7 @@ pub fn parallel_stiffness_from_thesis(
         let k_joint = Mat2(k_c).congruence(&jacobian);
         let k_model = trial_stiffness(&model, alpha, level);
         for j in 0..2 {
-            excess[j] +=
-                (k_joint.0[j][j] - muscle_force_ratio * k_model[j]) / trials.len() as f64;
+            excess[j] += (k_joint.0[j][j] - muscle_force_ratio * k_model[j]) / trials.len() as f64;
         }
     }
     excess
@@ -76,7 +75,10 @@ pub const TRIAL_AMPLITUDE_M: f64 = 0.04;
 /// point 1 (the four corners of the excursion square, through J⁻¹ at the neutral pose).
 /// The thesis's data say nothing about a larger one; a smaller one would have shown as a
 /// lower stiffness in the ±4 cm trials than in the static one.
-pub fn parallel_breakaway_from_thesis(params: &RobotParams<f64>, k_nm_per_rad: [f64; 2]) -> [f64; 2] {
+pub fn parallel_breakaway_from_thesis(
+    params: &RobotParams<f64>,
+    k_nm_per_rad: [f64; 2],
+) -> [f64; 2] {
     let model = RobotModel::new(*params);
     let inv = model
         .kinematics

@@ -136,7 +136,12 @@ fn controller_ip() -> IpConverter<f32> {
 }
 
 /// Margins of the designed loop scaled by `gain_scale` on `plant` at `period_s`.
-pub fn margins(cfg: &ForceLoopConfig, gain_scale: f64, plant: &StepPlant, period_s: f64) -> Margins {
+pub fn margins(
+    cfg: &ForceLoopConfig,
+    gain_scale: f64,
+    plant: &StepPlant,
+    period_s: f64,
+) -> Margins {
     let (kp, ki, kd, wf) = (
         cfg.kp as f64 * gain_scale,
         cfg.ki_per_s as f64 * gain_scale,
@@ -189,7 +194,12 @@ pub fn margins(cfg: &ForceLoopConfig, gain_scale: f64, plant: &StepPlant, period
 
 /// The designed loop scaled by `gain_scale` on `plant`, stepped by [`PREDICTED_STEP_N`]
 /// from rest, simulated for 1.5 s (§5.2's hold) at `period_s`.
-pub fn predict(cfg: &ForceLoopConfig, gain_scale: f64, plant: &StepPlant, period_s: f64) -> Prediction {
+pub fn predict(
+    cfg: &ForceLoopConfig,
+    gain_scale: f64,
+    plant: &StepPlant,
+    period_s: f64,
+) -> Prediction {
     let ip = controller_ip();
     let dt = period_s;
     let n = (1.5 / dt).round() as usize;
@@ -251,15 +261,17 @@ pub fn propose(plant: &StepPlant, period_s: f64) -> Result<Proposal, TuneError> 
         }
         let ms = band.map(|p| margins(&cfg, s, &p, period_s));
         let least = Margins {
-            gain_margin: ms.iter().map(|m| m.gain_margin).fold(f64::INFINITY, f64::min),
+            gain_margin: ms
+                .iter()
+                .map(|m| m.gain_margin)
+                .fold(f64::INFINITY, f64::min),
             phase_margin_deg: ms
                 .iter()
                 .map(|m| m.phase_margin_deg)
                 .fold(f64::INFINITY, f64::min),
             ..ms[2]
         };
-        if !(least.gain_margin >= MIN_GAIN_MARGIN
-            && least.phase_margin_deg >= MIN_PHASE_MARGIN_DEG)
+        if !(least.gain_margin >= MIN_GAIN_MARGIN && least.phase_margin_deg >= MIN_PHASE_MARGIN_DEG)
         {
             continue;
         }
@@ -350,8 +362,19 @@ mod tests {
         let m = margins(&cfg, 1.0, &table_5_2(1.0), 0.001);
         assert!((m.gain_margin - 17.1).abs() < 0.3, "{m:?}");
         assert!((m.phase_margin_deg - 62.0).abs() < 1.0, "{m:?}");
-        let slow = margins(&cfg, 1.0, &StepPlant { delay_s: 0.040, ..table_5_2(1.0) }, 0.001);
-        assert!(slow.gain_margin < 1.0, "41.5 ms is unstable at the design: {slow:?}");
+        let slow = margins(
+            &cfg,
+            1.0,
+            &StepPlant {
+                delay_s: 0.040,
+                ..table_5_2(1.0)
+            },
+            0.001,
+        );
+        assert!(
+            slow.gain_margin < 1.0,
+            "41.5 ms is unstable at the design: {slow:?}"
+        );
     }
 
     /// A weaker plant gets a larger scale, a delayed one a smaller one, and every proposal
@@ -377,7 +400,13 @@ mod tests {
             assert!(p.worst_in_band.settling_s >= p.prediction.settling_s);
         }
         assert!(matches!(
-            propose(&StepPlant { delay_s: 0.3, ..table_5_2(1.0) }, 0.001),
+            propose(
+                &StepPlant {
+                    delay_s: 0.3,
+                    ..table_5_2(1.0)
+                },
+                0.001
+            ),
             Err(TuneError::NoGain { .. })
         ));
         assert!(matches!(

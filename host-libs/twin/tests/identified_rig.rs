@@ -35,7 +35,10 @@ fn open_loop_step_gain_is_table_5_2s() {
     let g = median(all.iter().map(|s| s.gain).collect());
     println!("identified rig, open loop: median step gain {g:.3} (Table 5.2: 0.57)");
     assert!((0.55..=0.59).contains(&g), "median gain {g}");
-    for s in all.iter().filter(|s| s.from_n.abs() < 19.0 && s.to_n.abs() < 19.0) {
+    for s in all
+        .iter()
+        .filter(|s| s.from_n.abs() < 19.0 && s.to_n.abs() < 19.0)
+    {
         assert!((0.53..=0.61).contains(&s.gain), "{s:?}");
     }
     // the default twin is the model: its steps between ±18.2 N have gain 1
