@@ -65,7 +65,17 @@ impl Impedance {
     }
 }
 
-/// F = K (x₀ − x) − B ẋ, per axis, N.
+/// Lag of the closed force loop at the operator's frequencies that the spring term is led by,
+/// s. The loop renders the force it is asked for late (the converters' second order behind
+/// the PID: its phase delay is 13 ms at 6 rad/s and 29 ms at 10 rad/s for the designed gains,
+/// docs/closed-loop.md), and a spring force rendered T late is K (x₀ − x) + K T ẋ: a negative
+/// damping K T that ate the commanded B (identified 12 / 15 N·s/m for 20 at K = 300, 3.6 / 7.5
+/// at K = 653 before this lead: 17–27 ms). Leading the spring by T, K (x₀ − x − T ẋ), gives
+/// that damping back.
+pub const IMPEDANCE_LEAD_S: f32 = 0.02;
+
+/// F = K (x₀ − x − T ẋ) − B ẋ per axis, N, with T = [`IMPEDANCE_LEAD_S`]: the spring-damper
+/// K, B rendered through a loop that lags by T.
 pub fn spring_damper_force_n(
     target_m: Vec2<f32>,
     stiffness_n_per_m: Vec2<f32>,
@@ -75,7 +85,25 @@ pub fn spring_damper_force_n(
 ) -> Vec2<f32> {
     let mut f = [0.0; 2];
     for a in 0..2 {
-        f[a] = stiffness_n_per_m[a] * (target_m[a] - x_m[a]) - damping_n_s_per_m[a] * v_m_s[a];
+        f[a] = stiffness_n_per_m[a] * (target_m[a] - x_m[a] - IMPEDANCE_LEAD_S * v_m_s[a])
+            - damping_n_s_per_m[a] * v_m_s[a];
     }
     f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// At rest the spring alone; moving, the damping is B plus the lead's K·T, and K = 0
+    /// leaves exactly B (transparent mode is not stiffened or damped by the lead).
+    #[test]
+    fn the_spring_is_led_by_the_loops_lag() {
+        let (k, b) = ([300.0, 0.0], [5.0, 5.0]);
+        let f = spring_damper_force_n([0.02, 0.0], k, b, [0.0; 2], [0.0; 2]);
+        assert!((f[0] - 6.0).abs() < 1e-5 && f[1] == 0.0);
+        let f = spring_damper_force_n([0.0; 2], k, b, [0.0; 2], [0.1, 0.1]);
+        assert!((f[0] + (5.0 + 300.0 * IMPEDANCE_LEAD_S) * 0.1).abs() < 1e-5, "{f:?}");
+        assert!((f[1] + 0.5).abs() < 1e-6, "{f:?}");
+    }
 }
