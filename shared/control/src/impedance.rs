@@ -168,7 +168,10 @@ mod tests {
         let f = spring_damper_force_n([0.02, 0.0], k, b, [0.0; 2], [0.0; 2]);
         assert!((f[0] - 6.0).abs() < 1e-5 && f[1] == 0.0);
         let f = spring_damper_force_n([0.0; 2], k, b, [0.0; 2], [0.1, 0.1]);
-        assert!((f[0] + (5.0 + 300.0 * IMPEDANCE_LEAD_S) * 0.1).abs() < 1e-5, "{f:?}");
+        assert!(
+            (f[0] + (5.0 + 300.0 * IMPEDANCE_LEAD_S) * 0.1).abs() < 1e-5,
+            "{f:?}"
+        );
         assert!((f[1] + 0.5).abs() < 1e-6, "{f:?}");
     }
 }
