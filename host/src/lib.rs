@@ -70,6 +70,9 @@ pub enum Command {
     /// One thesis experiment on the digital twin (no device), written as a log, with hidden
     /// effects if asked: the logs the model loop is tried on.
     Simulate(cmd::simulate::SimulateArgs),
+    /// Propose the closed force loop's gain scale from a force-step log, with its margins
+    /// and predicted step response (nothing is sent to the device).
+    Tune(cmd::tune::TuneArgs),
 }
 
 pub fn run(cli: Cli) -> Result<(), String> {
@@ -90,6 +93,7 @@ pub fn run(cli: Cli) -> Result<(), String> {
         Command::Record(r) => cmd::record::run(r, link, out),
         Command::Sim(s) => cmd::sim::run(s, out),
         Command::Simulate(s) => cmd::simulate::run(s, out),
+        Command::Tune(t) => cmd::tune::run(t, out),
         Command::Watch(w) => cmd::watch::run(w, link, out),
         Command::Experiment(e) => cmd::experiment::run(e, link, out),
     }

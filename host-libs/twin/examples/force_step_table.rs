@@ -4,10 +4,12 @@
 //! ```sh
 //! cargo run --release -p pam-twin --example force_step_table -- [--closed-loop] \
 //!     [--feed-forward] [--identified-rig] [--gain-scale S] [--with EFFECT]... [--per-pose]
-//!     [--per-step] [--period SECONDS]
+//!     [--per-step] [--period SECONDS] [--within N]
 //! ```
 //! Prints one markdown row: worst / mean 5 % settling, worst overshoot, mean |gain − 1|,
-//! gain range, and how many poses faulted.
+//! gain range, and how many poses faulted. `--within N` keeps only the steps between levels
+//! of at most N newtons (e.g. 19: leave out the ±27.3 N levels the identified rig's weaker
+//! muscles cannot reach at every pose).
 
 use pam_twin::simulate::{run_trial, Experiment, TrialSpec};
 use pam_twin::step_metrics::{force_steps, summarize, StepFigures};
@@ -16,6 +18,7 @@ fn main() {
     let mut spec = TrialSpec::new(Experiment::ForceStep);
     let mut per_pose = false;
     let mut per_step = false;
+    let mut within_n = f64::INFINITY;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -37,6 +40,12 @@ fn main() {
                     .and_then(|v| v.parse().ok())
                     .expect("--period SECONDS")
             }
+            "--within" => {
+                within_n = args
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .expect("--within NEWTONS")
+            }
             other => panic!("unknown argument {other}"),
         }
     }
@@ -46,7 +55,11 @@ fn main() {
         spec.pose = pose;
         match run_trial(&spec) {
             Ok(log) => {
-                let steps = force_steps(&log).expect("force-step log");
+                let steps: Vec<StepFigures> = force_steps(&log)
+                    .expect("force-step log")
+                    .into_iter()
+                    .filter(|s| s.from_n.abs() <= within_n && s.to_n.abs() <= within_n)
+                    .collect();
                 if per_step {
                     for s in &steps {
                         println!(
@@ -70,7 +83,7 @@ fn main() {
     }
     let s = summarize(&all);
     let label = format!(
-        "{}{}{}{}",
+        "{}{}{}{}{}",
         if spec.closed_loop {
             "closed loop"
         } else {
@@ -90,6 +103,11 @@ fn main() {
             String::new()
         } else {
             format!(", {}", spec.effects.join(" "))
+        },
+        if within_n.is_finite() {
+            format!(", steps within ±{within_n} N")
+        } else {
+            String::new()
         },
     );
     println!(

@@ -15,9 +15,11 @@
 // Per-joint and per-channel loops index several parallel arrays at once (as in pam-model).
 #![allow(clippy::needless_range_loop)]
 
+pub mod config;
 pub mod effects;
 pub mod experiments;
 pub mod faults;
+pub mod harness;
 pub mod impedance_trial;
 pub mod plant;
 pub mod pneumatics;
@@ -25,6 +27,7 @@ pub mod rig;
 pub mod rng;
 pub mod simulate;
 pub mod step_metrics;
+pub mod tune;
 
 pub use effects::{Effect, EffectSet};
 pub use plant::{

@@ -1,187 +1,15 @@
 //! The plant: four I/P converters, four compressible muscles on two pulleys, two rigid
-//! segments, the handle and its surroundings, the sensors.
+//! segments, the handle and its surroundings, the sensors. Its configuration is in
+//! [`crate::config`] (re-exported here).
 
 use pam_model::cartesian::{coriolis_torques, joint_inertia};
 use pam_model::kinematics::Kinematics;
-use pam_model::{Mat2, RobotModel, RobotParams, Vec2};
+use pam_model::{Mat2, RobotModel, Vec2};
 
+pub use crate::config::{HandSpring, HandleCondition, MechanicsConfig, SensorConfig, TwinConfig};
 use crate::effects::{Ctx, EffectSet, HandleForces, MuscleView, RawSensors};
-use crate::pneumatics::{MuscleVolume, PneumaticConfig};
+use crate::pneumatics::MuscleVolume;
 use crate::rng::Rng;
-
-/// What holds the handle during one step.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum HandleCondition {
-    /// Nothing touches the handle (only the effects' environment forces act).
-    Free,
-    /// Mechanically blocked where it is (force-step tests, §5.2): the arm does not move and
-    /// the force on the blocks follows from statics, f = J⁻ᵀ τ.
-    Blocked,
-    /// A hand holds the handle through a stiff impedance toward a target: held still (zero
-    /// target velocity) in static trials, moved along a path in dynamic trials. The
-    /// interaction force comes out of the physics.
-    Hand(HandSpring),
-    /// Joint 1 locked at its present angle (chapter 3 validation set-up); joint 2 free, or
-    /// driven by a hand.
-    Joint1Locked(Option<HandSpring>),
-}
-
-/// A hand that imposes a motion: F_hand = K (x_target − x) + B (v_target − v), user frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HandSpring {
-    pub target_user_m: Vec2<f64>,
-    pub target_velocity_user_m_s: Vec2<f64>,
-    pub stiffness_n_per_m: f64,
-    pub damping_n_s_per_m: f64,
-}
-
-impl HandSpring {
-    /// Default hand: 5000 N/m, 100 N·s/m — stiff against the robot's 100–600 N/m, so the
-    /// path is followed within a few mm (a firm grip; human arm stiffness is 300–1000 N/m,
-    /// the operator co-contracts to impose a path).
-    pub const STIFFNESS_N_PER_M: f64 = 5000.0;
-    pub const DAMPING_N_S_PER_M: f64 = 100.0;
-
-    pub fn at(target_user_m: Vec2<f64>, target_velocity_user_m_s: Vec2<f64>) -> Self {
-        HandSpring {
-            target_user_m,
-            target_velocity_user_m_s,
-            stiffness_n_per_m: Self::STIFFNESS_N_PER_M,
-            damping_n_s_per_m: Self::DAMPING_N_S_PER_M,
-        }
-    }
-}
-
-impl HandleCondition {
-    /// Held still at a point of the user frame.
-    pub fn held_at(point_user_m: Vec2<f64>) -> Self {
-        HandleCondition::Hand(HandSpring::at(point_user_m, [0.0; 2]))
-    }
-    /// Moved by an operator: the path's position and velocity at this instant.
-    pub fn moved(position_user_m: Vec2<f64>, velocity_user_m_s: Vec2<f64>) -> Self {
-        HandleCondition::Hand(HandSpring::at(position_user_m, velocity_user_m_s))
-    }
-}
-
-/// The rig's sensors.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SensorConfig {
-    /// Encoder counts per revolution (after quadrature), per joint. The thesis does not give
-    /// the encoders' resolution; 10 000 (a 2500-line encoder) is an estimate.
-    pub encoder_counts_per_rev: [u32; 2],
-    /// Load-cell noise, standard deviation in N per sensor channel (estimate).
-    pub loadcell_noise_n: [f64; 2],
-    /// ADC resolution and input span (±span) of the load-cell channels (estimate).
-    pub adc_bits: u32,
-    pub adc_span_v: f64,
-}
-
-impl Default for SensorConfig {
-    fn default() -> Self {
-        SensorConfig {
-            encoder_counts_per_rev: [10_000; 2],
-            loadcell_noise_n: [0.15, 0.15],
-            adc_bits: 16,
-            adc_span_v: 10.0,
-        }
-    }
-}
-
-impl SensorConfig {
-    /// Perfect sensors (no quantization, no noise): for tests of the physics.
-    pub fn ideal() -> Self {
-        SensorConfig {
-            encoder_counts_per_rev: [0; 2],
-            loadcell_noise_n: [0.0; 2],
-            adc_bits: 0,
-            adc_span_v: 10.0,
-        }
-    }
-}
-
-/// Mechanical details of the arm beyond the model.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MechanicsConfig {
-    /// Viscous friction of each joint's bearings (small; estimate).
-    pub joint_damping_nm_s_per_rad: [f64; 2],
-    /// Hard stops this far beyond the joint range (the supervisor faults at 0.05 rad).
-    pub hard_stop_margin_rad: f64,
-    pub hard_stop_stiffness_nm_per_rad: f64,
-    pub hard_stop_damping_nm_s_per_rad: f64,
-    /// Passive stiffness in parallel with each muscle pair, rest at the neutral pose
-    /// (α = 0). Zero by default (the thesis's model); [`MechanicsConfig::identified_rig`]
-    /// calibrates it from the thesis's identified stiffness ([`crate::rig`]).
-    pub parallel_stiffness_nm_per_rad: [f64; 2],
-}
-
-impl MechanicsConfig {
-    /// The rig as the thesis measured it at point 1: the default mechanics plus the parallel
-    /// stiffness of [`crate::rig::parallel_stiffness_from_thesis`].
-    pub fn identified_rig() -> Self {
-        MechanicsConfig {
-            parallel_stiffness_nm_per_rad: crate::rig::parallel_stiffness_from_thesis(
-                &RobotParams::thesis(),
-            ),
-            ..Self::default()
-        }
-    }
-}
-
-impl Default for MechanicsConfig {
-    fn default() -> Self {
-        MechanicsConfig {
-            parallel_stiffness_nm_per_rad: [0.0; 2],
-            joint_damping_nm_s_per_rad: [0.05, 0.05],
-            hard_stop_margin_rad: 0.06,
-            hard_stop_stiffness_nm_per_rad: 3000.0,
-            hard_stop_damping_nm_s_per_rad: 30.0,
-        }
-    }
-}
-
-/// Everything that defines a twin.
-#[derive(Clone, Debug)]
-pub struct TwinConfig {
-    /// The plant's true parameters (the controller may believe others).
-    pub params: RobotParams<f64>,
-    pub effects: EffectSet,
-    pub sensors: SensorConfig,
-    pub pneumatics: PneumaticConfig,
-    pub mechanics: MechanicsConfig,
-    pub seed: u64,
-    pub initial_alpha_rad: Vec2<f64>,
-    /// Initial muscle pressures (channel order); `None`: vented (the converters' 0.1 bar floor).
-    pub initial_pressure_bar: Option<[f64; 4]>,
-    /// Longest integration step; `step(dt)` subdivides.
-    pub max_substep_s: f64,
-}
-
-impl TwinConfig {
-    pub fn new(params: RobotParams<f64>) -> Self {
-        TwinConfig {
-            params,
-            effects: EffectSet::none(),
-            sensors: SensorConfig::default(),
-            pneumatics: PneumaticConfig::default(),
-            mechanics: MechanicsConfig::default(),
-            seed: 0,
-            initial_alpha_rad: [0.0; 2],
-            initial_pressure_bar: None,
-            max_substep_s: 0.001,
-        }
-    }
-    pub fn thesis() -> Self {
-        Self::new(RobotParams::thesis())
-    }
-    /// [`TwinConfig::thesis`] with the rig's identified parallel stiffness
-    /// ([`MechanicsConfig::identified_rig`]).
-    pub fn identified_rig() -> Self {
-        TwinConfig {
-            mechanics: MechanicsConfig::identified_rig(),
-            ..Self::thesis()
-        }
-    }
-}
 
 /// One sample of the sensors, raw and converted.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -234,6 +62,8 @@ pub struct Twin {
     /// (joint, model muscle index) of each channel.
     channel_owner: [(usize, usize); 4],
     state: TrueState,
+    /// Where each joint's parallel element is anchored (it slips past its break-away).
+    parallel_anchor_rad: Vec2<f64>,
     rng: Rng,
 }
 
@@ -281,6 +111,7 @@ impl Twin {
                 handle_velocity_user_m_s: [0.0; 2],
                 force_on_holder_user_n: [0.0; 2],
             },
+            parallel_anchor_rad: alpha,
             cfg,
         };
         twin.state.handle_user_m = twin.model.kinematics.forward_user(alpha);
@@ -300,10 +131,29 @@ impl Twin {
         &self.effects
     }
 
+    /// The parallel element's torque on joint `j` (opposing the deflection from its anchor);
+    /// past the break-away the anchor slips along.
+    fn parallel_torque_nm(&mut self, j: usize) -> f64 {
+        let k = self.cfg.mechanics.parallel_stiffness_nm_per_rad[j];
+        if k == 0.0 {
+            return 0.0;
+        }
+        let reach = self.cfg.mechanics.parallel_breakaway_nm[j] / k;
+        let alpha = self.state.alpha_rad[j];
+        let deflection = alpha - self.parallel_anchor_rad[j];
+        if deflection > reach {
+            self.parallel_anchor_rad[j] = alpha - reach;
+        } else if deflection < -reach {
+            self.parallel_anchor_rad[j] = alpha + reach;
+        }
+        k * (alpha - self.parallel_anchor_rad[j])
+    }
+
     /// Puts the arm at rest at `alpha_rad` (e.g. before a blocked test at a pose).
     pub fn place(&mut self, alpha_rad: Vec2<f64>) {
         self.state.alpha_rad = alpha_rad;
         self.state.alpha_dot_rad_s = [0.0; 2];
+        self.parallel_anchor_rad = alpha_rad;
         self.state.handle_user_m = self.model.kinematics.forward_user(alpha_rad);
         self.state.handle_velocity_user_m_s = [0.0; 2];
     }
@@ -449,7 +299,9 @@ impl Twin {
             let ctx = self.ctx(h, blocked);
             for c in 0..4 {
                 let (j, _) = self.channel_owner[c];
-                let mut f = self.cfg.params.muscle.force_n(eps[c], p_force[c]).max(0.0);
+                let mut f = (self.cfg.mechanics.muscle_force_ratio
+                    * self.cfg.params.muscle.force_n(eps[c], p_force[c]))
+                .max(0.0);
                 let view = MuscleView {
                     channel: c,
                     joint: j,
@@ -469,7 +321,7 @@ impl Twin {
             let map = self.cfg.params.joints[j].channel_of_muscle;
             let r = self.cfg.params.joints[j].pulley_radius_m;
             torque[j] = r * (force[(map[1] & 3) as usize] - force[(map[0] & 3) as usize])
-                - self.cfg.mechanics.parallel_stiffness_nm_per_rad[j] * self.state.alpha_rad[j];
+                - self.parallel_torque_nm(j);
         }
         {
             let ctx = self.ctx(h, blocked);
@@ -638,5 +490,37 @@ impl Twin {
             force_user_n,
             pressure_bar: self.state.pressure_bar,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The identified rig's parallel element is a spring while it sticks and slips past its
+    /// break-away: placed at a pose it exerts nothing (no preload toward neutral), deflected
+    /// by half its reach it is a spring, deflected by three reaches it holds the break-away
+    /// and has re-anchored.
+    #[test]
+    fn parallel_element_sticks_then_slips() {
+        let mut cfg = TwinConfig::identified_rig();
+        cfg.initial_alpha_rad = [0.2, -0.3];
+        let k = cfg.mechanics.parallel_stiffness_nm_per_rad;
+        let tb = cfg.mechanics.parallel_breakaway_nm;
+        assert!(k[0] > 50.0 && k[1] > 10.0 && tb[0] > 1.0, "{k:?} {tb:?}");
+        let mut twin = Twin::new(cfg);
+        assert_eq!(twin.parallel_torque_nm(0), 0.0);
+        let reach = tb[0] / k[0];
+        twin.state.alpha_rad[0] = 0.2 + 0.5 * reach;
+        assert!((twin.parallel_torque_nm(0) - 0.5 * tb[0]).abs() < 1e-9);
+        twin.state.alpha_rad[0] = 0.2 + 3.0 * reach;
+        assert!((twin.parallel_torque_nm(0) - tb[0]).abs() < 1e-9);
+        // back by one reach from there: the spring now rests 2 reaches out
+        twin.state.alpha_rad[0] = 0.2 + 2.0 * reach;
+        assert!(twin.parallel_torque_nm(0).abs() < 1e-9);
+        // the default twin has none
+        let mut plain = Twin::new(TwinConfig::thesis());
+        plain.state.alpha_rad = [0.3, 0.3];
+        assert_eq!(plain.parallel_torque_nm(0), 0.0);
     }
 }

@@ -108,7 +108,8 @@ pub struct TrialSpec {
     pub gain_scale: f64,
     /// Impedance trial: the virtual stiffness (N/m) and damping (N·s/m), both axes.
     pub impedance: VirtualImpedance,
-    /// The rig with the stiffness the thesis identified (`TwinConfig::identified_rig`)
+    /// The rig as the thesis measured it: Table 5.2's force ratio and Fig. 4.3's stiffness
+    /// (`TwinConfig::identified_rig`)
     /// instead of the thesis's model. Default off.
     pub identified_rig: bool,
 }

@@ -103,7 +103,10 @@ fn bad_gains_are_caught_in_the_twin_before_the_force_runs_away() {
 }
 
 #[test]
-fn a_released_handle_in_impedance_mode_is_caught_by_the_speed_guard() {
+/// The released-handle detector (`Impedance::released`: the spring asks for force, the load
+/// cell reads almost none, the handle runs) faults within 90 ms and 1 cm; the speed guard
+/// alone took 107 ms and 2.1 cm (docs/closed-loop.md).
+fn a_released_handle_in_impedance_mode_is_caught_before_it_runs() {
     let cfg = TwinConfig::thesis();
     let mut twin = Twin::new(cfg.clone());
     let mut ctl = Controller::new(
@@ -156,6 +159,6 @@ fn a_released_handle_in_impedance_mode_is_caught_by_the_speed_guard() {
         at as i64 - 1000
     );
     assert!(at >= 1000, "faulted while held ({at} ms)");
-    assert!(at < 1300, "{} ms after the release", at - 1000);
-    assert!(moved_cm < 5.0, "{moved_cm:.1} cm");
+    assert!(at < 1090, "{} ms after the release", at - 1000);
+    assert!(moved_cm < 1.0, "{moved_cm:.1} cm");
 }

@@ -9,13 +9,18 @@ use pam_model::{Mat2, RobotModel};
 use pam_twin::experiments::*;
 use pam_twin::{HandleCondition, Twin, TwinConfig};
 
-/// The stiffness the twin's physics should show at point 1: the model's trial stiffness plus
-/// the rig's parallel stiffness (`pam_twin::rig`), mapped to the handle.
+/// The stiffness the twin's physics should show at point 1: the model's trial stiffness
+/// times the rig's muscle force ratio plus the rig's parallel stiffness (`pam_twin::rig`),
+/// mapped to the handle.
 fn expected_k(cfg: &ExperimentConfig, model: &RobotModel<f64>, level: StiffnessLevel) -> Mat2<f64> {
     let k_muscles = trial_stiffness(model, [0.0; 2], level);
+    let ratio = cfg.twin.mechanics.muscle_force_ratio;
     let k_parallel = cfg.twin.mechanics.parallel_stiffness_nm_per_rad;
     model
-        .cartesian_stiffness([0.0; 2], [0, 1].map(|j| k_muscles[j] + k_parallel[j]))
+        .cartesian_stiffness(
+            [0.0; 2],
+            [0, 1].map(|j| ratio * k_muscles[j] + k_parallel[j]),
+        )
         .unwrap()
 }
 

@@ -14,6 +14,7 @@ pub mod sim;
 pub mod simulate;
 pub mod status;
 pub mod tare;
+pub mod tune;
 pub mod watch;
 
 use crate::link::{transport::no_device_message, Client};

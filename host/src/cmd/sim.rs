@@ -31,8 +31,8 @@ pub struct SimArgs {
     /// Stop after this many seconds (default: until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     pub seconds: Option<f64>,
-    /// Simulate the rig with the stiffness the thesis identified (a parallel joint stiffness,
-    /// host-libs/twin/README.md) instead of the thesis's model.
+    /// Simulate the rig as the thesis measured it (0.57 of the model's muscle force, Table 5.2,
+    /// and a parallel joint stiffness, Fig. 4.3: docs/closed-loop.md) instead of its model.
     #[arg(long)]
     pub identified_rig: bool,
     /// Inject a fault at a time of the emulated clock, `KIND@SECONDS` (repeatable): a plant

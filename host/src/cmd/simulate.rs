@@ -61,8 +61,8 @@ pub struct SimulateArgs {
     /// Impedance trial: virtual damping BX,BY, N·s/m.
     #[arg(long, value_delimiter = ',', default_values_t = [5.0, 5.0], value_name = "BX,BY")]
     pub virtual_b_n_s_per_m: Vec<f64>,
-    /// Simulate the rig with the stiffness the thesis identified (host-libs/twin/README.md)
-    /// instead of the thesis's model.
+    /// Simulate the rig as the thesis measured it (0.57 of the model's muscle force, Table 5.2,
+    /// and a parallel joint stiffness, Fig. 4.3: docs/closed-loop.md) instead of its model.
     #[arg(long)]
     pub identified_rig: bool,
     /// The log to write (CSV, log format v1, docs/log-format.md).

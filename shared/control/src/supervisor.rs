@@ -463,6 +463,7 @@ impl Controller {
                             x_m,
                             self.impedance.velocity_m_s(),
                         );
+                        let released = self.impedance.released(f_ref, force_user_n, dt);
                         let fl = self.force_loop.step_direct(
                             &self.force_loop_cfg,
                             ip,
@@ -472,7 +473,7 @@ impl Controller {
                             self.last_saturated,
                             dt,
                         );
-                        if fl.trip.is_some() || too_fast {
+                        if fl.trip.is_some() || too_fast || released {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
