@@ -76,7 +76,7 @@ pub fn minimize(
                 cost = c;
                 lambda = (lambda * 0.3).max(1e-12);
                 improved = true;
-                if rel < 1e-10 {
+                if rel < 1e-6 {
                     return (theta, cost);
                 }
                 break;

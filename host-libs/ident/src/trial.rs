@@ -276,6 +276,59 @@ impl Prepared {
     pub fn len(&self) -> usize {
         self.t_s.len()
     }
+
+    /// Every `stride`-th sample (from the first): the signals are already low-passed far
+    /// below the new Nyquist frequency (the derivative filter's cutoff is ≤ 0.45 × the
+    /// original rate, 8 Hz by default), so only the force's noise is subsampled. The
+    /// held-out part stays the last fifth.
+    pub fn every(&self, stride: usize) -> Prepared {
+        self.decimated(stride, false)
+    }
+
+    /// Like [`Prepared::every`], with the commands (force reference, currents) averaged over
+    /// each new period instead of picked: the step model holds a sample's command until the
+    /// next one, so the mean keeps where within the period a step happened (a picked step
+    /// would move to the period's end, a delay of half a period on average).
+    pub fn every_with_mean_commands(&self, stride: usize) -> Prepared {
+        self.decimated(stride, true)
+    }
+
+    fn decimated(&self, stride: usize, mean_commands: bool) -> Prepared {
+        if stride <= 1 {
+            return self.clone();
+        }
+        let pick = |v: &Vec<f64>| v.iter().step_by(stride).copied().collect::<Vec<f64>>();
+        let pick2 = |v: &[Vec<f64>; 2]| [pick(&v[0]), pick(&v[1])];
+        let command = |v: &Vec<f64>| {
+            if mean_commands {
+                v.chunks(stride)
+                    .map(|c| c.iter().sum::<f64>() / c.len() as f64)
+                    .collect::<Vec<f64>>()
+            } else {
+                pick(v)
+            }
+        };
+        let t_s = pick(&self.t_s);
+        let n = t_s.len();
+        Prepared {
+            t_s,
+            dt_s: self.dt_s * stride as f64,
+            alpha_rad: pick2(&self.alpha_rad),
+            x_m: pick2(&self.x_m),
+            dx_m: pick2(&self.dx_m),
+            x0_m: self.x0_m,
+            v_m_s: pick2(&self.v_m_s),
+            a_m_s2: pick2(&self.a_m_s2),
+            force_n: pick2(&self.force_n),
+            force_ref_n: self.force_ref_n.as_ref().map(|r| r.each_ref().map(command)),
+            alpha_smooth_rad: pick2(&self.alpha_smooth_rad),
+            alpha0_rad: self.alpha0_rad,
+            current_ma: self.current_ma.as_ref().map(|c| c.each_ref().map(command)),
+            split: (n * 4) / 5,
+            resampled: self.resampled,
+            cutoff_hz: self.cutoff_hz,
+        }
+    }
     pub fn is_empty(&self) -> bool {
         self.t_s.is_empty()
     }

@@ -46,6 +46,7 @@ pub fn prepare_with_best_cutoff(
             ..filter
         };
         let p = trial.prepare(model, settings)?;
+        let p = p.every(shape_stride(p.dt_s));
         let y = msd::target(&p);
         let mut cols = msd::msd_columns(&p);
         cols.extend(offset_columns(p.len()));
@@ -72,7 +73,9 @@ pub(super) fn offset_columns(n: usize) -> [Column; 2] {
     ]
 }
 
-/// Row stride of the cheap fits that choose shape parameters (5 ms).
+/// Row stride of the cheap fits that choose shape parameters (5 ms), and of a dynamic
+/// trial's analysis: after the derivative filter (8 Hz) a dynamic trial carries nothing a
+/// 200 Hz grid loses, and every statistic the verdict rests on was already computed on it.
 pub(super) fn shape_stride(dt_s: f64) -> usize {
     ((0.005 / dt_s).floor() as usize).max(1)
 }

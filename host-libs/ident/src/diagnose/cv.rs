@@ -5,7 +5,8 @@
 //! on the rest and scored on it. Normal equations add over rows, so each candidate's
 //! per-block normal equations are computed once and every fold's training normal is the
 //! total minus its block: a fold costs a few small solves, not a pass over the data.
-//! Scores use every `shape_stride`-th row (5 ms), as the shape choice does.
+//! Scores use every `shape_stride`-th row (5 ms) on one grid over the whole trial
+//! ([`lsq::grid_rows`]), as the shape choice does, so the blocks' sums add up.
 
 use super::*;
 use std::ops::Range;
@@ -94,7 +95,7 @@ impl<'a> Loop<'a> {
             for r in &blocks {
                 let (mut s2, mut st) = (0.0, 0.0);
                 for a in 0..2 {
-                    let v: Vec<f64> = y[a][r.clone()].iter().step_by(stride).copied().collect();
+                    let v: Vec<f64> = lsq::grid_rows(r.clone(), stride).map(|i| y[a][i]).collect();
                     let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
                     s2 += v.iter().map(|x| x * x).sum::<f64>();
                     st += v.iter().map(|x| (x - m).powi(2)).sum::<f64>();
@@ -145,10 +146,8 @@ impl<'a> Loop<'a> {
                 .map(|r| {
                     (0..2)
                         .map(|a| {
-                            t.y[a][r.clone()]
-                                .iter()
-                                .step_by(c.stride)
-                                .map(|v| v * v)
+                            lsq::grid_rows(r.clone(), c.stride)
+                                .map(|i| t.y[a][i] * t.y[a][i])
                                 .sum::<f64>()
                         })
                         .sum()

@@ -313,6 +313,11 @@ impl<'a> Loop<'a> {
         } else {
             trial.prepare(model, settings.filter)?
         };
+        if experiment == Experiment::Dynamic {
+            // multirate: filtered at the log's rate, analysed on a 5 ms grid (a no-op when
+            // the best cutoff already decimated it)
+            p = p.every(shape_stride(p.dt_s));
+        }
         if experiment == Experiment::Step && p.force_ref_n.is_none() {
             return Err(crate::IdentError::NoForceReference);
         }
@@ -341,6 +346,10 @@ impl<'a> Loop<'a> {
                 avg(&|q| q.omega_n_rad_s, 20.0),
                 [init[0].gain, init[1].gain],
             ));
+            // multirate: the steps are found on the log's rate; the model, simulated on
+            // every sample, is fitted on a 5 ms grid (its residuals were already scored
+            // there), with the commands averaged over each period
+            p = p.every_with_mean_commands(shape_stride(p.dt_s));
             let (d, base, commanded) = choose_drive(&p, model, step_init.expect("set above"))
                 .ok_or(crate::IdentError::NoForceReference)?;
             *base_step.lock().expect("base cache") = Some(base);

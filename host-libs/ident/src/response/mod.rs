@@ -228,16 +228,26 @@ impl Drive {
     /// The handle force at sample `i` with the channels at `x`.
     #[inline]
     fn handle_force(&self, i: usize, axis: usize, x: &[f64; 4]) -> f64 {
-        let c = &self.coeff[i][axis];
+        self.axis_force(i, axis, &self.channel_forces(i, x))
+    }
+
+    /// Each channel's force at sample `i` with the channels at `x` (F_k of [`Drive::coeff`]).
+    #[inline]
+    pub(super) fn channel_forces(&self, i: usize, x: &[f64; 4]) -> [f64; 4] {
         match &self.force_law {
             Some(law) => {
                 let l = &law[i];
-                (0..self.channels())
-                    .map(|k| c[k] * (l[k][0] * x[k] + l[k][1]).max(0.0))
-                    .sum()
+                std::array::from_fn(|k| (l[k][0] * x[k] + l[k][1]).max(0.0))
             }
-            None => (0..self.channels()).map(|k| c[k] * x[k]).sum(),
+            None => *x,
         }
+    }
+
+    /// Axis `axis`'s handle force from the channels' forces at sample `i`.
+    #[inline]
+    pub(super) fn axis_force(&self, i: usize, axis: usize, f: &[f64; 4]) -> f64 {
+        let c = &self.coeff[i][axis];
+        (0..self.channels()).map(|k| c[k] * f[k]).sum()
     }
 
     /// The handle force the set-points command (the response's steady state at gain 1).
