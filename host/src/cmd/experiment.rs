@@ -17,10 +17,11 @@
 //! handle in force mode (step), `--handle held` holds it at the joint target (static).
 
 use super::record::{columns, row, Clock};
-use crate::link::{Client, DropCounter};
 use crate::LinkArgs;
+use anyhow::Context;
 use clap::{Args, Subcommand, ValueEnum};
 use pam_control::{Mode, State};
+use pam_link::{fault_names, Client, DropCounter};
 use pam_log::LogWriter;
 use pam_model::protocols::{
     static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
@@ -118,11 +119,11 @@ struct Trial {
 }
 
 impl Session<'_> {
-    fn request(&self, body: RequestBody) -> Result<(), String> {
-        self.client.command(body).map_err(|e| e.to_string())
+    fn request(&self, body: RequestBody) -> anyhow::Result<()> {
+        Ok(self.client.command(body)?)
     }
 
-    fn set_mode(&self, mode: Mode) -> Result<(), String> {
+    fn set_mode(&self, mode: Mode) -> anyhow::Result<()> {
         self.request(RequestBody::SetMode(mode.into()))
     }
 
@@ -133,26 +134,22 @@ impl Session<'_> {
         seconds: f64,
         mut trial: Option<&mut Trial>,
         label: &str,
-    ) -> Result<(), String> {
+    ) -> anyhow::Result<()> {
         let start = Instant::now();
         let mut last_progress = Instant::now() - Duration::from_secs(1);
         while start.elapsed().as_secs_f64() < seconds {
             if self.stop.load(Ordering::SeqCst) {
-                return Err("interrupted (Ctrl-C)".into());
+                return Err(anyhow::anyhow!("interrupted (Ctrl-C)"));
             }
             if self.last_beat.elapsed() >= Duration::from_millis(25) {
-                self.client.heartbeat().map_err(|e| e.to_string())?;
+                self.client.heartbeat()?;
                 self.last_beat = Instant::now();
             }
-            while let Some(t) = self
-                .client
-                .next_telemetry(Duration::from_millis(5))
-                .map_err(|e| e.to_string())?
-            {
+            while let Some(t) = self.client.next_telemetry(Duration::from_millis(5))? {
                 if t.state == State::Faulted {
-                    return Err(format!(
+                    return Err(anyhow::anyhow!(
                         "the device faulted ({}); the robot is in its safe state",
-                        super::fault_names(t.faults)
+                        fault_names(t.faults)
                     ));
                 }
                 self.alpha_rad = Some([t.alpha_rad[0] as f64, t.alpha_rad[1] as f64]);
@@ -163,7 +160,7 @@ impl Session<'_> {
                         tr.last_t = t_s;
                         tr.writer
                             .write_row(&row(&t, t_s, tr.with_force_ref))
-                            .map_err(|e| format!("cannot write {}: {e}", tr.path.display()))?;
+                            .with_context(|| format!("cannot write {}", tr.path.display()))?;
                     }
                 }
                 if self.last_beat.elapsed() >= Duration::from_millis(25) {
@@ -197,11 +194,11 @@ impl Session<'_> {
         k: Vec2<f64>,
         settle_s: f64,
         label: &str,
-    ) -> Result<(), String> {
+    ) -> anyhow::Result<()> {
         if self.alpha_rad.is_none() {
             self.run_for(0.05, None, label)?;
         }
-        let from = self.alpha_rad.ok_or("no telemetry from the device")?;
+        let from = self.alpha_rad.context("no telemetry from the device")?;
         let ramp_s = MOVE_S_PER_RAD * (alpha[0] - from[0]).abs().max((alpha[1] - from[1]).abs());
         let steps = (ramp_s / 0.02).ceil().max(1.0) as usize;
         for i in 1..=steps {
@@ -218,7 +215,7 @@ impl Session<'_> {
 
     /// Tells the operator what to do; waits for Enter unless `--yes` or no terminal (the
     /// link stays alive meanwhile).
-    fn prompt(&mut self, message: &str) -> Result<(), String> {
+    fn prompt(&mut self, message: &str) -> anyhow::Result<()> {
         let _ = writeln!(self.progress, ">>> {message}");
         if self.yes || !std::io::stdin().is_terminal() {
             return Ok(());
@@ -240,15 +237,14 @@ impl Session<'_> {
 /// Joint-target ramp speed for [`Session::move_to`]: 10 s per radian (≈ 5.7°/s).
 const MOVE_S_PER_RAD: f64 = 10.0;
 
-fn device_model(client: &Client) -> Result<RobotModel<f64>, String> {
-    match client
-        .request(RequestBody::GetConfig(ConfigSection::Robot))
-        .map_err(|e| e.to_string())?
-    {
+fn device_model(client: &Client) -> anyhow::Result<RobotModel<f64>> {
+    match client.request(RequestBody::GetConfig(ConfigSection::Robot))? {
         ReplyData::Config(Config::Robot(p)) => Ok(RobotModel::new(
             pam_model::RobotParams::<f32>::from(p).cast(),
         )),
-        _ => Err("the device answered config get robot with the wrong kind of reply".into()),
+        _ => Err(anyhow::anyhow!(
+            "the device answered config get robot with the wrong kind of reply"
+        )),
     }
 }
 
@@ -279,19 +275,21 @@ fn point_trial(
     )
 }
 
-fn points(point: Option<usize>) -> Result<Vec<usize>, String> {
+fn points(point: Option<usize>) -> anyhow::Result<Vec<usize>> {
     match point {
         Some(p) if (1..=5).contains(&p) => Ok(vec![p]),
-        Some(p) => Err(format!("--point {p}: the Table 4.1 points are 1–5")),
+        Some(p) => Err(anyhow::anyhow!("--point {p}: the Table 4.1 points are 1–5")),
         None => Ok((1..=5).collect()),
     }
 }
 
-fn positive(name: &str, v: f64) -> Result<(), String> {
+fn positive(name: &str, v: f64) -> anyhow::Result<()> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(format!("{name} {v}: give a positive number of seconds"))
+        Err(anyhow::anyhow!(
+            "{name} {v}: give a positive number of seconds"
+        ))
     }
 }
 
@@ -301,7 +299,7 @@ fn open_trial(
     name: &str,
     with_force_ref: bool,
     meta: &[(&str, String)],
-) -> Result<Trial, String> {
+) -> anyhow::Result<Trial> {
     let path = dir.join(name);
     let info = client.info();
     let mut all: Vec<(&str, String)> = meta.to_vec();
@@ -324,7 +322,7 @@ fn open_trial(
     ]);
     let meta_ref: Vec<(&str, &str)> = all.iter().map(|(k, v)| (*k, v.as_str())).collect();
     let writer = LogWriter::create(&path, &columns(with_force_ref), &meta_ref)
-        .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+        .with_context(|| format!("cannot create {}", path.display()))?;
     Ok(Trial {
         writer,
         path,
@@ -335,18 +333,17 @@ fn open_trial(
     })
 }
 
-fn close_trial(trial: Trial, out: &mut dyn Write) -> Result<PathBuf, String> {
+fn close_trial(trial: Trial, out: &mut dyn Write) -> anyhow::Result<PathBuf> {
     let (rows, dropped, path) = (trial.writer.rows(), trial.drops.dropped, trial.path.clone());
     trial
         .writer
         .finish()
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        .with_context(|| format!("cannot write {}", path.display()))?;
     writeln!(
         out,
         "wrote {} ({rows} samples, {dropped} dropped on the link)",
         path.display()
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     Ok(path)
 }
 
@@ -359,16 +356,12 @@ fn joint_mode(alpha: Vec2<f64>, k: Vec2<f64>) -> Mode {
 }
 
 /// Arms the device if needed (it must be homed and free of faults).
-fn arm(s: &mut Session) -> Result<(), String> {
-    match s
-        .client
-        .request(RequestBody::GetStatus)
-        .map_err(|e| e.to_string())?
-    {
+fn arm(s: &mut Session) -> anyhow::Result<()> {
+    match s.client.request(RequestBody::GetStatus)? {
         ReplyData::Status(st) if st.state == State::Armed => Ok(()),
-        ReplyData::Status(st) if st.state == State::Faulted => Err(format!(
+        ReplyData::Status(st) if st.state == State::Faulted => Err(anyhow::anyhow!(
             "the device is faulted ({}): `pamctl disarm`, `pamctl fault clear`, then try again",
-            super::fault_names(st.faults)
+            fault_names(st.faults)
         )),
         _ => s.request(RequestBody::Arm),
     }
@@ -381,19 +374,14 @@ pub fn experiment(
     stop: &AtomicBool,
     out: &mut dyn Write,
     progress: &mut dyn Write,
-) -> Result<Vec<PathBuf>, String> {
+) -> anyhow::Result<Vec<PathBuf>> {
     positive("--settle-s", args.settle_s)?;
     std::fs::create_dir_all(&args.out)
-        .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
     let model = device_model(client)?;
-    if let ReplyData::Status(st) = client
-        .request(RequestBody::GetStatus)
-        .map_err(|e| e.to_string())?
-    {
+    if let ReplyData::Status(st) = client.request(RequestBody::GetStatus)? {
         if st.telemetry_divider != 1 {
-            client
-                .command(RequestBody::SetTelemetry { divider: 1 })
-                .map_err(|e| e.to_string())?;
+            client.command(RequestBody::SetTelemetry { divider: 1 })?;
         }
     }
     client.start_telemetry();
@@ -418,7 +406,7 @@ fn run_trials(
     args: &ExperimentArgs,
     out: &mut dyn Write,
     files: &mut Vec<PathBuf>,
-) -> Result<(), String> {
+) -> anyhow::Result<()> {
     match &args.kind {
         ExperimentKind::Static {
             point,
@@ -516,7 +504,7 @@ fn run_trials(
                 poses.clone()
             };
             if let Some(bad) = poses.iter().find(|&&i| i > 8) {
-                return Err(format!("--pose {bad}: the nine poses are 0–8"));
+                return Err(anyhow::anyhow!("--pose {bad}: the nine poses are 0–8"));
             }
             for i in poses {
                 let pose_deg = STEP_POSES_DEG[i];
@@ -592,9 +580,14 @@ fn meta_trial(
     ]
 }
 
-pub fn run(args: ExperimentArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+pub fn run(args: ExperimentArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
     let stop = super::interrupted();
     let files = experiment(&client, &args, &stop, out, &mut std::io::stderr())?;
-    writeln!(out, "{} log(s) in {}", files.len(), args.out.display()).map_err(|e| e.to_string())
+    Ok(writeln!(
+        out,
+        "{} log(s) in {}",
+        files.len(),
+        args.out.display()
+    )?)
 }

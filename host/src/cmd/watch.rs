@@ -6,9 +6,9 @@
 //! It keeps the link alive (heartbeats), like `record`.
 
 use super::status::state_name;
-use crate::link::{Client, DropCounter};
 use crate::LinkArgs;
 use clap::Args;
+use pam_link::{fault_names, Client, DropCounter};
 use pam_protocol::{ModeKind, ReplyData, RequestBody, Telemetry};
 use std::collections::VecDeque;
 use std::io::{IsTerminal, Write};
@@ -152,7 +152,7 @@ impl View {
             t.current_ma[1],
             t.current_ma[2],
             t.current_ma[3],
-            super::fault_names(t.faults),
+            fault_names(t.faults),
             exec,
             exec_max,
             jitter_max,
@@ -179,7 +179,7 @@ impl View {
                 Some(f) => format!(" (target {:+.2}, {:+.2} N)", f[0], f[1]),
                 None => String::new(),
             },
-            super::fault_names(t.faults)
+            fault_names(t.faults)
         ));
         lines.push(format!(
             "device time {:.3} s   samples {}   dropped {}   loop {} µs (max {} µs over 1 s)   jitter max {} µs{}",
@@ -264,21 +264,18 @@ pub fn watch(
     client: &Client,
     args: &WatchArgs,
     stop: &AtomicBool,
-    mut draw: impl FnMut(&View) -> Result<(), String>,
-) -> Result<View, String> {
+    mut draw: impl FnMut(&View) -> anyhow::Result<()>,
+) -> anyhow::Result<View> {
     if let Some(s) = args.seconds {
         if !(s.is_finite() && s > 0.0) {
-            return Err(format!("--seconds {s}: give a positive number of seconds"));
+            return Err(anyhow::anyhow!(
+                "--seconds {s}: give a positive number of seconds"
+            ));
         }
     }
-    if let ReplyData::Status(s) = client
-        .request(RequestBody::GetStatus)
-        .map_err(|e| e.to_string())?
-    {
+    if let ReplyData::Status(s) = client.request(RequestBody::GetStatus)? {
         if s.telemetry_divider == 0 {
-            client
-                .command(RequestBody::SetTelemetry { divider: 1 })
-                .map_err(|e| e.to_string())?;
+            client.command(RequestBody::SetTelemetry { divider: 1 })?;
         }
     }
     let mut view = View::new(args.window);
@@ -290,13 +287,10 @@ pub fn watch(
     let mut last_draw = Instant::now();
     while !stop.load(Ordering::SeqCst) && limit.is_none_or(|l| start.elapsed().as_secs_f64() < l) {
         if last_beat.elapsed() >= Duration::from_millis(25) {
-            client.heartbeat().map_err(|e| e.to_string())?;
+            client.heartbeat()?;
             last_beat = Instant::now();
         }
-        while let Some(t) = client
-            .next_telemetry(Duration::from_millis(5))
-            .map_err(|e| e.to_string())?
-        {
+        while let Some(t) = client.next_telemetry(Duration::from_millis(5))? {
             view.push(&t);
             if last_beat.elapsed() >= Duration::from_millis(25) {
                 break;
@@ -310,22 +304,21 @@ pub fn watch(
     Ok(view)
 }
 
-pub fn run(args: WatchArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+pub fn run(args: WatchArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
     let device = link.device.clone().unwrap_or_default();
     let stop = super::interrupted();
-    let io = |e: std::io::Error| e.to_string();
     let live = !args.once && !args.plain && std::io::stdout().is_terminal();
     if args.once {
         let view = watch(&client, &args, &stop, |_| Ok(()))?;
         for l in view.render(&device) {
-            writeln!(out, "{l}").map_err(io)?;
+            writeln!(out, "{l}")?;
         }
         return Ok(());
     }
     if live {
         // hide the cursor, clear; every frame rewrites from the top
-        write!(out, "\x1b[?25l\x1b[2J").map_err(io)?;
+        write!(out, "\x1b[?25l\x1b[2J")?;
         let result = watch(&client, &args, &stop, |v| {
             let mut frame = String::from("\x1b[H");
             for l in v.render(&device) {
@@ -333,24 +326,23 @@ pub fn run(args: WatchArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), 
                 frame.push_str("\x1b[K\r\n");
             }
             frame.push_str("\x1b[J");
-            out.write_all(frame.as_bytes())
-                .and_then(|_| out.flush())
-                .map_err(io)
+            out.write_all(frame.as_bytes())?;
+            Ok(out.flush()?)
         });
-        write!(out, "\x1b[?25h").map_err(io)?;
+        write!(out, "\x1b[?25h")?;
         let view = result?;
-        writeln!(out, "{}", view.summary()).map_err(io)?;
+        writeln!(out, "{}", view.summary())?;
         return Ok(());
     }
     let mut last_line = Instant::now() - Duration::from_secs(1);
     let view = watch(&client, &args, &stop, |v| {
         if last_line.elapsed() >= Duration::from_secs(1) {
             last_line = Instant::now();
-            writeln!(out, "{}", v.summary()).map_err(io)?;
+            writeln!(out, "{}", v.summary())?;
         }
         Ok(())
     })?;
-    writeln!(out, "{}", view.summary()).map_err(io)
+    Ok(writeln!(out, "{}", view.summary())?)
 }
 
 #[cfg(test)]
