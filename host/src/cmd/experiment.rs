@@ -12,9 +12,10 @@
 //!
 //! The stiffnesses and poses are pam-model's thesis protocols (`pam_model::protocols`, the
 //! same the twin runs), computed from the robot parameters the device reports, and the
-//! files carry the same metadata keys as the twin's logs, so the identification tools read both alike. On the emulator,
-//! `pamctl sim --handle operator` plays the operator (dynamic), `--handle blocked` blocks the
-//! handle in force mode (step), `--handle held` holds it at the joint target (static).
+//! files carry the same metadata keys as the twin's logs, so the identification tools read
+//! both alike. On the emulator, `pamctl sim --handle operator` plays the operator (dynamic),
+//! `--handle blocked` blocks the handle in force mode (step), `--handle held` holds it at the
+//! joint target (static).
 
 use crate::LinkArgs;
 use anyhow::Context;
