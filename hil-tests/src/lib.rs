@@ -1,11 +1,11 @@
 //! Support for the end-to-end tests: the device under test is `PAM_DEVICE` (a real board,
 //! `/dev/ttyACM0`, or any `tcp://HOST:PORT`), or — when it is unset, as in CI — an emulator
 //! (`pamctl sim --listen 127.0.0.1:0`) started for the test. Tests talk to it only through
-//! the `pamctl` binary and the protocol client (`pamctl::link::Client`).
+//! the `pamctl` binary and the protocol client (`pam_link::Client`).
 
 use pam_control::SafetyConfig;
+use pam_link::Client;
 use pam_protocol::{Config, ConfigSection, ReplyData, RequestBody};
-use pamctl::link::Client;
 use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
 use std::process::{Child, ChildStdin, Command, Stdio};

@@ -3,8 +3,8 @@
 //! of the fault, and whether the telemetry before it arrived without a gap.
 
 use pam_control::{Faults, State};
+use pam_link::Client;
 use pam_protocol::{ReplyData, RequestBody, Telemetry};
-use pamctl::link::Client;
 use std::time::{Duration, Instant};
 
 /// The safe loop current.
@@ -32,7 +32,7 @@ impl Measured {
     pub fn row(&self, scenario: &str) -> String {
         format!(
             "| {scenario} | {} (0x{:04x}) | {} | {} | {} samples, {} gaps |",
-            pamctl::cmd::fault_names(self.faults),
+            pam_link::fault_names(self.faults),
             self.faults,
             self.raised_periods,
             self.safe_periods,

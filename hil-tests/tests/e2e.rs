@@ -6,11 +6,11 @@
 
 use pam_control::{Faults, Mode, State};
 use pam_hil_tests::{column, exclusive, mean_of_last, ok, pamctl, seq_gaps, tmp, Target};
+use pam_link::{Client, LinkError};
 use pam_log::col;
 use pam_protocol::{
     encode_frame, ErrorCode, ModeKind, ReplyData, Request, RequestBody, Telemetry, MAX_FRAME,
 };
-use pamctl::link::{Client, ClientError};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -336,7 +336,7 @@ fn out_of_range_target_is_refused_and_the_state_is_unchanged() {
         },
     ] {
         match c.request(RequestBody::SetMode(bad.into())) {
-            Err(ClientError::Refused {
+            Err(LinkError::Refused {
                 code: ErrorCode::OutOfRange,
                 ..
             }) => {}

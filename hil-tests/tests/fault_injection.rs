@@ -9,8 +9,8 @@
 use pam_control::{Faults, Mode, State};
 use pam_hil_tests::measure::{measure, Measured};
 use pam_hil_tests::{exclusive, Target};
+use pam_link::Client;
 use pam_protocol::{ReplyData, RequestBody, Telemetry};
-use pamctl::link::Client;
 use std::time::Duration;
 
 const SIM: &[&str] = &["--handle", "blocked"];
@@ -392,7 +392,7 @@ fn nan_and_out_of_range_targets_change_nothing() {
     let samples = stream_while(&c, 1.0, |c| {
         let mode = bad[sent % bad.len()];
         match c.request(RequestBody::SetMode(mode.into())) {
-            Err(pamctl::link::ClientError::Refused {
+            Err(pam_link::LinkError::Refused {
                 code: pam_protocol::ErrorCode::OutOfRange,
                 ..
             }) => refused += 1,

@@ -2,8 +2,7 @@
 //! Logic lives here, one module per subcommand; `main.rs` only parses and reports.
 
 pub mod cmd;
-pub mod link;
-pub mod sim;
+pub mod report;
 
 use clap::{Args, Parser, Subcommand};
 
@@ -75,7 +74,7 @@ pub enum Command {
     Tune(cmd::tune::TuneArgs),
 }
 
-pub fn run(cli: Cli) -> Result<(), String> {
+pub fn run(cli: Cli) -> anyhow::Result<()> {
     let out = &mut std::io::stdout();
     let link = &cli.link;
     match cli.command {

@@ -3,7 +3,7 @@ use clap::Parser;
 fn main() {
     let cli = pamctl::Cli::parse();
     if let Err(e) = pamctl::run(cli) {
-        eprintln!("error: {e}");
+        eprintln!("{}", pamctl::report::render(&e));
         std::process::exit(1);
     }
 }

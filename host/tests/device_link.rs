@@ -3,8 +3,8 @@
 
 mod support;
 
+use pam_link::{Client, DropCounter, LinkError};
 use pam_protocol::{ErrorCode, ReplyData, RequestBody};
-use pamctl::link::{Client, ClientError, DropCounter};
 use std::process::{Command, Output};
 use std::time::Duration;
 use support::{Options, TestDevice};
@@ -128,7 +128,7 @@ fn schema_fingerprint_mismatch_is_refused_and_explained() {
     );
     // the link client refuses it with a typed error, before any other request
     match Client::connect(&d.address, Duration::from_secs(2)) {
-        Err(ClientError::Fingerprint { host, device }) => {
+        Err(LinkError::Fingerprint { host, device }) => {
             assert_eq!(host, pam_protocol::SCHEMA_FINGERPRINT);
             assert_eq!(device, support::OTHER_FINGERPRINT);
         }
@@ -470,7 +470,7 @@ fn garbage_on_the_link_gets_a_malformed_reply_and_the_link_recovers() {
         .unwrap_err();
     assert!(matches!(
         e,
-        pamctl::link::ClientError::Refused {
+        pam_link::LinkError::Refused {
             code: ErrorCode::NotHomed,
             ..
         }

@@ -255,8 +255,12 @@ fn firmware() -> Result<(), ()> {
     let elf = target.join("thumbv7em-none-eabihf/release/pam-firmware");
     let bytes =
         std::fs::read(&elf).map_err(|e| eprintln!("xtask: cannot read {}: {e}", elf.display()))?;
-    let (flash, ram) = elf32_sizes(&bytes)
-        .ok_or_else(|| eprintln!("xtask: {} is not a 32-bit little-endian ELF", elf.display()))?;
+    let (flash, ram) = elf32_sizes(&bytes).map_err(|e| {
+        eprintln!(
+            "xtask: {} is not a 32-bit little-endian ELF: {e}",
+            elf.display()
+        )
+    })?;
     println!(
         "firmware: flash {flash} B ({:.1} KiB of {} KiB), static RAM {ram} B ({:.1} KiB of {} KiB)",
         flash as f64 / 1024.0,
@@ -274,31 +278,82 @@ fn firmware() -> Result<(), ()> {
 /// (flash, static RAM) of an ELF32 image: flash is every allocated section with contents
 /// (code, read-only data, the initial values of .data); RAM is every allocated writable
 /// section (.data, .bss, .uninit). The stack is not counted: it takes what RAM is left.
-fn elf32_sizes(b: &[u8]) -> Option<(u64, u64)> {
-    const SHT_NOBITS: u32 = 8;
-    const SHF_WRITE: u32 = 1;
-    const SHF_ALLOC: u32 = 2;
-    if b.len() < 52 || &b[0..4] != b"\x7fELF" || b[4] != 1 || b[5] != 1 {
-        return None;
-    }
-    let u16_at = |o: usize| Some(u16::from_le_bytes(b.get(o..o + 2)?.try_into().ok()?));
-    let u32_at = |o: usize| Some(u32::from_le_bytes(b.get(o..o + 4)?.try_into().ok()?));
-    let shoff = u32_at(32)? as usize;
-    let shentsize = u16_at(46)? as usize;
-    let shnum = u16_at(48)? as usize;
+fn elf32_sizes(b: &[u8]) -> Result<(u64, u64), object::Error> {
+    use object::elf::{SHF_ALLOC, SHF_WRITE, SHT_NOBITS};
+    use object::read::elf::{ElfFile32, SectionHeader};
+    let file = ElfFile32::<object::LittleEndian>::parse(b)?;
+    let endian = file.endian();
     let (mut flash, mut ram) = (0u64, 0u64);
-    for i in 0..shnum {
-        let h = shoff + i * shentsize;
-        let (kind, flags, size) = (u32_at(h + 4)?, u32_at(h + 8)?, u32_at(h + 20)? as u64);
-        if flags & SHF_ALLOC == 0 {
+    for h in file.elf_section_table().iter() {
+        let (kind, flags, size) = (h.sh_type(endian), h.sh_flags(endian), h.sh_size(endian));
+        if !flags.contains(SHF_ALLOC) {
             continue;
         }
         if kind != SHT_NOBITS {
-            flash += size;
+            flash += u64::from(size);
         }
-        if flags & SHF_WRITE != 0 {
-            ram += size;
+        if flags.contains(SHF_WRITE) {
+            ram += u64::from(size);
         }
     }
-    Some((flash, ram))
+    Ok((flash, ram))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::elf32_sizes;
+
+    /// A little-endian ELF32 header followed by its section headers (no section data).
+    fn elf32(sections: &[(u32, u32, u32)]) -> Vec<u8> {
+        let mut b = vec![0u8; 52];
+        b[..7].copy_from_slice(b"\x7fELF\x01\x01\x01");
+        let put16 =
+            |b: &mut Vec<u8>, o: usize, v: u16| b[o..o + 2].copy_from_slice(&v.to_le_bytes());
+        put16(&mut b, 16, 2); // ET_EXEC
+        put16(&mut b, 18, 40); // EM_ARM
+        b[20..24].copy_from_slice(&1u32.to_le_bytes()); // EV_CURRENT
+        b[32..36].copy_from_slice(&52u32.to_le_bytes()); // e_shoff
+        put16(&mut b, 40, 52); // e_ehsize
+        put16(&mut b, 46, 40); // e_shentsize
+                               // the null section first, the section-name table last
+        let count = sections.len() + 2;
+        put16(&mut b, 48, count as u16);
+        put16(&mut b, 50, count as u16 - 1);
+        b.extend_from_slice(&[0u8; 40]);
+        let names_at = (52 + 40 * count) as u32;
+        for (kind, flags, size, offset) in sections
+            .iter()
+            .map(|&(k, f, s)| (k, f, s, 0))
+            .chain([(3, 0, 1, names_at)])
+        {
+            let mut h = [0u8; 40];
+            h[4..8].copy_from_slice(&kind.to_le_bytes());
+            h[8..12].copy_from_slice(&flags.to_le_bytes());
+            h[16..20].copy_from_slice(&offset.to_le_bytes());
+            h[20..24].copy_from_slice(&size.to_le_bytes());
+            b.extend_from_slice(&h);
+        }
+        b.push(0); // the (empty) names
+        b
+    }
+
+    #[test]
+    fn flash_is_allocated_contents_and_ram_the_writable_sections() {
+        const PROGBITS: u32 = 1;
+        const NOBITS: u32 = 8;
+        const WRITE: u32 = 1;
+        const ALLOC: u32 = 2;
+        const EXEC: u32 = 4;
+        let image = elf32(&[
+            (PROGBITS, ALLOC | EXEC, 1000), // .text
+            (PROGBITS, ALLOC, 200),         // .rodata
+            (PROGBITS, ALLOC | WRITE, 8),   // .data: in flash and in RAM
+            (NOBITS, ALLOC | WRITE, 16),    // .bss: RAM only
+            (PROGBITS, 0, 5000),            // .debug_info: neither
+        ]);
+        assert_eq!(elf32_sizes(&image).unwrap(), (1208, 24));
+        assert!(
+            elf32_sizes(b"not an ELF file at all, just some bytes that are long enough").is_err()
+        );
+    }
 }

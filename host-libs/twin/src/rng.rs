@@ -1,5 +1,11 @@
 //! A small deterministic random generator (SplitMix64) so a seed gives the same run on every
 //! machine and every build; no dependency whose stream could change between versions.
+//!
+//! Kept hand-written on purpose (issue 11): with ChaCha8 (`rand_chacha` 0.9) in its place,
+//! pam-twin's tests passed but three of pam-ident's twin_loop tests failed on the new noise
+//! and operator paths (a control at 50 ms named cable_slip; pose_dependence at 1 ms and
+//! nonlinear_stiffness at point 3 not found). The model loop's sensitivity to the
+//! realisation is the lead's to look at first.
 
 #[derive(Clone, Debug)]
 pub struct Rng {
@@ -51,5 +57,42 @@ impl Rng {
         let (s, c) = (2.0 * std::f64::consts::PI * u2).sin_cos();
         self.spare_normal = Some(r * s);
         r * c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Rng;
+
+    #[test]
+    fn a_seed_repeats_and_named_streams_differ() {
+        let draw = |mut r: Rng| [r.next_u64(), r.next_u64(), r.next_u64()];
+        assert_eq!(draw(Rng::new(7)), draw(Rng::new(7)));
+        assert_ne!(draw(Rng::new(7)), draw(Rng::new(8)));
+        assert_eq!(
+            draw(Rng::derive(7, "sensors")),
+            draw(Rng::derive(7, "sensors"))
+        );
+        assert_ne!(
+            draw(Rng::derive(7, "sensors")),
+            draw(Rng::derive(7, "operator_path"))
+        );
+    }
+
+    #[test]
+    fn uniform_and_normal_have_their_moments() {
+        let mut r = Rng::new(1);
+        let n = 200_000;
+        let u: Vec<f64> = (0..n).map(|_| r.uniform()).collect();
+        assert!(u.iter().all(|&x| (0.0..1.0).contains(&x)));
+        let mean = u.iter().sum::<f64>() / n as f64;
+        assert!((mean - 0.5).abs() < 0.005, "uniform mean {mean}");
+        let z: Vec<f64> = (0..n).map(|_| r.normal()).collect();
+        let m = z.iter().sum::<f64>() / n as f64;
+        let var = z.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / n as f64;
+        assert!(
+            m.abs() < 0.01 && (var - 1.0).abs() < 0.02,
+            "normal mean {m}, variance {var}"
+        );
     }
 }

@@ -3,11 +3,9 @@
 use crate::LinkArgs;
 use pam_protocol::RequestBody;
 
-pub fn run(link: &LinkArgs, out: &mut dyn std::io::Write) -> Result<(), String> {
+pub fn run(link: &LinkArgs, out: &mut dyn std::io::Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
-    client
-        .command(RequestBody::Arm)
-        .map_err(|e| e.to_string())?;
+    client.command(RequestBody::Arm)?;
     super::done(
         out,
         "armed. The device disarms itself (command timeout) unless the host keeps talking: \

@@ -6,6 +6,7 @@
 //! every value and refuses a section whole.
 
 use crate::LinkArgs;
+use anyhow::Context;
 use clap::{Subcommand, ValueEnum};
 use pam_control::SafetyConfig;
 use pam_model::RobotParams;
@@ -14,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::PathBuf;
 
-use crate::link::Client;
+use pam_link::Client;
 
 #[derive(Subcommand, Debug)]
 pub enum ConfigCommand {
@@ -54,17 +55,16 @@ pub struct ConfigFile {
     pub limits: Option<SafetyConfig>,
 }
 
-fn get(client: &Client, section: ConfigSection) -> Result<Config, String> {
-    match client
-        .request(RequestBody::GetConfig(section))
-        .map_err(|e| e.to_string())?
-    {
+fn get(client: &Client, section: ConfigSection) -> anyhow::Result<Config> {
+    match client.request(RequestBody::GetConfig(section))? {
         ReplyData::Config(c) => Ok(c),
-        _ => Err("the device answered config get with the wrong kind of reply".into()),
+        _ => Err(anyhow::anyhow!(
+            "the device answered config get with the wrong kind of reply"
+        )),
     }
 }
 
-pub fn fetch(client: &Client, section: Section) -> Result<ConfigFile, String> {
+pub fn fetch(client: &Client, section: Section) -> anyhow::Result<ConfigFile> {
     let mut f = ConfigFile::default();
     let want = |s: Section| section == Section::All || section == s;
     if want(Section::Robot) {
@@ -97,19 +97,19 @@ fn shortest_floats(v: &mut toml::Value) {
     }
 }
 
-pub fn to_toml(f: &ConfigFile) -> Result<String, String> {
-    let mut v = toml::Value::try_from(f).map_err(|e| format!("cannot write TOML: {e}"))?;
+pub fn to_toml(f: &ConfigFile) -> anyhow::Result<String> {
+    let mut v = toml::Value::try_from(f).context("cannot write TOML")?;
     shortest_floats(&mut v);
-    toml::to_string_pretty(&v).map_err(|e| format!("cannot write TOML: {e}"))
+    toml::to_string_pretty(&v).context("cannot write TOML")
 }
 
-pub fn parse_toml(text: &str, source: &str) -> Result<ConfigFile, String> {
-    toml::from_str(text).map_err(|e| format!("{source}: {e}"))
+pub fn parse_toml(text: &str, source: &str) -> anyhow::Result<ConfigFile> {
+    toml::from_str(text).with_context(|| source.to_string())
 }
 
 /// Sends every section present; stops at the first refusal (that section is unchanged,
 /// the ones before it are applied).
-pub fn send(client: &Client, f: &ConfigFile, out: &mut dyn Write) -> Result<(), String> {
+pub fn send(client: &Client, f: &ConfigFile, out: &mut dyn Write) -> anyhow::Result<()> {
     let sections = [
         f.robot.map(|p| ("robot", Config::Robot(p.into()))),
         f.calibration
@@ -120,25 +120,31 @@ pub fn send(client: &Client, f: &ConfigFile, out: &mut dyn Write) -> Result<(), 
     for (name, config) in sections.into_iter().flatten() {
         client
             .command(RequestBody::SetConfig(config))
-            .map_err(|e| format!("[{name}]: {e}"))?;
-        writeln!(out, "[{name}] applied").map_err(|e| e.to_string())?;
+            .with_context(|| format!("[{name}]"))?;
+        writeln!(out, "[{name}] applied")?;
         sent += 1;
     }
     if sent == 0 {
-        return Err("no [robot], [calibration] or [limits] table to send".into());
+        return Err(anyhow::anyhow!(
+            "no [robot], [calibration] or [limits] table to send"
+        ));
     }
     Ok(())
 }
 
 /// Applies `section.path=value` to a document (path segments are keys or array indices).
-pub fn assign(doc: &mut toml::Value, assignment: &str) -> Result<(), String> {
+pub fn assign(doc: &mut toml::Value, assignment: &str) -> anyhow::Result<()> {
     let (path, value) = assignment.split_once('=').ok_or_else(|| {
-        format!("`{assignment}`: write SECTION.PATH=VALUE, e.g. limits.command_timeout_s=0.2")
+        anyhow::anyhow!(
+            "`{assignment}`: write SECTION.PATH=VALUE, e.g. limits.command_timeout_s=0.2"
+        )
     })?;
     let value: toml::Value = toml::from_str::<toml::Table>(&format!("v = {}", value.trim()))
         .ok()
         .and_then(|mut t| t.remove("v"))
-        .ok_or_else(|| format!("`{value}` is not a TOML value (number, true/false, [a, b])"))?;
+        .ok_or_else(|| {
+            anyhow::anyhow!("`{value}` is not a TOML value (number, true/false, [a, b])")
+        })?;
     let mut node = &mut *doc;
     let keys: Vec<&str> = path.trim().split('.').collect();
     for (i, key) in keys.iter().enumerate() {
@@ -148,7 +154,7 @@ pub fn assign(doc: &mut toml::Value, assignment: &str) -> Result<(), String> {
             _ => None,
         };
         node = next.ok_or_else(|| {
-            format!(
+            anyhow::anyhow!(
                 "`{path}`: no `{key}` at `{}` (see `pamctl config get` for the names)",
                 keys[..i].join(".")
             )
@@ -160,7 +166,7 @@ pub fn assign(doc: &mut toml::Value, assignment: &str) -> Result<(), String> {
             (toml::Value::Float(_), toml::Value::Integer(_))
         );
     if !same_kind {
-        return Err(format!(
+        return Err(anyhow::anyhow!(
             "`{path}` holds a {}, not a {}",
             node.type_str(),
             value.type_str()
@@ -173,28 +179,28 @@ pub fn assign(doc: &mut toml::Value, assignment: &str) -> Result<(), String> {
     Ok(())
 }
 
-pub fn run(c: ConfigCommand, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+pub fn run(c: ConfigCommand, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
     match c {
         ConfigCommand::Get { section } => {
             let text = to_toml(&fetch(&client, section)?)?;
-            write!(out, "{text}").map_err(|e| e.to_string())
+            Ok(write!(out, "{text}")?)
         }
         ConfigCommand::Save { file } => {
             let text = to_toml(&fetch(&client, Section::All)?)?;
             std::fs::write(&file, text)
-                .map_err(|e| format!("cannot write {}: {e}", file.display()))?;
-            writeln!(out, "configuration saved to {}", file.display()).map_err(|e| e.to_string())
+                .with_context(|| format!("cannot write {}", file.display()))?;
+            Ok(writeln!(out, "configuration saved to {}", file.display())?)
         }
         ConfigCommand::Load { file } => {
             let text = std::fs::read_to_string(&file)
-                .map_err(|e| format!("cannot read {}: {e}", file.display()))?;
+                .with_context(|| format!("cannot read {}", file.display()))?;
             let f = parse_toml(&text, &file.display().to_string())?;
             send(&client, &f, out)
         }
         ConfigCommand::Set { assignments } => {
             let current = fetch(&client, Section::All)?;
-            let mut doc = toml::Value::try_from(&current).map_err(|e| e.to_string())?;
+            let mut doc = toml::Value::try_from(&current)?;
             let mut touched = Vec::new();
             for a in &assignments {
                 assign(&mut doc, a)?;
@@ -202,7 +208,7 @@ pub fn run(c: ConfigCommand, link: &LinkArgs, out: &mut dyn Write) -> Result<(),
             }
             let edited: ConfigFile = doc
                 .try_into()
-                .map_err(|e| format!("the edited configuration does not read back: {e}"))?;
+                .context("the edited configuration does not read back")?;
             // only the sections that were touched go to the device
             let f = ConfigFile {
                 robot: edited
@@ -253,21 +259,28 @@ mod tests {
         assert_eq!(f.robot.unwrap().joints[1].pulley_radius_m, 0.05);
         assert!(assign(&mut doc, "limits.nope=1")
             .unwrap_err()
+            .to_string()
             .contains("no `nope`"));
         assert!(assign(&mut doc, "limits.command_timeout_s")
             .unwrap_err()
+            .to_string()
             .contains("PATH=VALUE"));
         assert!(assign(&mut doc, "limits.command_timeout_s=true")
             .unwrap_err()
+            .to_string()
             .contains("float"));
         assert!(assign(&mut doc, "limits.command_timeout_s=abc")
             .unwrap_err()
+            .to_string()
             .contains("not a TOML value"));
     }
 
     #[test]
     fn unknown_tables_and_bad_values_name_the_file_and_line() {
-        let e = parse_toml("[limitz]\nx = 1\n", "cfg.toml").unwrap_err();
+        let e = format!(
+            "{:#}",
+            parse_toml("[limitz]\nx = 1\n", "cfg.toml").unwrap_err()
+        );
         assert!(e.starts_with("cfg.toml:") && e.contains("limitz"), "{e}");
     }
 }

@@ -10,28 +10,31 @@
 //!   blocked, then force mode steps the reference 0 → 27.3 → −27.3 → 0 N in 9.1 N steps along
 //!   X, then along Y.
 //!
-//! The stiffnesses and poses are the twin's (`pam_twin::experiments`), computed from the
-//! robot parameters the device reports, and the files carry the same metadata keys as the
-//! twin's logs, so the identification tools read both alike. On the emulator,
-//! `pamctl sim --handle operator` plays the operator (dynamic), `--handle blocked` blocks the
-//! handle in force mode (step), `--handle held` holds it at the joint target (static).
+//! The stiffnesses and poses are pam-model's thesis protocols (`pam_model::protocols`, the
+//! same the twin runs), computed from the robot parameters the device reports, and the
+//! files carry the same metadata keys as the twin's logs, so the identification tools read
+//! both alike. On the emulator, `pamctl sim --handle operator` plays the operator (dynamic),
+//! `--handle blocked` blocks the handle in force mode (step), `--handle held` holds it at the
+//! joint target (static).
 
-use super::record::{columns, row, Clock};
-use crate::link::{Client, DropCounter};
 use crate::LinkArgs;
+use anyhow::Context;
 use clap::{Args, Subcommand, ValueEnum};
 use pam_control::{Mode, State};
-use pam_log::LogWriter;
+use pam_link::{fault_names, Client};
 use pam_model::protocols::{
     static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
 };
 use pam_model::thesis::{STEP_POSES_DEG, TABLE_4_1_POINTS_DEG};
 use pam_model::{RobotModel, Vec2};
 use pam_protocol::{Config, ConfigSection, ReplyData, RequestBody};
-use std::io::{BufRead, IsTerminal, Write};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+mod session;
+use session::{close_trial, open_trial, Session};
 
 #[derive(Args, Debug)]
 pub struct ExperimentArgs {
@@ -96,159 +99,14 @@ pub enum ExperimentKind {
     },
 }
 
-/// One connected session: keeps the link alive and turns telemetry into log rows.
-struct Session<'a> {
-    client: &'a Client,
-    stop: &'a AtomicBool,
-    progress: &'a mut dyn Write,
-    yes: bool,
-    last_beat: Instant,
-    /// The latest joint angles received.
-    alpha_rad: Option<Vec2<f64>>,
-}
-
-/// One trial's log being written.
-struct Trial {
-    writer: LogWriter<std::io::BufWriter<std::fs::File>>,
-    path: PathBuf,
-    with_force_ref: bool,
-    clock: Clock,
-    last_t: f64,
-    drops: DropCounter,
-}
-
-impl Session<'_> {
-    fn request(&self, body: RequestBody) -> Result<(), String> {
-        self.client.command(body).map_err(|e| e.to_string())
-    }
-
-    fn set_mode(&self, mode: Mode) -> Result<(), String> {
-        self.request(RequestBody::SetMode(mode.into()))
-    }
-
-    /// Runs the link for `seconds` of host time, writing rows into `trial` if given.
-    /// Ends early (error) on Ctrl-C or a device fault.
-    fn run_for(
-        &mut self,
-        seconds: f64,
-        mut trial: Option<&mut Trial>,
-        label: &str,
-    ) -> Result<(), String> {
-        let start = Instant::now();
-        let mut last_progress = Instant::now() - Duration::from_secs(1);
-        while start.elapsed().as_secs_f64() < seconds {
-            if self.stop.load(Ordering::SeqCst) {
-                return Err("interrupted (Ctrl-C)".into());
-            }
-            if self.last_beat.elapsed() >= Duration::from_millis(25) {
-                self.client.heartbeat().map_err(|e| e.to_string())?;
-                self.last_beat = Instant::now();
-            }
-            while let Some(t) = self
-                .client
-                .next_telemetry(Duration::from_millis(5))
-                .map_err(|e| e.to_string())?
-            {
-                if t.state == State::Faulted {
-                    return Err(format!(
-                        "the device faulted ({}); the robot is in its safe state",
-                        super::fault_names(t.faults)
-                    ));
-                }
-                self.alpha_rad = Some([t.alpha_rad[0] as f64, t.alpha_rad[1] as f64]);
-                if let Some(tr) = trial.as_deref_mut() {
-                    tr.drops.record(t.seq);
-                    let t_s = tr.clock.seconds(t.time_us);
-                    if t_s > tr.last_t {
-                        tr.last_t = t_s;
-                        tr.writer
-                            .write_row(&row(&t, t_s, tr.with_force_ref))
-                            .map_err(|e| format!("cannot write {}: {e}", tr.path.display()))?;
-                    }
-                }
-                if self.last_beat.elapsed() >= Duration::from_millis(25) {
-                    break;
-                }
-            }
-            if last_progress.elapsed() >= Duration::from_millis(500) {
-                last_progress = Instant::now();
-                let rows = trial.as_deref().map(|t| (t.writer.rows(), t.drops.dropped));
-                let _ = write!(
-                    self.progress,
-                    "\r{label}: {:.1} / {:.1} s{}   ",
-                    start.elapsed().as_secs_f64(),
-                    seconds,
-                    rows.map(|(r, d)| format!(", {r} samples, {d} dropped"))
-                        .unwrap_or_default()
-                );
-                let _ = self.progress.flush();
-            }
-        }
-        let _ = writeln!(self.progress);
-        Ok(())
-    }
-
-    /// Brings the arm to `alpha` in joint mode with a smooth (cosine) ramp of the target from
-    /// where it is, then lets it settle: a step of the target would swing the lightly
-    /// damped arm past its range.
-    fn move_to(
-        &mut self,
-        alpha: Vec2<f64>,
-        k: Vec2<f64>,
-        settle_s: f64,
-        label: &str,
-    ) -> Result<(), String> {
-        if self.alpha_rad.is_none() {
-            self.run_for(0.05, None, label)?;
-        }
-        let from = self.alpha_rad.ok_or("no telemetry from the device")?;
-        let ramp_s = MOVE_S_PER_RAD * (alpha[0] - from[0]).abs().max((alpha[1] - from[1]).abs());
-        let steps = (ramp_s / 0.02).ceil().max(1.0) as usize;
-        for i in 1..=steps {
-            let w = 0.5 - 0.5 * (std::f64::consts::PI * i as f64 / steps as f64).cos();
-            let a = [
-                from[0] + w * (alpha[0] - from[0]),
-                from[1] + w * (alpha[1] - from[1]),
-            ];
-            self.set_mode(joint_mode(a, k))?;
-            self.run_for(ramp_s / steps as f64, None, label)?;
-        }
-        self.run_for(settle_s, None, label)
-    }
-
-    /// Tells the operator what to do; waits for Enter unless `--yes` or no terminal (the
-    /// link stays alive meanwhile).
-    fn prompt(&mut self, message: &str) -> Result<(), String> {
-        let _ = writeln!(self.progress, ">>> {message}");
-        if self.yes || !std::io::stdin().is_terminal() {
-            return Ok(());
-        }
-        let _ = writeln!(self.progress, "    press Enter when ready");
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let mut line = String::new();
-            let _ = std::io::stdin().lock().read_line(&mut line);
-            let _ = tx.send(());
-        });
-        while rx.try_recv().is_err() {
-            self.run_for(0.05, None, "waiting for the operator")?;
-        }
-        Ok(())
-    }
-}
-
-/// Joint-target ramp speed for [`Session::move_to`]: 10 s per radian (≈ 5.7°/s).
-const MOVE_S_PER_RAD: f64 = 10.0;
-
-fn device_model(client: &Client) -> Result<RobotModel<f64>, String> {
-    match client
-        .request(RequestBody::GetConfig(ConfigSection::Robot))
-        .map_err(|e| e.to_string())?
-    {
+fn device_model(client: &Client) -> anyhow::Result<RobotModel<f64>> {
+    match client.request(RequestBody::GetConfig(ConfigSection::Robot))? {
         ReplyData::Config(Config::Robot(p)) => Ok(RobotModel::new(
             pam_model::RobotParams::<f32>::from(p).cast(),
         )),
-        _ => Err("the device answered config get robot with the wrong kind of reply".into()),
+        _ => Err(anyhow::anyhow!(
+            "the device answered config get robot with the wrong kind of reply"
+        )),
     }
 }
 
@@ -279,96 +137,31 @@ fn point_trial(
     )
 }
 
-fn points(point: Option<usize>) -> Result<Vec<usize>, String> {
+fn points(point: Option<usize>) -> anyhow::Result<Vec<usize>> {
     match point {
         Some(p) if (1..=5).contains(&p) => Ok(vec![p]),
-        Some(p) => Err(format!("--point {p}: the Table 4.1 points are 1–5")),
+        Some(p) => Err(anyhow::anyhow!("--point {p}: the Table 4.1 points are 1–5")),
         None => Ok((1..=5).collect()),
     }
 }
 
-fn positive(name: &str, v: f64) -> Result<(), String> {
+fn positive(name: &str, v: f64) -> anyhow::Result<()> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(format!("{name} {v}: give a positive number of seconds"))
-    }
-}
-
-fn open_trial(
-    client: &Client,
-    dir: &Path,
-    name: &str,
-    with_force_ref: bool,
-    meta: &[(&str, String)],
-) -> Result<Trial, String> {
-    let path = dir.join(name);
-    let info = client.info();
-    let mut all: Vec<(&str, String)> = meta.to_vec();
-    all.extend([
-        ("source", "pamctl experiment".to_string()),
-        (
-            "firmware",
-            format!(
-                "{}.{}.{}",
-                info.firmware_version.major,
-                info.firmware_version.minor,
-                info.firmware_version.patch
-            ),
-        ),
-        ("params_hash", format!("{:08x}", info.params_hash)),
-        (
-            "sample_period_s",
-            format!("{}", info.period_us as f64 * 1e-6),
-        ),
-    ]);
-    let meta_ref: Vec<(&str, &str)> = all.iter().map(|(k, v)| (*k, v.as_str())).collect();
-    let writer = LogWriter::create(&path, &columns(with_force_ref), &meta_ref)
-        .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-    Ok(Trial {
-        writer,
-        path,
-        with_force_ref,
-        clock: Clock::default(),
-        last_t: f64::NEG_INFINITY,
-        drops: DropCounter::default(),
-    })
-}
-
-fn close_trial(trial: Trial, out: &mut dyn Write) -> Result<PathBuf, String> {
-    let (rows, dropped, path) = (trial.writer.rows(), trial.drops.dropped, trial.path.clone());
-    trial
-        .writer
-        .finish()
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    writeln!(
-        out,
-        "wrote {} ({rows} samples, {dropped} dropped on the link)",
-        path.display()
-    )
-    .map_err(|e| e.to_string())?;
-    Ok(path)
-}
-
-fn joint_mode(alpha: Vec2<f64>, k: Vec2<f64>) -> Mode {
-    Mode::Joint {
-        alpha_rad: [alpha[0] as f32, alpha[1] as f32],
-        torque_nm: [0.0; 2],
-        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+        Err(anyhow::anyhow!(
+            "{name} {v}: give a positive number of seconds"
+        ))
     }
 }
 
 /// Arms the device if needed (it must be homed and free of faults).
-fn arm(s: &mut Session) -> Result<(), String> {
-    match s
-        .client
-        .request(RequestBody::GetStatus)
-        .map_err(|e| e.to_string())?
-    {
+fn arm(s: &mut Session) -> anyhow::Result<()> {
+    match s.client.request(RequestBody::GetStatus)? {
         ReplyData::Status(st) if st.state == State::Armed => Ok(()),
-        ReplyData::Status(st) if st.state == State::Faulted => Err(format!(
+        ReplyData::Status(st) if st.state == State::Faulted => Err(anyhow::anyhow!(
             "the device is faulted ({}): `pamctl disarm`, `pamctl fault clear`, then try again",
-            super::fault_names(st.faults)
+            fault_names(st.faults)
         )),
         _ => s.request(RequestBody::Arm),
     }
@@ -381,19 +174,14 @@ pub fn experiment(
     stop: &AtomicBool,
     out: &mut dyn Write,
     progress: &mut dyn Write,
-) -> Result<Vec<PathBuf>, String> {
+) -> anyhow::Result<Vec<PathBuf>> {
     positive("--settle-s", args.settle_s)?;
     std::fs::create_dir_all(&args.out)
-        .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
     let model = device_model(client)?;
-    if let ReplyData::Status(st) = client
-        .request(RequestBody::GetStatus)
-        .map_err(|e| e.to_string())?
-    {
+    if let ReplyData::Status(st) = client.request(RequestBody::GetStatus)? {
         if st.telemetry_divider != 1 {
-            client
-                .command(RequestBody::SetTelemetry { divider: 1 })
-                .map_err(|e| e.to_string())?;
+            client.command(RequestBody::SetTelemetry { divider: 1 })?;
         }
     }
     client.start_telemetry();
@@ -418,7 +206,7 @@ fn run_trials(
     args: &ExperimentArgs,
     out: &mut dyn Write,
     files: &mut Vec<PathBuf>,
-) -> Result<(), String> {
+) -> anyhow::Result<()> {
     match &args.kind {
         ExperimentKind::Static {
             point,
@@ -516,7 +304,7 @@ fn run_trials(
                 poses.clone()
             };
             if let Some(bad) = poses.iter().find(|&&i| i > 8) {
-                return Err(format!("--pose {bad}: the nine poses are 0–8"));
+                return Err(anyhow::anyhow!("--pose {bad}: the nine poses are 0–8"));
             }
             for i in poses {
                 let pose_deg = STEP_POSES_DEG[i];
@@ -592,9 +380,14 @@ fn meta_trial(
     ]
 }
 
-pub fn run(args: ExperimentArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+pub fn run(args: ExperimentArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
     let stop = super::interrupted();
     let files = experiment(&client, &args, &stop, out, &mut std::io::stderr())?;
-    writeln!(out, "{} log(s) in {}", files.len(), args.out.display()).map_err(|e| e.to_string())
+    Ok(writeln!(
+        out,
+        "{} log(s) in {}",
+        files.len(),
+        args.out.display()
+    )?)
 }

@@ -11,13 +11,11 @@ pub enum FaultCommand {
     Clear,
 }
 
-pub fn run(c: FaultCommand, link: &LinkArgs, out: &mut dyn std::io::Write) -> Result<(), String> {
+pub fn run(c: FaultCommand, link: &LinkArgs, out: &mut dyn std::io::Write) -> anyhow::Result<()> {
     match c {
         FaultCommand::Clear => {
             let client = super::connect(link)?;
-            client
-                .command(RequestBody::ClearFaults)
-                .map_err(|e| e.to_string())?;
+            client.command(RequestBody::ClearFaults)?;
             super::done(out, "faults cleared; the robot is disarmed")
         }
     }

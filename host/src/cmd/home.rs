@@ -3,10 +3,8 @@
 use crate::LinkArgs;
 use pam_protocol::RequestBody;
 
-pub fn run(link: &LinkArgs, out: &mut dyn std::io::Write) -> Result<(), String> {
+pub fn run(link: &LinkArgs, out: &mut dyn std::io::Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
-    client
-        .command(RequestBody::Home)
-        .map_err(|e| e.to_string())?;
+    client.command(RequestBody::Home)?;
     super::done(out, "homed: the present pose is α = 0")
 }

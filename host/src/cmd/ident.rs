@@ -54,7 +54,7 @@ pub struct StepArgs {
     pub json: bool,
 }
 
-pub fn run(cmd: IdentCommand, out: &mut impl Write) -> Result<(), String> {
+pub fn run(cmd: IdentCommand, out: &mut impl Write) -> anyhow::Result<()> {
     match cmd {
         IdentCommand::Dynamic(a) => time(&a, true, out),
         IdentCommand::Static(a) => time(&a, false, out),
@@ -63,34 +63,27 @@ pub fn run(cmd: IdentCommand, out: &mut impl Write) -> Result<(), String> {
     }
 }
 
-fn io(e: std::io::Error) -> String {
-    e.to_string()
-}
-
-fn print_matrix(out: &mut impl Write, m: &MatrixReport) -> Result<(), String> {
+fn print_matrix(out: &mut impl Write, m: &MatrixReport) -> anyhow::Result<()> {
     if !m.positive_definite {
-        return writeln!(
+        return Ok(writeln!(
             out,
             "  {} = [[{:9.3}, {:9.3}], [{:9.3}, {:9.3}]]  no ellipse: not positive definite (λ {:.3}, {:.3})",
             m.name, m.matrix[0][0], m.matrix[0][1], m.matrix[1][0], m.matrix[1][1], m.eigenvalues[0], m.eigenvalues[1]
-        )
-        .map_err(io);
+        )?);
     }
-    writeln!(
+    Ok(writeln!(
         out,
         "  {} = [[{:9.3}, {:9.3}], [{:9.3}, {:9.3}]]  ellipse: λ {:.3}, {:.3}; area {:.4e}; aspect {:.2}; orientation {:.1}°",
         m.name, m.matrix[0][0], m.matrix[0][1], m.matrix[1][0], m.matrix[1][1], m.eigenvalues[0], m.eigenvalues[1], m.area, m.aspect_ratio, m.orientation_deg
-    )
-    .map_err(io)
+    )?)
 }
 
-fn print_time_fit(out: &mut impl Write, f: &TimeFit) -> Result<(), String> {
+fn print_time_fit(out: &mut impl Write, f: &TimeFit) -> anyhow::Result<()> {
     writeln!(
         out,
         "{} trial: {} samples every {:.4} s, equilibrium ({:+.4}, {:+.4}) m",
         f.experiment, f.samples, f.dt_s, f.equilibrium_m[0], f.equilibrium_m[1]
-    )
-    .map_err(io)?;
+    )?;
     for m in &f.matrices {
         print_matrix(out, m)?;
     }
@@ -98,16 +91,14 @@ fn print_time_fit(out: &mut impl Write, f: &TimeFit) -> Result<(), String> {
         out,
         "held-out 20 %: MSE X {:.3}, Y {:.3} N²; R² X {:.4}, Y {:.4}; NRMSE X {:.4}, Y {:.4}",
         f.test[0].mse, f.test[1].mse, f.test[0].r2, f.test[1].r2, f.test[0].nrmse, f.test[1].nrmse
-    )
-    .map_err(io)?;
+    )?;
     if let Some(s) = &f.split {
         writeln!(
             out,
             "MSE by motion frequency (Table 4.2; windows of {:.1} s, boundary {:.1} rad/s):",
             s.window_s, s.boundary_rad_s
-        )
-        .map_err(io)?;
-        writeln!(out, "          low freq.  high freq.  full test set").map_err(io)?;
+        )?;
+        writeln!(out, "          low freq.  high freq.  full test set")?;
         for a in 0..2 {
             writeln!(
                 out,
@@ -116,37 +107,29 @@ fn print_time_fit(out: &mut impl Write, f: &TimeFit) -> Result<(), String> {
                 s.mse_low[a],
                 s.mse_high[a],
                 s.mse_all[a]
-            )
-            .map_err(io)?;
+            )?;
         }
     }
     for w in &f.warnings {
-        writeln!(out, "warning: {w}").map_err(io)?;
+        writeln!(out, "warning: {w}")?;
     }
     Ok(())
 }
 
-fn json(out: &mut impl Write, v: &impl serde::Serialize) -> Result<(), String> {
-    writeln!(
-        out,
-        "{}",
-        serde_json::to_string_pretty(v).map_err(|e| e.to_string())?
-    )
-    .map_err(io)
+fn json(out: &mut impl Write, v: &impl serde::Serialize) -> anyhow::Result<()> {
+    Ok(writeln!(out, "{}", serde_json::to_string_pretty(v)?)?)
 }
 
-fn time(a: &TimeArgs, dynamic: bool, out: &mut impl Write) -> Result<(), String> {
+fn time(a: &TimeArgs, dynamic: bool, out: &mut impl Write) -> anyhow::Result<()> {
     let model = RobotModel::<f64>::thesis();
     let (trial, _) = read_trial(&a.log)?;
-    let p = trial
-        .prepare(
-            &model,
-            FilterSettings {
-                order: a.order,
-                cutoff_hz: a.cutoff_hz,
-            },
-        )
-        .map_err(super::model_loop::ident_error)?;
+    let p = trial.prepare(
+        &model,
+        FilterSettings {
+            order: a.order,
+            cutoff_hz: a.cutoff_hz,
+        },
+    )?;
     let f = if dynamic {
         msd::fit_dynamic(&p, model.cartesian_mass(p.alpha0_rad))
     } else {
@@ -158,20 +141,18 @@ fn time(a: &TimeArgs, dynamic: bool, out: &mut impl Write) -> Result<(), String>
     print_time_fit(out, &f)
 }
 
-fn frequency(a: &FreqArgs, out: &mut impl Write) -> Result<(), String> {
+fn frequency(a: &FreqArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let model = RobotModel::<f64>::thesis();
     let (trial, _) = read_trial(&a.time.log)?;
-    let p = trial
-        .prepare(
-            &model,
-            FilterSettings {
-                order: a.time.order,
-                cutoff_hz: a.time.cutoff_hz,
-            },
-        )
-        .map_err(super::model_loop::ident_error)?;
+    let p = trial.prepare(
+        &model,
+        FilterSettings {
+            order: a.time.order,
+            cutoff_hz: a.time.cutoff_hz,
+        },
+    )?;
     let t = msd::fit_dynamic(&p, model.cartesian_mass(p.alpha0_rad));
-    let f = freq::fit(&p, &t.theta, a.band_rad_s).map_err(super::model_loop::ident_error)?;
+    let f = freq::fit(&p, &t.theta, a.band_rad_s)?;
     if a.time.json {
         return json(out, &f);
     }
@@ -179,8 +160,7 @@ fn frequency(a: &FreqArgs, out: &mut impl Write) -> Result<(), String> {
         out,
         "frequency fit up to {} rad/s ({} bins), started from the time-domain fit:",
         f.band_rad_s, f.bins
-    )
-    .map_err(io)?;
+    )?;
     for m in &f.matrices {
         print_matrix(out, m)?;
     }
@@ -188,9 +168,8 @@ fn frequency(a: &FreqArgs, out: &mut impl Write) -> Result<(), String> {
         out,
         "R² of the force spectra (Table 4.4): X {:.4}, Y {:.4}",
         f.r2_spectrum[0], f.r2_spectrum[1]
-    )
-    .map_err(io)?;
-    writeln!(out, "these parameters in the time domain, held-out 20 %: R² X {:.4}, Y {:.4} (time fit: {:.4}, {:.4})", f.test[0].r2, f.test[1].r2, t.test[0].r2, t.test[1].r2).map_err(io)?;
+    )?;
+    writeln!(out, "these parameters in the time domain, held-out 20 %: R² X {:.4}, Y {:.4} (time fit: {:.4}, {:.4})", f.test[0].r2, f.test[1].r2, t.test[0].r2, t.test[1].r2)?;
     Ok(())
 }
 
@@ -210,21 +189,19 @@ struct StepJson {
     gain_plane_error: Option<String>,
 }
 
-fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
+fn steps(a: &StepArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let model = RobotModel::<f64>::thesis();
     let mut logs = Vec::new();
     let mut poses = Vec::new();
     for path in &a.logs {
         let (trial, _) = read_trial(path)?;
         if trial.force_ref_n.is_none() {
-            return Err(format!(
+            return Err(anyhow::anyhow!(
                 "{}: a step log needs the force reference columns fx_ref_n, fy_ref_n",
                 path.display()
             ));
         }
-        let p = trial
-            .prepare(&model, FilterSettings::default())
-            .map_err(super::model_loop::ident_error)?;
+        let p = trial.prepare(&model, FilterSettings::default())?;
         let steps = step::analyse_steps(&p, a.threshold_n);
         let avg = step::pose_averages(&steps);
         let mut fitted = Vec::new();
@@ -267,7 +244,7 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
         return json(out, &j);
     }
     for l in &j.logs {
-        writeln!(out, "{}: {} steps", l.log, l.steps.len()).map_err(io)?;
+        writeln!(out, "{}: {} steps", l.log, l.steps.len())?;
         for s in &l.steps {
             writeln!(
                 out,
@@ -282,8 +259,7 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
                 s.zeta.map_or("-".into(), |v| format!("{v:.3}")),
                 s.peak_time_s.map_or("-".into(), |v| format!("{v:.3} s")),
                 s.omega_n_rad_s.map_or("-".into(), |v| format!("{v:.2} rad/s"))
-            )
-            .map_err(io)?;
+            )?;
         }
         for p in &l.pose_averages {
             writeln!(
@@ -297,11 +273,10 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
                 p.omega_n_rad_s
                     .map_or("-".into(), |v| format!("{v:.2} rad/s")),
                 p.steps
-            )
-            .map_err(io)?;
+            )?;
         }
         for t in &l.transfer_functions {
-            writeln!(out, "  least squares, whole response: {t}").map_err(io)?;
+            writeln!(out, "  least squares, whole response: {t}")?;
         }
     }
     match (&j.gain_plane, &j.gain_plane_error) {
@@ -314,11 +289,10 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> Result<(), String> {
                     g[a][0],
                     g[a][1],
                     g[a][2]
-                )
-                .map_err(io)?;
+                )?;
             }
         }
-        (None, Some(e)) => writeln!(out, "gain plane: not fitted ({e})").map_err(io)?,
+        (None, Some(e)) => writeln!(out, "gain plane: not fitted ({e})")?,
         _ => {}
     }
     Ok(())

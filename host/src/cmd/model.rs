@@ -48,7 +48,7 @@ pub struct InverseArgs {
 }
 
 impl PoseArgs {
-    fn alpha_rad(&self, model: &RobotModel<f64>) -> Result<[f64; 2], String> {
+    fn alpha_rad(&self, model: &RobotModel<f64>) -> anyhow::Result<[f64; 2]> {
         let deg = [self.alpha1_deg, self.alpha2_deg];
         let mut out = [0.0; 2];
         for j in 0..2 {
@@ -57,7 +57,7 @@ impl PoseArgs {
                 model.joints[j].alpha_max_rad.to_degrees(),
             );
             if !(deg[j].is_finite() && deg[j] >= lo - 1e-9 && deg[j] <= hi + 1e-9) {
-                return Err(format!(
+                return Err(anyhow::anyhow!(
                     "--alpha{}-deg {} is outside joint {}'s range [{lo:.1}, {hi:.1}] degrees",
                     j + 1,
                     deg[j],
@@ -70,17 +70,17 @@ impl PoseArgs {
     }
 }
 
-pub fn run(cmd: ModelCommand, out: &mut impl Write) -> Result<(), String> {
+pub fn run(cmd: ModelCommand, out: &mut impl Write) -> anyhow::Result<()> {
     let model = RobotModel::<f64>::thesis();
-    let io = |e: std::io::Error| e.to_string();
     match cmd {
-        ModelCommand::Capability(pose) => capability(&model, &pose, out).map_err(io),
-        ModelCommand::Inverse(args) => inverse(&model, &args, out).map_err(io),
-        ModelCommand::Table41 => table41(out).map_err(io),
+        ModelCommand::Capability(pose) => capability(&model, &pose, out),
+        ModelCommand::Inverse(args) => inverse(&model, &args, out),
+        ModelCommand::Table41 => table41(out),
         ModelCommand::Compare(a) => return crate::cmd::model_loop::compare(&a, out),
         ModelCommand::Diagnose(a) => return crate::cmd::model_loop::diagnose(&a, out),
         ModelCommand::Fit(a) => return crate::cmd::model_loop::fit(&a, out),
     }
+    .map_err(anyhow::Error::from)
     .and_then(|r| r)
 }
 
@@ -105,7 +105,7 @@ fn capability(
     model: &RobotModel<f64>,
     pose: &PoseArgs,
     out: &mut impl Write,
-) -> std::io::Result<Result<(), String>> {
+) -> std::io::Result<anyhow::Result<()>> {
     let alpha = match pose.alpha_rad(model) {
         Ok(a) => a,
         Err(e) => return Ok(Err(e)),
@@ -170,7 +170,7 @@ fn inverse(
     model: &RobotModel<f64>,
     args: &InverseArgs,
     out: &mut impl Write,
-) -> std::io::Result<Result<(), String>> {
+) -> std::io::Result<anyhow::Result<()>> {
     let alpha = match args.pose.alpha_rad(model) {
         Ok(a) => a,
         Err(e) => return Ok(Err(e)),
@@ -180,7 +180,7 @@ fn inverse(
         ("--stiffness-nm-per-rad", &args.stiffness_nm_per_rad),
     ] {
         if v.len() != 2 {
-            return Ok(Err(format!(
+            return Ok(Err(anyhow::anyhow!(
                 "{name} takes two comma-separated values (joint 1, joint 2), got {}",
                 v.len()
             )));
@@ -242,7 +242,7 @@ pub fn describe(l: Limited) -> String {
     parts.join("; ")
 }
 
-fn table41(out: &mut impl Write) -> std::io::Result<Result<(), String>> {
+fn table41(out: &mut impl Write) -> std::io::Result<anyhow::Result<()>> {
     writeln!(out, "point  alpha1  alpha2   K_low,1  K_high,1  K_low,2  K_high,2   [N m/rad; printed value in brackets]")?;
     let model = RobotModel::<f64>::thesis();
     for (i, (a1, a2, printed)) in TABLE_4_1.iter().enumerate() {

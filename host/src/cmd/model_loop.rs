@@ -1,5 +1,6 @@
 //! `pamctl model compare | diagnose | fit`: the model loop on one log (logic in pam-ident).
 
+use anyhow::Context;
 use clap::Args;
 use pam_ident::diagnose::{self, Loop, Settings};
 use pam_ident::effects::{self, Experiment};
@@ -33,15 +34,10 @@ pub struct LoopArgs {
     pub order: usize,
 }
 
-/// An identification error for the terminal: the message and what to do about it.
-pub fn ident_error(e: pam_ident::IdentError) -> String {
-    format!("{e}\n  help: {}", e.help())
-}
-
 /// Reads a log into a trial; errors carry file, line and column (from pam-log).
-pub fn read_trial(path: &Path) -> Result<(Trial, pam_log::Log), String> {
-    let log = pam_log::read_path(path).map_err(|e| e.to_string())?;
-    let trial = Trial::from_log(&log).map_err(ident_error)?;
+pub fn read_trial(path: &Path) -> anyhow::Result<(Trial, pam_log::Log)> {
+    let log = pam_log::read_path(path)?;
+    let trial = Trial::from_log(&log)?;
     Ok((trial, log))
 }
 
@@ -49,9 +45,9 @@ pub fn experiment_of(
     arg: &Option<String>,
     log: &pam_log::Log,
     trial: &Trial,
-) -> Result<Experiment, String> {
+) -> anyhow::Result<Experiment> {
     if let Some(e) = arg {
-        return e.parse().map_err(ident_error);
+        return Ok(e.parse()?);
     }
     if let Some(e) = log.meta("experiment") {
         match e.trim() {
@@ -81,17 +77,13 @@ fn settings(a: &LoopArgs) -> Settings {
     }
 }
 
-fn write_report(path: &Path, html: &str) -> Result<(), String> {
-    std::fs::write(path, html).map_err(|e| format!("{}: {e}", path.display()))
+fn write_report(path: &Path, html: &str) -> anyhow::Result<()> {
+    std::fs::write(path, html).with_context(|| format!("{}", path.display()))
 }
 
-fn json_out(out: &mut impl Write, v: &impl serde::Serialize) -> Result<(), String> {
-    let s = serde_json::to_string_pretty(v).map_err(|e| e.to_string())?;
-    writeln!(out, "{s}").map_err(|e| e.to_string())
-}
-
-fn io(e: std::io::Error) -> String {
-    e.to_string()
+fn json_out(out: &mut impl Write, v: &impl serde::Serialize) -> anyhow::Result<()> {
+    let s = serde_json::to_string_pretty(v)?;
+    Ok(writeln!(out, "{s}")?)
 }
 
 /// Runs `work` with a progress bar on stderr when stderr is a terminal (a diagnosis of a
@@ -124,7 +116,7 @@ fn with_progress<T>(work: impl FnOnce(&(dyn Fn(diagnose::Progress) + Sync)) -> T
     out
 }
 
-pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
+pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let model = RobotModel::<f64>::thesis();
     let (trial, log) = read_trial(&a.log)?;
     let exp = experiment_of(&a.experiment, &log, &trial)?;
@@ -137,12 +129,9 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
             &pam_ident::effects::catalog(),
             progress,
         )
-    })
-    .map_err(ident_error)?;
+    })?;
     if let Some(path) = &a.report {
-        let p = trial
-            .prepare(&model, settings(a).filter)
-            .map_err(ident_error)?;
+        let p = trial.prepare(&model, settings(a).filter)?;
         write_report(path, &report::diagnosis_page(&d, &fits, &p))?;
     }
     if a.json {
@@ -152,25 +141,22 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
         out,
         "experiment: {}, {} samples every {:.4} s",
         d.experiment, d.samples, d.sample_period_s
-    )
-    .map_err(io)?;
+    )?;
     writeln!(
         out,
         "base model: held-out NRMSE fx {:.4}, fy {:.4} (R² {:.3}, {:.3})",
         d.base.nrmse.fx, d.base.nrmse.fy, d.base.r2.fx, d.base.r2.fy
-    )
-    .map_err(io)?;
-    writeln!(out, "verdict: {}", d.verdict).map_err(io)?;
+    )?;
+    writeln!(out, "verdict: {}", d.verdict)?;
     if !d.ambiguous.is_empty() {
         let names: Vec<&str> = d.ambiguous.iter().map(|f| f.name()).collect();
         writeln!(
             out,
             "ambiguous: the log cannot tell {} apart (their fold-by-fold difference is within the spread)",
             names.join(" and ")
-        )
-        .map_err(io)?;
+        )?;
         if let Some(x) = &d.separating_experiment {
-            writeln!(out, "  to separate them: {x}").map_err(io)?;
+            writeln!(out, "  to separate them: {x}")?;
         }
     }
     for e in &d.effects {
@@ -190,23 +176,22 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
             } else {
                 ""
             }
-        )
-        .map_err(io)?;
+        )?;
         if e.accepted {
-            writeln!(out, "      {}", e.evidence).map_err(io)?;
+            writeln!(out, "      {}", e.evidence)?;
             let ps: Vec<String> = e
                 .params
                 .iter()
                 .map(|(k, v)| format!("{k} = {v:.4}"))
                 .collect();
-            writeln!(out, "      fitted: {}", ps.join(", ")).map_err(io)?;
+            writeln!(out, "      fitted: {}", ps.join(", "))?;
         }
     }
     for u in &d.unexplained {
-        writeln!(out, "unexplained: {} in {}: {}", u.kind, u.signal, u.detail).map_err(io)?;
+        writeln!(out, "unexplained: {} in {}: {}", u.kind, u.signal, u.detail)?;
     }
     if d.steps.len() > 1 {
-        writeln!(out, "step by step:").map_err(io)?;
+        writeln!(out, "step by step:")?;
         for s in &d.steps {
             writeln!(
                 out,
@@ -217,23 +202,22 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
                     .collect::<String>(),
                 s.nrmse.fx,
                 s.nrmse.fy
-            )
-            .map_err(io)?;
+            )?;
         }
     }
     for w in &d.warnings {
-        writeln!(out, "warning: {w}").map_err(io)?;
+        writeln!(out, "warning: {w}")?;
     }
     Ok(())
 }
 
-pub fn compare(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
+pub fn compare(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let model = RobotModel::<f64>::thesis();
     let (trial, log) = read_trial(&a.log)?;
     let exp = experiment_of(&a.experiment, &log, &trial)?;
     let catalog = effects::catalog();
-    let with = effects::lookup(&catalog, &a.with).map_err(ident_error)?;
-    let lp = Loop::new(&trial, &model, exp, settings(a)).map_err(ident_error)?;
+    let with = effects::lookup(&catalog, &a.with)?;
+    let lp = Loop::new(&trial, &model, exp, settings(a))?;
     let fit = lp.fit(&with);
     let c = diagnose::compare(&lp, &fit);
     if let Some(path) = &a.report {
@@ -250,53 +234,48 @@ pub fn compare(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
             .map(|e| format!(" + {e}"))
             .collect::<String>(),
         c.experiment
-    )
-    .map_err(io)?;
+    )?;
     writeln!(
         out,
         "held-out NRMSE fx {:.4}, fy {:.4}; R² fx {:.3}, fy {:.3}",
         c.nrmse.fx, c.nrmse.fy, c.r2.fx, c.r2.fy
-    )
-    .map_err(io)?;
+    )?;
     if let Some(s) = &c.frequency_split {
-        writeln!(out, "MSE low / high motion frequency (boundary {:.1} rad/s): X {:.3} / {:.3}, Y {:.3} / {:.3} N²", s.boundary_rad_s, s.mse_low[0], s.mse_high[0], s.mse_low[1], s.mse_high[1]).map_err(io)?;
+        writeln!(out, "MSE low / high motion frequency (boundary {:.1} rad/s): X {:.3} / {:.3}, Y {:.3} / {:.3} N²", s.boundary_rad_s, s.mse_low[0], s.mse_high[0], s.mse_low[1], s.mse_high[1])?;
     }
-    writeln!(out, "worst windows:").map_err(io)?;
+    writeln!(out, "worst windows:")?;
     for w in &c.worst_windows {
         writeln!(
             out,
             "  {:8.2}–{:8.2} s  RMS fx {:.3}, fy {:.3} N",
             w.t_start_s, w.t_end_s, w.rms_n.fx, w.rms_n.fy
-        )
-        .map_err(io)?;
+        )?;
     }
-    writeln!(out, "error by speed:").map_err(io)?;
+    writeln!(out, "error by speed:")?;
     for b in &c.error_by_speed {
         writeln!(
             out,
             "  {:<24} RMS fx {:.3}, fy {:.3} N ({} samples)",
             b.label, b.rms_n.fx, b.rms_n.fy, b.samples
-        )
-        .map_err(io)?;
+        )?;
     }
-    writeln!(out, "error over the workspace:").map_err(io)?;
+    writeln!(out, "error over the workspace:")?;
     for b in &c.error_by_position {
         writeln!(
             out,
             "  {:<28} RMS fx {:.3}, fy {:.3} N ({} samples)",
             b.label, b.rms_n.fx, b.rms_n.fy, b.samples
-        )
-        .map_err(io)?;
+        )?;
     }
     for pk in &c.residual_peaks {
-        writeln!(out, "residual line: {}", pk.detail).map_err(io)?;
+        writeln!(out, "residual line: {}", pk.detail)?;
     }
     for (id, m) in &c.params {
         let ps: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {v:.4}")).collect();
-        writeln!(out, "{id}: {}", ps.join(", ")).map_err(io)?;
+        writeln!(out, "{id}: {}", ps.join(", "))?;
     }
     for w in &c.warnings {
-        writeln!(out, "warning: {w}").map_err(io)?;
+        writeln!(out, "warning: {w}")?;
     }
     Ok(())
 }
@@ -310,25 +289,27 @@ struct FitJson {
     params: std::collections::BTreeMap<String, std::collections::BTreeMap<String, f64>>,
 }
 
-pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
+pub fn fit(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let model = RobotModel::<f64>::thesis();
     let (trial, log) = read_trial(&a.log)?;
     let exp = experiment_of(&a.experiment, &log, &trial)?;
     let catalog = effects::catalog();
-    let with = effects::lookup(&catalog, &a.with).map_err(ident_error)?;
+    let with = effects::lookup(&catalog, &a.with)?;
     if with.is_empty() {
-        return Err("fit needs --with ID,... (see `pamctl model diagnose` for candidates)".into());
+        return Err(anyhow::anyhow!(
+            "fit needs --with ID,... (see `pamctl model diagnose` for candidates)"
+        ));
     }
     for e in &with {
         if !e.applies(exp) {
-            return Err(format!(
+            return Err(anyhow::anyhow!(
                 "effect `{}` cannot be seen in a {} experiment",
                 e.id(),
                 exp.name()
             ));
         }
     }
-    let lp = Loop::new(&trial, &model, exp, settings(a)).map_err(ident_error)?;
+    let lp = Loop::new(&trial, &model, exp, settings(a))?;
     let before = lp.fit(&[]);
     let after = lp.fit(&with);
     if let Some(path) = &a.report {
@@ -348,19 +329,17 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> Result<(), String> {
         out,
         "held-out NRMSE before: fx {:.4}, fy {:.4}",
         before.nrmse[0], before.nrmse[1]
-    )
-    .map_err(io)?;
+    )?;
     writeln!(
         out,
         "held-out NRMSE after:  fx {:.4}, fy {:.4}  (base + {})",
         after.nrmse[0],
         after.nrmse[1],
         after.effect_ids.join(" + ")
-    )
-    .map_err(io)?;
+    )?;
     for (id, m) in &after.params {
         let ps: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {v:.4}")).collect();
-        writeln!(out, "{id}: {}", ps.join(", ")).map_err(io)?;
+        writeln!(out, "{id}: {}", ps.join(", "))?;
     }
     Ok(())
 }

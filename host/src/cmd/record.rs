@@ -4,10 +4,11 @@
 //! 0.5 s and on every way out, so an interrupted recording is a valid log holding every
 //! sample received.
 
-use crate::link::{Client, DropCounter};
 use crate::LinkArgs;
+use anyhow::Context;
 use clap::Args;
 use pam_control::State;
+use pam_link::{Client, DropCounter};
 use pam_log::{col, LogWriter};
 use pam_protocol::{ModeKind, ReplyData, RequestBody, Telemetry};
 use std::io::Write;
@@ -157,37 +158,36 @@ pub fn record(
     device: &str,
     stop: &AtomicBool,
     progress: &mut dyn Write,
-) -> Result<Summary, String> {
+) -> anyhow::Result<Summary> {
     if let Some(d) = args.duration {
         if !(d.is_finite() && d > 0.0) {
-            return Err(format!("--duration {d}: give a positive number of seconds"));
+            return Err(anyhow::anyhow!(
+                "--duration {d}: give a positive number of seconds"
+            ));
         }
     }
     let mut meta_owned: Vec<(String, String)> = Vec::new();
     for m in &args.meta {
         let (k, v) = m
             .split_once('=')
-            .ok_or_else(|| format!("--meta `{m}`: write KEY=VALUE"))?;
+            .ok_or_else(|| anyhow::anyhow!("--meta `{m}`: write KEY=VALUE"))?;
         meta_owned.push((k.trim().to_string(), v.trim().to_string()));
     }
     if let Some(div) = args.divider {
-        client
-            .command(RequestBody::SetTelemetry {
-                divider: div.max(1),
-            })
-            .map_err(|e| e.to_string())?;
+        client.command(RequestBody::SetTelemetry {
+            divider: div.max(1),
+        })?;
     }
-    let status = match client
-        .request(RequestBody::GetStatus)
-        .map_err(|e| e.to_string())?
-    {
+    let status = match client.request(RequestBody::GetStatus)? {
         ReplyData::Status(s) => s,
-        _ => return Err("the device answered status with the wrong kind of reply".into()),
+        _ => {
+            return Err(anyhow::anyhow!(
+                "the device answered status with the wrong kind of reply"
+            ))
+        }
     };
     if status.telemetry_divider == 0 {
-        client
-            .command(RequestBody::SetTelemetry { divider: 1 })
-            .map_err(|e| e.to_string())?;
+        client.command(RequestBody::SetTelemetry { divider: 1 })?;
     }
     let divider = status.telemetry_divider.max(1) as u32;
     let with_force_ref = matches!(
@@ -222,7 +222,7 @@ pub fn record(
         .collect();
     let cols = columns(with_force_ref);
     let mut writer = LogWriter::create(&args.file, &cols, &meta)
-        .map_err(|e| format!("cannot create {}: {e}", args.file.display()))?;
+        .with_context(|| format!("cannot create {}", args.file.display()))?;
 
     client.start_telemetry();
     let mut drops = DropCounter::default();
@@ -242,7 +242,7 @@ pub fn record(
         }
         if let Some(limit) = wall_limit {
             if start.elapsed().as_secs_f64() >= limit {
-                result = Err(format!(
+                result = Err(anyhow::anyhow!(
                     "the device's clock did not reach {} s within {limit:.1} s of host time: \
                      the telemetry stalled; the file holds every sample received",
                     args.duration.unwrap_or(0.0)
@@ -253,7 +253,7 @@ pub fn record(
         // keep the device's command timeout fed while it streams
         if last_beat.elapsed() >= Duration::from_millis(25) {
             if let Err(e) = client.heartbeat() {
-                result = Err(e.to_string());
+                result = Err(e.into());
                 break;
             }
             last_beat = Instant::now();
@@ -271,13 +271,13 @@ pub fn record(
                 }
                 last_t = t_s;
                 if let Err(e) = writer.write_row(&row(&t, t_s, with_force_ref)) {
-                    result = Err(format!("cannot write {}: {e}", args.file.display()));
+                    result = Err(anyhow::anyhow!("cannot write {}: {e}", args.file.display()));
                     break;
                 }
             }
             Ok(None) => {}
             Err(e) => {
-                result = Err(format!("{e}; the file holds every sample received"));
+                result = Err(anyhow::anyhow!("{e}; the file holds every sample received"));
                 break;
             }
         }
@@ -316,7 +316,7 @@ pub fn record(
     let samples = writer.rows();
     writer
         .finish()
-        .map_err(|e| format!("cannot write {}: {e}", args.file.display()))?;
+        .with_context(|| format!("cannot write {}", args.file.display()))?;
     if !args.quiet {
         let _ = writeln!(progress);
     }
@@ -330,7 +330,7 @@ pub fn record(
     })
 }
 
-pub fn run(args: RecordArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+pub fn run(args: RecordArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let stop = super::interrupted();
     let client = super::connect(link)?;
     let s = record(
@@ -352,10 +352,9 @@ pub fn run(args: RecordArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(),
         } else {
             String::new()
         }
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     if args.stats {
-        writeln!(out, "{}", throughput(&s)).map_err(|e| e.to_string())?;
+        writeln!(out, "{}", throughput(&s))?;
     }
     Ok(())
 }

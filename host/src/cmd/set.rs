@@ -80,9 +80,9 @@ pub enum SetMode {
     },
 }
 
-fn values<const N: usize>(name: &str, v: &[f64]) -> Result<[f32; N], String> {
+fn values<const N: usize>(name: &str, v: &[f64]) -> anyhow::Result<[f32; N]> {
     if v.len() != N {
-        return Err(format!(
+        return Err(anyhow::anyhow!(
             "{name} takes {N} comma-separated values, got {}",
             v.len()
         ));
@@ -90,14 +90,14 @@ fn values<const N: usize>(name: &str, v: &[f64]) -> Result<[f32; N], String> {
     let mut out = [0.0f32; N];
     for (o, x) in out.iter_mut().zip(v) {
         if !x.is_finite() {
-            return Err(format!("{name}: {x} is not a number"));
+            return Err(anyhow::anyhow!("{name}: {x} is not a number"));
         }
         *o = *x as f32;
     }
     Ok(out)
 }
 
-pub fn mode_of(m: &SetMode) -> Result<Mode, String> {
+pub fn mode_of(m: &SetMode) -> anyhow::Result<Mode> {
     Ok(match m {
         SetMode::Idle => Mode::Idle,
         SetMode::Pressures { pressure_bar } => Mode::Pressures {
@@ -147,11 +147,11 @@ pub fn mode_of(m: &SetMode) -> Result<Mode, String> {
     })
 }
 
-pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let mode = mode_of(&args.mode)?;
     let hold = match args.hold {
         Some(h) if h.is_nan() || h < 0.0 => {
-            return Err(format!(
+            return Err(anyhow::anyhow!(
                 "--hold {h}: give a duration in seconds ≥ 0, or inf"
             ))
         }
@@ -159,11 +159,8 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), St
     };
     let client = super::connect(link)?;
     client.start_telemetry();
-    client
-        .command(RequestBody::SetMode(mode.into()))
-        .map_err(|e| e.to_string())?;
-    writeln!(out, "mode set: {}", super::status::describe_mode(&mode))
-        .map_err(|e| e.to_string())?;
+    client.command(RequestBody::SetMode(mode.into()))?;
+    writeln!(out, "mode set: {}", super::status::describe_mode(&mode))?;
     // a few samples tell whether the target had to be clamped at this pose
     let mut clamped = false;
     for _ in 0..5 {
@@ -178,22 +175,21 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), St
             out,
             "warning: the target is beyond what the robot can do at this pose: it is clamped \
              (see `pamctl model capability` at the pose)"
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
     }
     if hold > 0.0 {
         let stop = super::interrupted();
         let start = Instant::now();
         while start.elapsed().as_secs_f64() < hold && !stop.load(Ordering::SeqCst) {
-            client.heartbeat().map_err(|e| e.to_string())?;
+            client.heartbeat()?;
             std::thread::sleep(Duration::from_millis(20));
             while let Ok(Some(_)) = client.next_telemetry(Duration::ZERO) {}
         }
         let faults = client.fault_events();
         if let Some(f) = faults.last() {
-            return Err(format!(
+            return Err(anyhow::anyhow!(
                 "the device faulted while holding: {}",
-                super::fault_names(f.bits)
+                pam_link::fault_names(f.bits)
             ));
         }
     }
@@ -211,9 +207,8 @@ mod tests {
         mode: SetMode,
     }
 
-    fn mode(args: &[&str]) -> Result<Mode, String> {
-        let cli = Cli::try_parse_from(std::iter::once("set").chain(args.iter().copied()))
-            .map_err(|e| e.to_string())?;
+    fn mode(args: &[&str]) -> anyhow::Result<Mode> {
+        let cli = Cli::try_parse_from(std::iter::once("set").chain(args.iter().copied()))?;
         mode_of(&cli.mode)
     }
 

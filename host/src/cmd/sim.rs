@@ -1,8 +1,8 @@
-//! `pamctl sim`: the device emulator (see [`crate::sim`]) on TCP and a pseudo-terminal.
+//! `pamctl sim`: the device emulator (the `pam-emulator` library) on TCP and a pseudo-terminal.
 
-use crate::sim::inject::{Injection, Scheduled};
-use crate::sim::{Emulator, HandleMode, SimConfig};
+use anyhow::Context;
 use clap::Args;
+use pam_emulator::{Emulator, HandleMode, Injection, Scheduled, SimConfig};
 use pam_twin::EffectSet;
 use std::io::Write;
 use std::sync::atomic::Ordering;
@@ -51,26 +51,27 @@ pub struct SimArgs {
     pub list_effects: bool,
 }
 
-pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
-    let io = |e: std::io::Error| e.to_string();
+pub fn run(args: SimArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     if args.list_effects {
         for e in pam_twin::effects::catalog() {
-            writeln!(out, "{}", pam_twin::effects::describe(e.as_ref())).map_err(io)?;
+            writeln!(out, "{}", pam_twin::effects::describe(e.as_ref()))?;
         }
         return Ok(());
     }
     if let Some(s) = args.seconds {
         if !(s.is_finite() && s > 0.0) {
-            return Err(format!("--seconds {s}: give a positive number of seconds"));
+            return Err(anyhow::anyhow!(
+                "--seconds {s}: give a positive number of seconds"
+            ));
         }
     }
-    let effects = EffectSet::parse_list(&args.with).map_err(|e| format!("--with: {e}"))?;
+    let effects = EffectSet::parse_list(&args.with).context("--with")?;
     let injections = args
         .inject
         .iter()
         .map(|t| Scheduled::parse(t))
         .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| format!("--inject: {e}"))?;
+        .context("--inject")?;
     let mut config = SimConfig {
         injections,
         effects,
@@ -85,15 +86,17 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
     let stop = super::interrupted();
     let mut emulator = Emulator::start(config.clone())?;
     let address = emulator.listen_tcp(&args.listen)?;
-    writeln!(out, "listening on tcp://{address}").map_err(io)?;
+    writeln!(out, "listening on tcp://{address}")?;
     if args.pty {
         #[cfg(target_os = "linux")]
         {
             let path = emulator.open_pty()?;
-            writeln!(out, "pty: {path}").map_err(io)?;
+            writeln!(out, "pty: {path}")?;
         }
         #[cfg(not(target_os = "linux"))]
-        return Err("--pty: pseudo-terminals are only supported on Linux".into());
+        return Err(anyhow::anyhow!(
+            "--pty: pseudo-terminals are only supported on Linux"
+        ));
     }
     let effects = config.effects.specs();
     writeln!(
@@ -102,9 +105,8 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
         config.handle,
         if effects.is_empty() { "none".to_string() } else { effects.join(" ") },
         config.command_timeout_s
-    )
-    .map_err(io)?;
-    out.flush().map_err(io)?;
+    )?;
+    out.flush()?;
     let commands = args.stdin_control.then(stdin_commands);
     let started = Instant::now();
     let mut last_report = Instant::now();
@@ -125,8 +127,8 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> Result<(), String> {
             }
         }
         for report in emulator.injected() {
-            writeln!(out, "{report}").map_err(io)?;
-            out.flush().map_err(io)?;
+            writeln!(out, "{report}")?;
+            out.flush()?;
         }
         // tell about late periods as they happen, at most every 10 s
         let late = emulator.stats.late.load(Ordering::Relaxed);

@@ -2,6 +2,7 @@
 //! with hidden effects if asked — the logs the model loop (`pamctl model diagnose`) is tried
 //! on. The trial itself is `pam_twin::simulate::run_trial`.
 
+use anyhow::Context;
 use clap::Args;
 use pam_twin::experiments::StiffnessLevel;
 use pam_twin::impedance_trial::VirtualImpedance;
@@ -73,39 +74,37 @@ pub struct SimulateArgs {
     pub list_effects: bool,
 }
 
-fn parse_experiment(s: &str) -> Result<Experiment, String> {
+fn parse_experiment(s: &str) -> Result<Experiment, pam_twin::simulate::SimulateError> {
     s.parse()
-        .map_err(|e: pam_twin::simulate::SimulateError| e.to_string())
 }
 
-fn parse_stiffness(s: &str) -> Result<StiffnessLevel, String> {
-    pam_twin::simulate::parse_stiffness(s).map_err(|e| e.to_string())
+fn parse_stiffness(s: &str) -> Result<StiffnessLevel, pam_twin::simulate::SimulateError> {
+    pam_twin::simulate::parse_stiffness(s)
 }
 
-fn pair(name: &str, v: &[f64]) -> Result<[f64; 2], String> {
+fn pair(name: &str, v: &[f64]) -> anyhow::Result<[f64; 2]> {
     match v {
         [a, b] if a.is_finite() && b.is_finite() => Ok([*a, *b]),
-        _ => Err(format!("{name} takes two comma-separated numbers")),
+        _ => Err(anyhow::anyhow!("{name} takes two comma-separated numbers")),
     }
 }
 
-fn finite(s: &str) -> Result<f64, String> {
+fn finite(s: &str) -> anyhow::Result<f64> {
     s.parse::<f64>()
         .ok()
         .filter(|v| v.is_finite())
-        .ok_or_else(|| format!("`{s}` is not a number"))
+        .ok_or_else(|| anyhow::anyhow!("`{s}` is not a number"))
 }
 
-pub fn run(args: SimulateArgs, out: &mut dyn Write) -> Result<(), String> {
-    let io = |e: std::io::Error| e.to_string();
+pub fn run(args: SimulateArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     if args.list_effects {
         for e in pam_twin::effects::catalog() {
-            writeln!(out, "{}", pam_twin::effects::describe(e.as_ref())).map_err(io)?;
+            writeln!(out, "{}", pam_twin::effects::describe(e.as_ref()))?;
         }
         return Ok(());
     }
     let (Some(experiment), Some(path)) = (args.experiment, args.out) else {
-        return Err("--experiment and --out are required".into());
+        return Err(anyhow::anyhow!("--experiment and --out are required"));
     };
     let spec = TrialSpec {
         experiment,
@@ -126,8 +125,13 @@ pub fn run(args: SimulateArgs, out: &mut dyn Write) -> Result<(), String> {
         },
         identified_rig: args.identified_rig,
     };
-    let log = run_trial(&spec).map_err(|e| e.to_string())?;
+    let log = run_trial(&spec)?;
     log.write_path(&path)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    writeln!(out, "wrote {} rows to {}", log.len(), path.display()).map_err(io)
+        .with_context(|| format!("{}", path.display()))?;
+    Ok(writeln!(
+        out,
+        "wrote {} rows to {}",
+        log.len(),
+        path.display()
+    )?)
 }

@@ -103,22 +103,23 @@ pub fn describe_sample(t: &Telemetry) -> String {
     )
 }
 
-pub fn run(link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+pub fn run(link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
     let info = *client.info();
     client.start_telemetry();
-    let s = match client
-        .request(RequestBody::GetStatus)
-        .map_err(|e| e.to_string())?
-    {
+    let s = match client.request(RequestBody::GetStatus)? {
         ReplyData::Status(s) => s,
-        _ => return Err("the device answered status with the wrong kind of reply".into()),
+        _ => {
+            return Err(anyhow::anyhow!(
+                "the device answered status with the wrong kind of reply"
+            ))
+        }
     };
     let sample = client
         .next_telemetry(Duration::from_millis(200))
         .ok()
         .flatten();
-    let w = |out: &mut dyn Write, line: String| writeln!(out, "{line}").map_err(|e| e.to_string());
+    let w = |out: &mut dyn Write, line: String| writeln!(out, "{line}");
     let v = info.firmware_version;
     w(
         out,
@@ -134,7 +135,7 @@ pub fn run(link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
     )?;
     w(out, format!("state: {}", state_name(s.state.into())))?;
     w(out, format!("mode: {}", describe_mode(&s.mode.into())))?;
-    w(out, format!("faults: {}", super::fault_names(s.faults)))?;
+    w(out, format!("faults: {}", pam_link::fault_names(s.faults)))?;
     w(
         out,
         format!(
@@ -155,10 +156,11 @@ pub fn run(link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
         ),
     )?;
     match sample {
-        Some(t) => w(out, format!("sample: {}", describe_sample(&t))),
+        Some(t) => w(out, format!("sample: {}", describe_sample(&t)))?,
         None => w(
             out,
             "sample: none (telemetry off: `pamctl record` turns it on)".into(),
-        ),
+        )?,
     }
+    Ok(())
 }

@@ -1,19 +1,23 @@
 //! `pamctl watch`: a live view of the telemetry — angles, forces, pressures and currents,
 //! mode, state, faults, loop time and jitter, dropped frames — with small live plots.
 //!
-//! On a terminal it redraws in place (ANSI escapes, no extra dependency); otherwise, or with
-//! `--plain`, it prints one summary line per refresh; `--once` prints the full view once.
+//! On a terminal it is a ratatui screen (`watch/tui.rs`; Ctrl-C, q or Esc stop it);
+//! otherwise, or with `--plain`, it prints one summary line per refresh; `--once` prints the
+//! full view once as text.
 //! It keeps the link alive (heartbeats), like `record`.
 
 use super::status::state_name;
-use crate::link::{Client, DropCounter};
 use crate::LinkArgs;
+use anyhow::Context;
 use clap::Args;
+use pam_link::{fault_names, Client, DropCounter};
 use pam_protocol::{ModeKind, ReplyData, RequestBody, Telemetry};
 use std::collections::VecDeque;
 use std::io::{IsTerminal, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
+
+mod tui;
 
 #[derive(Args, Debug)]
 pub struct WatchArgs {
@@ -152,7 +156,7 @@ impl View {
             t.current_ma[1],
             t.current_ma[2],
             t.current_ma[3],
-            super::fault_names(t.faults),
+            fault_names(t.faults),
             exec,
             exec_max,
             jitter_max,
@@ -160,8 +164,26 @@ impl View {
         )
     }
 
-    /// The full view, one string per line.
+    /// The full view as text, one string per line: the header, then a sparkline per signal.
     pub fn render(&self, device: &str) -> Vec<String> {
+        let mut lines = self.header(device);
+        if self.last.is_none() {
+            return lines;
+        }
+        lines.push(String::new());
+        for row in self.rows() {
+            lines.push(format!(
+                "{}{}  {}",
+                row.label(),
+                sparkline(row.history, PLOT_WIDTH),
+                row.range()
+            ));
+        }
+        lines
+    }
+
+    /// Everything above the plots, one string per line.
+    pub fn header(&self, device: &str) -> Vec<String> {
         let mut lines = vec![
             format!("pamctl watch — {device}   (Ctrl-C to stop)"),
             String::new(),
@@ -179,7 +201,7 @@ impl View {
                 Some(f) => format!(" (target {:+.2}, {:+.2} N)", f[0], f[1]),
                 None => String::new(),
             },
-            super::fault_names(t.faults)
+            fault_names(t.faults)
         ));
         lines.push(format!(
             "device time {:.3} s   samples {}   dropped {}   loop {} µs (max {} µs over 1 s)   jitter max {} µs{}",
@@ -195,21 +217,45 @@ impl View {
             "currents {:6.2} {:6.2} {:6.2} {:6.2} mA",
             t.current_ma[0], t.current_ma[1], t.current_ma[2], t.current_ma[3]
         ));
-        lines.push(String::new());
-        for (i, (name, unit)) in SIGNALS.iter().enumerate() {
-            let h = &self.history[i];
-            let now = h.back().map(|x| x.1).unwrap_or(0.0);
-            let (lo, hi) = h
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                    (lo.min(x.1), hi.max(x.1))
-                });
-            lines.push(format!(
-                "{name:>3} {now:+8.2} {unit:<3} {}  [{lo:+.2} … {hi:+.2}]",
-                sparkline(h, PLOT_WIDTH)
-            ));
-        }
         lines
+    }
+
+    /// One row per plotted signal.
+    pub fn rows(&self) -> impl Iterator<Item = Row<'_>> {
+        SIGNALS
+            .iter()
+            .zip(&self.history)
+            .map(|(&(name, unit), history)| Row {
+                name,
+                unit,
+                history,
+            })
+    }
+}
+
+/// One plotted signal: its name and unit, and its history in the window.
+pub struct Row<'a> {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub history: &'a VecDeque<(f64, f64)>,
+}
+
+impl Row<'_> {
+    /// Name, latest value and unit, padded to a fixed width.
+    pub fn label(&self) -> String {
+        let now = self.history.back().map(|x| x.1).unwrap_or(0.0);
+        format!("{:>3} {now:+8.2} {:<3} ", self.name, self.unit)
+    }
+
+    /// `[lo … hi]` over the window.
+    pub fn range(&self) -> String {
+        let (lo, hi) = self
+            .history
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x.1), hi.max(x.1))
+            });
+        format!("[{lo:+.2} … {hi:+.2}]")
     }
 }
 
@@ -225,11 +271,11 @@ pub fn mode_name(m: ModeKind) -> &'static str {
     }
 }
 
-/// The history as `width` block characters (mean per column), scaled to its own range.
-pub fn sparkline(h: &VecDeque<(f64, f64)>, width: usize) -> String {
-    const BLOCKS: [char; 8] = ['▁', '▂', '▃', '▄', '▅', '▆', '▇', '█'];
+/// The history in at most `width` columns (mean per column), each scaled to 0..=`top`
+/// over the columns' own range (a flat signal: all 0).
+pub fn columns(h: &VecDeque<(f64, f64)>, width: usize, top: u64) -> Vec<u64> {
     if h.is_empty() || width == 0 {
-        return " ".repeat(width);
+        return Vec::new();
     }
     let per = h.len().div_ceil(width).max(1);
     let cols: Vec<f64> = h
@@ -242,16 +288,24 @@ pub fn sparkline(h: &VecDeque<(f64, f64)>, width: usize) -> String {
     let lo = cols.iter().cloned().fold(f64::INFINITY, f64::min);
     let hi = cols.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let span = hi - lo;
-    let mut s: String = cols
-        .iter()
+    cols.iter()
         .map(|&v| {
             if span < 1e-9 {
-                BLOCKS[0]
+                0
             } else {
-                BLOCKS[(((v - lo) / span) * 7.0).round().clamp(0.0, 7.0) as usize]
+                (((v - lo) / span) * top as f64)
+                    .round()
+                    .clamp(0.0, top as f64) as u64
             }
         })
-        .collect();
+        .collect()
+}
+
+/// The history as `width` block characters (mean per column), scaled to its own range.
+pub fn sparkline(h: &VecDeque<(f64, f64)>, width: usize) -> String {
+    const BLOCKS: [char; 8] = ['▁', '▂', '▃', '▄', '▅', '▆', '▇', '█'];
+    let cols = columns(h, width, 7);
+    let mut s: String = cols.iter().map(|&c| BLOCKS[c as usize]).collect();
     for _ in cols.len()..width {
         s.push(' ');
     }
@@ -264,21 +318,18 @@ pub fn watch(
     client: &Client,
     args: &WatchArgs,
     stop: &AtomicBool,
-    mut draw: impl FnMut(&View) -> Result<(), String>,
-) -> Result<View, String> {
+    mut draw: impl FnMut(&View) -> anyhow::Result<()>,
+) -> anyhow::Result<View> {
     if let Some(s) = args.seconds {
         if !(s.is_finite() && s > 0.0) {
-            return Err(format!("--seconds {s}: give a positive number of seconds"));
+            return Err(anyhow::anyhow!(
+                "--seconds {s}: give a positive number of seconds"
+            ));
         }
     }
-    if let ReplyData::Status(s) = client
-        .request(RequestBody::GetStatus)
-        .map_err(|e| e.to_string())?
-    {
+    if let ReplyData::Status(s) = client.request(RequestBody::GetStatus)? {
         if s.telemetry_divider == 0 {
-            client
-                .command(RequestBody::SetTelemetry { divider: 1 })
-                .map_err(|e| e.to_string())?;
+            client.command(RequestBody::SetTelemetry { divider: 1 })?;
         }
     }
     let mut view = View::new(args.window);
@@ -290,13 +341,10 @@ pub fn watch(
     let mut last_draw = Instant::now();
     while !stop.load(Ordering::SeqCst) && limit.is_none_or(|l| start.elapsed().as_secs_f64() < l) {
         if last_beat.elapsed() >= Duration::from_millis(25) {
-            client.heartbeat().map_err(|e| e.to_string())?;
+            client.heartbeat()?;
             last_beat = Instant::now();
         }
-        while let Some(t) = client
-            .next_telemetry(Duration::from_millis(5))
-            .map_err(|e| e.to_string())?
-        {
+        while let Some(t) = client.next_telemetry(Duration::from_millis(5))? {
             view.push(&t);
             if last_beat.elapsed() >= Duration::from_millis(25) {
                 break;
@@ -310,55 +358,50 @@ pub fn watch(
     Ok(view)
 }
 
-pub fn run(args: WatchArgs, link: &LinkArgs, out: &mut dyn Write) -> Result<(), String> {
+pub fn run(args: WatchArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
     let device = link.device.clone().unwrap_or_default();
     let stop = super::interrupted();
-    let io = |e: std::io::Error| e.to_string();
     let live = !args.once && !args.plain && std::io::stdout().is_terminal();
     if args.once {
         let view = watch(&client, &args, &stop, |_| Ok(()))?;
         for l in view.render(&device) {
-            writeln!(out, "{l}").map_err(io)?;
+            writeln!(out, "{l}")?;
         }
         return Ok(());
     }
     if live {
-        // hide the cursor, clear; every frame rewrites from the top
-        write!(out, "\x1b[?25l\x1b[2J").map_err(io)?;
+        // the alternate screen in raw mode; restored also on an error or a panic
+        let mut terminal = ratatui::try_init().context("cannot set up the terminal")?;
         let result = watch(&client, &args, &stop, |v| {
-            let mut frame = String::from("\x1b[H");
-            for l in v.render(&device) {
-                frame.push_str(&l);
-                frame.push_str("\x1b[K\r\n");
+            terminal.draw(|f| tui::draw(f, v, &device))?;
+            if tui::stop_key_pressed()? {
+                stop.store(true, Ordering::SeqCst);
             }
-            frame.push_str("\x1b[J");
-            out.write_all(frame.as_bytes())
-                .and_then(|_| out.flush())
-                .map_err(io)
+            Ok(())
         });
-        write!(out, "\x1b[?25h").map_err(io)?;
+        ratatui::restore();
         let view = result?;
-        writeln!(out, "{}", view.summary()).map_err(io)?;
+        writeln!(out, "{}", view.summary())?;
         return Ok(());
     }
     let mut last_line = Instant::now() - Duration::from_secs(1);
     let view = watch(&client, &args, &stop, |v| {
         if last_line.elapsed() >= Duration::from_secs(1) {
             last_line = Instant::now();
-            writeln!(out, "{}", v.summary()).map_err(io)?;
+            writeln!(out, "{}", v.summary())?;
         }
         Ok(())
     })?;
-    writeln!(out, "{}", view.summary()).map_err(io)
+    Ok(writeln!(out, "{}", view.summary())?)
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use pam_control::State;
 
-    fn sample(seq: u32, alpha1_deg: f32) -> Telemetry {
+    pub(super) fn sample(seq: u32, alpha1_deg: f32) -> Telemetry {
         Telemetry {
             seq,
             time_us: seq * 1000,

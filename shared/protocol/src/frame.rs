@@ -1,7 +1,10 @@
 //! Frames on the byte stream: `COBS(postcard(message) ‖ CRC-16 big-endian) ‖ 0x00`.
+//!
+//! COBS is the `cobs` crate (the one postcard itself uses), the CRC the `crc` crate's
+//! CRC-16/CCITT-FALSE (`CRC_16_IBM_3740`: poly 0x1021, init 0xFFFF, no reflection, no
+//! final xor; detects every error burst up to 16 bits and any 1–3 bit errors in frames of
+//! our size), with its 256-entry table as before.
 
-use crate::cobs;
-use crate::crc::crc16;
 use core::marker::PhantomData;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
@@ -10,8 +13,15 @@ use serde::Serialize;
 pub const MAX_PAYLOAD: usize = 320;
 const CRC_LEN: usize = 2;
 /// Largest frame on the wire, delimiter included.
-pub const MAX_FRAME: usize = cobs::max_encoded_len(MAX_PAYLOAD + CRC_LEN) + 1;
+pub const MAX_FRAME: usize = cobs::max_encoding_length(MAX_PAYLOAD + CRC_LEN) + 1;
 pub const DELIMITER: u8 = 0x00;
+
+const CRC16: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740);
+
+/// The frame's checksum over the postcard bytes.
+pub fn crc16(data: &[u8]) -> u16 {
+    CRC16.checksum(data)
+}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum EncodeError {
@@ -42,7 +52,7 @@ pub fn encode_frame<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, Enco
         .len();
     let crc = crc16(&payload[..n]);
     payload[n..n + CRC_LEN].copy_from_slice(&crc.to_be_bytes());
-    let m = cobs::encode(&payload[..n + CRC_LEN], out).ok_or(EncodeError::TooLarge)?;
+    let m = cobs::try_encode(&payload[..n + CRC_LEN], out).map_err(|_| EncodeError::TooLarge)?;
     if m >= out.len() {
         return Err(EncodeError::TooLarge);
     }
@@ -53,7 +63,7 @@ pub fn encode_frame<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, Enco
 /// Checks and decodes the body of one frame (the bytes between two delimiters, still
 /// COBS-encoded). Works in place on `block`.
 pub fn decode_block<T: DeserializeOwned>(block: &mut [u8]) -> Result<T, DecodeError> {
-    let n = cobs::decode_in_place(block).ok_or(DecodeError::Cobs)?;
+    let n = cobs::decode_in_place(block).map_err(|_| DecodeError::Cobs)?;
     if n < CRC_LEN {
         return Err(DecodeError::TooShort);
     }
@@ -120,5 +130,53 @@ impl<T: DeserializeOwned> FrameDecoder<T> {
     pub fn reset(&mut self) {
         self.len = 0;
         self.overflowed = false;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::crc16;
+
+    #[test]
+    fn crc_check_value_of_the_standard() {
+        // the catalogue's check value for "123456789"
+        assert_eq!(crc16(b"123456789"), 0x29B1);
+        assert_eq!(crc16(b""), 0xFFFF);
+    }
+
+    // the wire format is standard COBS; these pin it against a change of the crate
+    fn round_trip(data: &[u8]) {
+        let mut enc = [0u8; 1200];
+        let n = cobs::try_encode(data, &mut enc).unwrap();
+        assert!(n <= cobs::max_encoding_length(data.len()));
+        assert!(!enc[..n].contains(&0), "encoded block contains a zero");
+        let d = cobs::decode_in_place(&mut enc[..n]).unwrap();
+        assert_eq!(&enc[..d], data);
+    }
+
+    #[test]
+    fn cobs_known_vectors() {
+        let mut enc = [0u8; 16];
+        let n = cobs::try_encode(&[0x11, 0x22, 0x00, 0x33], &mut enc).unwrap();
+        assert_eq!(&enc[..n], &[0x03, 0x11, 0x22, 0x02, 0x33]);
+        let n = cobs::try_encode(&[0x00], &mut enc).unwrap();
+        assert_eq!(&enc[..n], &[0x01, 0x01]);
+    }
+
+    #[test]
+    fn cobs_round_trips_including_long_runs() {
+        round_trip(&[0, 0, 0]);
+        let long: [u8; 600] = core::array::from_fn(|i| (i % 255) as u8 + 1);
+        round_trip(&long);
+        let mixed: [u8; 700] = core::array::from_fn(|i| (i * 7 % 13) as u8);
+        round_trip(&mixed);
+        let exact: [u8; 254] = [7; 254];
+        round_trip(&exact);
+    }
+
+    #[test]
+    fn invalid_cobs_blocks_are_refused() {
+        assert!(cobs::decode_in_place(&mut [0x05, 0x11]).is_err());
+        assert!(cobs::decode_in_place(&mut [0x02, 0x00]).is_err());
     }
 }

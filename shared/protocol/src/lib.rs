@@ -13,8 +13,6 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
-pub mod cobs;
-pub mod crc;
 pub mod frame;
 pub mod messages;
 pub mod wire;

@@ -283,10 +283,10 @@ fn a_wrong_crc_is_reported_as_crc() {
     let n = postcard::to_slice(&every_request()[2], &mut payload)
         .unwrap()
         .len();
-    let bad_crc = crc::crc16(&payload[..n]) ^ 1;
+    let bad_crc = crate::frame::crc16(&payload[..n]) ^ 1;
     payload[n..n + 2].copy_from_slice(&bad_crc.to_be_bytes());
     let mut enc = [0u8; 80];
-    let m = cobs::encode(&payload[..n + 2], &mut enc).unwrap();
+    let m = cobs::try_encode(&payload[..n + 2], &mut enc).unwrap();
     assert_eq!(
         decode_block::<Request>(&mut enc[..m]),
         Err(DecodeError::Crc)

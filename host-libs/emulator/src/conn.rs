@@ -1,12 +1,29 @@
 //! The emulator's connections: a reader and a writer thread per client (TCP or the pty),
 //! and the frames queued to them.
 
-use super::Event;
+use crate::inject::Injection;
 use pam_protocol::{encode_frame, DeviceMessage, FrameDecoder, Request, MAX_FRAME};
 use std::io::{ErrorKind, Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, Sender, SyncSender};
 use std::sync::Arc;
+
+/// What the connections tell the real-time loop.
+pub(crate) enum Event {
+    Opened {
+        conn: u64,
+        out: SyncSender<Vec<u8>>,
+    },
+    Bytes {
+        conn: u64,
+        bytes: Vec<u8>,
+    },
+    Closed {
+        conn: u64,
+    },
+    /// A fault to inject now (from the emulator's owner, never from a connection).
+    Inject(Injection),
+}
 
 /// Frames queued per connection before frames are dropped (≈ 0.5 s of telemetry at 1 kHz).
 pub(super) const WRITE_QUEUE: usize = 512;

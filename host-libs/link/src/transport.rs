@@ -4,6 +4,8 @@ use std::io::{Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};
 use std::time::Duration;
 
+use crate::LinkError;
+
 /// Where the device is, parsed from `--device`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DeviceAddress {
@@ -14,35 +16,25 @@ pub enum DeviceAddress {
 }
 
 impl DeviceAddress {
-    pub fn parse(s: &str) -> Result<DeviceAddress, String> {
+    pub fn parse(s: &str) -> Result<DeviceAddress, LinkError> {
         let s = s.trim();
         if s.is_empty() {
-            return Err(no_device_message());
+            return Err(LinkError::NoDevice);
         }
         if let Some(rest) = s.strip_prefix("tcp://") {
             let ok = rest
                 .rsplit_once(':')
                 .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok());
             if !ok {
-                return Err(format!(
-                    "`{s}` is not a TCP device address: write it as tcp://HOST:PORT, e.g. tcp://127.0.0.1:7878"
-                ));
+                return Err(LinkError::BadTcpAddress(s.to_string()));
             }
             return Ok(DeviceAddress::Tcp(rest.to_string()));
         }
         if s.contains("://") {
-            return Err(format!(
-                "`{s}`: unknown scheme; use a serial port path (/dev/ttyACM0) or tcp://HOST:PORT"
-            ));
+            return Err(LinkError::UnknownScheme(s.to_string()));
         }
         Ok(DeviceAddress::Serial(s.to_string()))
     }
-}
-
-pub fn no_device_message() -> String {
-    "no device given: pass --device /dev/ttyACM0 (USB) or --device tcp://127.0.0.1:PORT (emulator), \
-     or set PAMCTL_DEVICE; `pamctl ports` lists the serial ports"
-        .to_string()
 }
 
 /// A byte stream split into a reading and a writing half (the reader lives in its own
@@ -55,12 +47,15 @@ pub struct Stream {
 const READ_POLL: Duration = Duration::from_millis(20);
 
 /// Opens the device; errors say what to check.
-pub fn open(address: &DeviceAddress, connect_timeout: Duration) -> Result<Stream, String> {
+pub fn open(address: &DeviceAddress, connect_timeout: Duration) -> Result<Stream, LinkError> {
     match address {
         DeviceAddress::Tcp(hostport) => {
             let addrs: Vec<_> = hostport
                 .to_socket_addrs()
-                .map_err(|e| format!("cannot resolve `{hostport}`: {e}"))?
+                .map_err(|source| LinkError::Resolve {
+                    host: hostport.clone(),
+                    source,
+                })?
                 .collect();
             let mut last = None;
             for a in &addrs {
@@ -68,9 +63,10 @@ pub fn open(address: &DeviceAddress, connect_timeout: Duration) -> Result<Stream
                     Ok(s) => {
                         s.set_nodelay(true).ok();
                         s.set_read_timeout(Some(READ_POLL)).ok();
-                        let w = s
-                            .try_clone()
-                            .map_err(|e| format!("tcp://{hostport}: {e}"))?;
+                        let w = s.try_clone().map_err(|e| LinkError::Split {
+                            device: format!("tcp://{hostport}"),
+                            reason: e.to_string(),
+                        })?;
                         return Ok(Stream {
                             reader: Box::new(s),
                             writer: Box::new(w),
@@ -79,26 +75,26 @@ pub fn open(address: &DeviceAddress, connect_timeout: Duration) -> Result<Stream
                     Err(e) => last = Some(e),
                 }
             }
-            Err(format!(
-                "cannot connect to tcp://{hostport}: {}; is the emulator running (`pamctl sim`) and listening on that port?",
-                last.map(|e| e.to_string())
-                    .unwrap_or_else(|| "no address".into())
-            ))
+            Err(LinkError::Connect {
+                host: hostport.clone(),
+                reason: last
+                    .map(|e| e.to_string())
+                    .unwrap_or_else(|| "no address".into()),
+            })
         }
         DeviceAddress::Serial(path) => {
             // CDC-ACM ignores the baud rate; 115200 suits a real UART bridge too
             let port = serialport::new(path, 115_200)
                 .timeout(READ_POLL)
                 .open()
-                .map_err(|e| {
-                    format!(
-                        "cannot open serial port {path}: {e}; check the cable, that no other program holds the port, \
-                         and your permission on it (Linux: add yourself to the `dialout` group); `pamctl ports` lists the ports"
-                    )
+                .map_err(|source| LinkError::OpenSerial {
+                    path: path.clone(),
+                    source,
                 })?;
-            let w = port
-                .try_clone()
-                .map_err(|e| format!("serial port {path}: {e}"))?;
+            let w = port.try_clone().map_err(|e| LinkError::Split {
+                device: format!("serial port {path}"),
+                reason: e.to_string(),
+            })?;
             Ok(Stream {
                 reader: Box::new(port),
                 writer: Box::new(w),
@@ -108,9 +104,8 @@ pub fn open(address: &DeviceAddress, connect_timeout: Duration) -> Result<Stream
 }
 
 /// Serial ports that may be the robot, USB ones first.
-pub fn list_ports() -> Result<Vec<(String, String)>, String> {
-    let mut ports =
-        serialport::available_ports().map_err(|e| format!("cannot list serial ports: {e}"))?;
+pub fn list_ports() -> Result<Vec<(String, String)>, LinkError> {
+    let mut ports = serialport::available_ports().map_err(LinkError::ListPorts)?;
     // the robot first, then other USB ports, then the rest
     ports.sort_by_key(|p| match &p.port_type {
         serialport::SerialPortType::UsbPort(u)

@@ -21,6 +21,8 @@ use pam_firmware_logic::debounce::Debounce;
 use pam_twin::faults::{FaultState, PlantFault};
 use pam_twin::Measurement;
 
+use crate::EmulatorError;
+
 /// How long one injected overrun period takes, in periods.
 const OVERRUN_STALL_PERIODS: u32 = 2;
 /// The safe loop current the EXTI handler writes.
@@ -42,7 +44,11 @@ pub enum Injection {
 impl Injection {
     /// `estop`, `estop_release`, `overrun[:periods=N]` or a plant fault
     /// (`pam_twin::faults::PlantFault::parse`).
-    pub fn parse(text: &str) -> Result<Injection, String> {
+    pub fn parse(text: &str) -> Result<Injection, EmulatorError> {
+        let bad = |reason: &str| EmulatorError::Injection {
+            text: text.trim().to_string(),
+            reason: reason.to_string(),
+        };
         let text = text.trim();
         let (kind, params) = text.split_once(':').unwrap_or((text, ""));
         Ok(match kind {
@@ -55,15 +61,17 @@ impl Injection {
                         .parse::<u32>()
                         .ok()
                         .filter(|&n| n > 0)
-                        .ok_or_else(|| format!("{text}: periods must be a positive integer"))?,
-                    None => return Err(format!("{text}: overrun takes periods=N")),
+                        .ok_or_else(|| bad("periods must be a positive integer"))?,
+                    None => return Err(bad("overrun takes periods=N")),
                 };
                 Injection::Overrun { periods }
             }
-            _ => Injection::Plant(
-                PlantFault::parse(text)
-                    .map_err(|e| format!("{e}; or estop, estop_release, overrun:periods=N"))?,
-            ),
+            _ => Injection::Plant(PlantFault::parse(text).map_err(|source| {
+                EmulatorError::PlantFault {
+                    text: text.to_string(),
+                    source,
+                }
+            })?),
         })
     }
 }
@@ -76,15 +84,19 @@ pub struct Scheduled {
 }
 
 impl Scheduled {
-    pub fn parse(text: &str) -> Result<Scheduled, String> {
+    pub fn parse(text: &str) -> Result<Scheduled, EmulatorError> {
+        let bad = |reason: String| EmulatorError::Injection {
+            text: text.to_string(),
+            reason,
+        };
         let (kind, at) = text
             .rsplit_once('@')
-            .ok_or_else(|| format!("{text}: give KIND@SECONDS, e.g. loadcell_frozen@5"))?;
+            .ok_or_else(|| bad("no time: give KIND@SECONDS".into()))?;
         let at_s: f64 = at
             .parse()
             .ok()
             .filter(|t: &f64| t.is_finite() && *t >= 0.0)
-            .ok_or_else(|| format!("{text}: {at} is not a time in seconds"))?;
+            .ok_or_else(|| bad(format!("{at} is not a time in seconds")))?;
         Ok(Scheduled {
             at_s,
             injection: Injection::parse(kind)?,
@@ -245,7 +257,7 @@ mod tests {
             RobotParams::thesis(),
             SafetyConfig::default_1khz(),
             DeviceOptions {
-                firmware_version: crate::sim::emulator_version(),
+                firmware_version: crate::emulator_version(),
                 encoder_counter_bits: 16,
             },
         )
@@ -319,22 +331,22 @@ mod tests {
 
     #[test]
     fn parses_board_and_plant_injections_with_their_time() {
-        assert_eq!(Injection::parse("estop"), Ok(Injection::EStop));
+        assert_eq!(Injection::parse("estop").unwrap(), Injection::EStop);
         assert_eq!(
-            Injection::parse("overrun"),
-            Ok(Injection::Overrun { periods: 5 })
+            Injection::parse("overrun").unwrap(),
+            Injection::Overrun { periods: 5 }
         );
         assert_eq!(
-            Injection::parse("overrun:periods=2"),
-            Ok(Injection::Overrun { periods: 2 })
+            Injection::parse("overrun:periods=2").unwrap(),
+            Injection::Overrun { periods: 2 }
         );
         assert!(Injection::parse("overrun:periods=0").is_err());
         assert_eq!(
-            Scheduled::parse("encoder_stuck:joint=1@2.5"),
-            Ok(Scheduled {
+            Scheduled::parse("encoder_stuck:joint=1@2.5").unwrap(),
+            Scheduled {
                 at_s: 2.5,
                 injection: Injection::Plant(PlantFault::EncoderStuck { joint: 0 })
-            })
+            }
         );
         assert!(Scheduled::parse("estop").is_err());
         assert!(Scheduled::parse("estop@-1").is_err());

@@ -1,105 +1,18 @@
 //! Protocol client: handshake with version and schema-fingerprint check, requests with timeouts, the telemetry
 //! stream with drop counting, fault events.
 
-use super::transport::{self, DeviceAddress};
+use crate::transport::{self, DeviceAddress};
+use crate::LinkError;
 use pam_protocol::{
     encode_frame, DeviceInfo, DeviceMessage, ErrorCode, FaultEvent, FrameDecoder, Reply, ReplyData,
     Request, RequestBody, Telemetry, MAX_FRAME, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
 };
-use std::fmt;
 use std::io::{ErrorKind, Write};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-
-#[derive(Debug, Clone, PartialEq)]
-pub enum ClientError {
-    /// Opening or writing the link failed (message says what to check).
-    Link(String),
-    /// No reply in time.
-    Timeout {
-        request: &'static str,
-        after: Duration,
-    },
-    /// The device refused the request; it changed nothing.
-    Refused {
-        request: &'static str,
-        code: ErrorCode,
-    },
-    /// The device closed the link.
-    Disconnected,
-    /// The device does not speak our protocol version.
-    Version { device: Option<u16> },
-    /// Same protocol version, different wire types: the device's
-    /// [`pam_protocol::SCHEMA_FINGERPRINT`] is not ours.
-    Fingerprint { host: u32, device: u32 },
-    /// A reply of the wrong kind (a device bug).
-    Unexpected { request: &'static str },
-}
-
-pub fn advice(code: ErrorCode) -> &'static str {
-    match code {
-        ErrorCode::Malformed => {
-            "the device could not read the request (corrupted on the link); try again"
-        }
-        ErrorCode::UnsupportedVersion => "the device speaks another protocol version",
-        ErrorCode::OutOfRange => {
-            "a value is NaN or outside the device's limits; nothing was changed (see `pamctl config get limits`)"
-        }
-        ErrorCode::WrongState => {
-            "not allowed in the device's present state (see `pamctl status`): disarm first, or clear the faults"
-        }
-        ErrorCode::FaultStillPresent => {
-            "a fault condition is still present: remove its cause (see `pamctl status`), then clear again"
-        }
-        ErrorCode::NotHomed => {
-            "the encoders are not homed: put the arm at the neutral pose and run `pamctl home`"
-        }
-    }
-}
-
-impl fmt::Display for ClientError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ClientError::Link(m) => write!(f, "{m}"),
-            ClientError::Timeout { request, after } => write!(
-                f,
-                "no reply to {request} within {} ms: is the device powered and running the pamctl-compatible firmware? (check the --device address)",
-                after.as_millis()
-            ),
-            ClientError::Refused { request, code } => {
-                write!(f, "the device refused {request} ({code:?}): {}", advice(*code))
-            }
-            ClientError::Disconnected => write!(
-                f,
-                "the device closed the link (unplugged, reset, or the emulator stopped)"
-            ),
-            ClientError::Version { device } => write!(
-                f,
-                "protocol version mismatch: pamctl speaks version {PROTOCOL_VERSION}, the device {}; \
-                 flash the firmware that matches this pamctl, or use the pamctl that matches the firmware",
-                match device {
-                    Some(v) => format!("speaks version {v}"),
-                    None => "refused it".to_string(),
-                }
-            ),
-            ClientError::Fingerprint { host, device } => write!(
-                f,
-                "wire format mismatch: pamctl's schema fingerprint is {host:#010x}, the device reports \
-                 {device:#010x} (both say protocol version {PROTOCOL_VERSION}, but their message types \
-                 differ, so replies would be misread); flash the firmware built from the same source \
-                 as this pamctl (`cargo xtask firmware`), or update pamctl to the one that matches the firmware"
-            ),
-            ClientError::Unexpected { request } => {
-                write!(f, "the device answered {request} with the wrong kind of reply")
-            }
-        }
-    }
-}
-
-impl std::error::Error for ClientError {}
 
 /// Counts telemetry frames lost on the link from the gaps in their sequence numbers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -182,9 +95,9 @@ fn body_name(b: &RequestBody) -> &'static str {
 impl Client {
     /// Opens `--device`, does the handshake and checks the protocol version and the
     /// schema fingerprint.
-    pub fn connect(device: &str, timeout: Duration) -> Result<Client, ClientError> {
-        let address = DeviceAddress::parse(device).map_err(ClientError::Link)?;
-        let stream = transport::open(&address, timeout).map_err(ClientError::Link)?;
+    pub fn connect(device: &str, timeout: Duration) -> Result<Client, LinkError> {
+        let address = DeviceAddress::parse(device)?;
+        let stream = transport::open(&address, timeout)?;
         Self::over(stream, timeout, PROTOCOL_VERSION)
     }
 
@@ -194,7 +107,7 @@ impl Client {
         stream: transport::Stream,
         timeout: Duration,
         protocol_version: u16,
-    ) -> Result<Client, ClientError> {
+    ) -> Result<Client, LinkError> {
         let (reply_tx, replies) = channel();
         let (telemetry_tx, telemetry) = channel();
         let (fault_tx, faults) = channel();
@@ -234,7 +147,7 @@ impl Client {
             },
         };
         // a lone delimiter ends whatever half frame the device may hold from before
-        client.write_bytes(&[0]).map_err(ClientError::Link)?;
+        client.write_bytes(&[0])?;
         match client.request(RequestBody::Hello { protocol_version }) {
             Ok(ReplyData::Hello(info))
                 if info.protocol_version == PROTOCOL_VERSION
@@ -244,21 +157,21 @@ impl Client {
                 Ok(client)
             }
             Ok(ReplyData::Hello(info)) if info.protocol_version == PROTOCOL_VERSION => {
-                Err(ClientError::Fingerprint {
+                Err(LinkError::Fingerprint {
                     host: SCHEMA_FINGERPRINT,
                     device: info.schema_fingerprint,
                 })
             }
-            Ok(ReplyData::Hello(info)) => Err(ClientError::Version {
+            Ok(ReplyData::Hello(info)) => Err(LinkError::Version {
                 device: Some(info.protocol_version),
             }),
-            Ok(_) => Err(ClientError::Unexpected {
+            Ok(_) => Err(LinkError::Unexpected {
                 request: "the handshake",
             }),
-            Err(ClientError::Refused {
+            Err(LinkError::Refused {
                 code: ErrorCode::UnsupportedVersion,
                 ..
-            }) => Err(ClientError::Version { device: None }),
+            }) => Err(LinkError::Version { device: None }),
             Err(e) => Err(e),
         }
     }
@@ -268,21 +181,22 @@ impl Client {
         &self.info
     }
 
-    fn write_bytes(&self, bytes: &[u8]) -> Result<(), String> {
-        let mut w = self.writer.lock().map_err(|_| "link writer poisoned")?;
+    fn write_bytes(&self, bytes: &[u8]) -> Result<(), LinkError> {
+        // a writer poisoned by a panicking thread is a link that can no longer be used
+        let mut w = self.writer.lock().map_err(|_| LinkError::Disconnected)?;
         w.write_all(bytes)
             .and_then(|_| w.flush())
-            .map_err(|e| format!("cannot write to the device: {e}"))
+            .map_err(LinkError::Write)
     }
 
     /// Raw bytes onto the link (tests use it to inject corruption).
-    pub fn send_raw(&self, bytes: &[u8]) -> Result<(), ClientError> {
-        self.write_bytes(bytes).map_err(ClientError::Link)
+    pub fn send_raw(&self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.write_bytes(bytes)
     }
 
-    fn send(&self, body: RequestBody, await_reply: bool) -> Result<u16, ClientError> {
+    fn send(&self, body: RequestBody, await_reply: bool) -> Result<u16, LinkError> {
         let id = {
-            let mut next = self.next_id.lock().map_err(|_| ClientError::Disconnected)?;
+            let mut next = self.next_id.lock().map_err(|_| LinkError::Disconnected)?;
             let id = *next;
             // 0 is the device's "unknown request" id
             *next = next.wrapping_add(1).max(1);
@@ -292,23 +206,20 @@ impl Client {
             self.shared.awaited.store(id as u32, Ordering::SeqCst);
         }
         let mut buf = [0u8; MAX_FRAME];
-        let n = encode_frame(&Request { id, body }, &mut buf).map_err(|e| {
-            ClientError::Link(format!(
-                "cannot encode the request ({e:?}); this is a pamctl bug"
-            ))
-        })?;
-        self.write_bytes(&buf[..n]).map_err(ClientError::Link)?;
+        let n = encode_frame(&Request { id, body }, &mut buf)
+            .map_err(|e| LinkError::Encode(format!("{e:?}")))?;
+        self.write_bytes(&buf[..n])?;
         Ok(id)
     }
 
     /// Sends a request and waits for its reply (one request at a time).
-    pub fn request(&self, body: RequestBody) -> Result<ReplyData, ClientError> {
+    pub fn request(&self, body: RequestBody) -> Result<ReplyData, LinkError> {
         let result = self.request_inner(body);
         self.shared.awaited.store(NOT_WAITING, Ordering::SeqCst);
         result
     }
 
-    fn request_inner(&self, body: RequestBody) -> Result<ReplyData, ClientError> {
+    fn request_inner(&self, body: RequestBody) -> Result<ReplyData, LinkError> {
         let name = body_name(&body);
         // replies still queued are for earlier requests
         while self.replies.try_recv().is_ok() {}
@@ -318,35 +229,35 @@ impl Client {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.replies.recv_timeout(left) {
                 Ok(r) if r.id == id => {
-                    return r.result.map_err(|code| ClientError::Refused {
+                    return r.result.map_err(|code| LinkError::Refused {
                         request: name,
                         code,
                     })
                 }
                 Ok(_) => continue, // a late reply to an earlier request, or a heartbeat's
                 Err(RecvTimeoutError::Timeout) => {
-                    return Err(ClientError::Timeout {
+                    return Err(LinkError::Timeout {
                         request: name,
                         after: self.timeout,
                     })
                 }
-                Err(RecvTimeoutError::Disconnected) => return Err(ClientError::Disconnected),
+                Err(RecvTimeoutError::Disconnected) => return Err(LinkError::Disconnected),
             }
         }
     }
 
     /// A request whose reply is only `Done`.
-    pub fn command(&self, body: RequestBody) -> Result<(), ClientError> {
+    pub fn command(&self, body: RequestBody) -> Result<(), LinkError> {
         let name = body_name(&body);
         match self.request(body)? {
             ReplyData::Done => Ok(()),
-            _ => Err(ClientError::Unexpected { request: name }),
+            _ => Err(LinkError::Unexpected { request: name }),
         }
     }
 
     /// Fire-and-forget keep-alive (the device's command timeout counts from the last
     /// request it received). Its reply is dropped by the reader thread.
-    pub fn heartbeat(&self) -> Result<(), ClientError> {
+    pub fn heartbeat(&self) -> Result<(), LinkError> {
         self.send(RequestBody::Heartbeat, false).map(|_| ())
     }
 
@@ -357,11 +268,11 @@ impl Client {
         self.shared.forward_telemetry.store(true, Ordering::SeqCst);
     }
 
-    pub fn next_telemetry(&self, wait: Duration) -> Result<Option<Telemetry>, ClientError> {
+    pub fn next_telemetry(&self, wait: Duration) -> Result<Option<Telemetry>, LinkError> {
         match self.telemetry.recv_timeout(wait) {
             Ok(t) => Ok(Some(t)),
             Err(RecvTimeoutError::Timeout) => Ok(None),
-            Err(RecvTimeoutError::Disconnected) => Err(ClientError::Disconnected),
+            Err(RecvTimeoutError::Disconnected) => Err(LinkError::Disconnected),
         }
     }
 
@@ -467,19 +378,20 @@ mod tests {
     #[test]
     fn device_addresses_parse_or_explain() {
         assert_eq!(
-            DeviceAddress::parse("tcp://127.0.0.1:7878"),
-            Ok(DeviceAddress::Tcp("127.0.0.1:7878".into()))
+            DeviceAddress::parse("tcp://127.0.0.1:7878").unwrap(),
+            DeviceAddress::Tcp("127.0.0.1:7878".into())
         );
         assert_eq!(
-            DeviceAddress::parse("/dev/ttyACM0"),
-            Ok(DeviceAddress::Serial("/dev/ttyACM0".into()))
+            DeviceAddress::parse("/dev/ttyACM0").unwrap(),
+            DeviceAddress::Serial("/dev/ttyACM0".into())
         );
-        assert!(DeviceAddress::parse("tcp://nohost")
+        let e = DeviceAddress::parse("tcp://nohost").unwrap_err();
+        assert!(e.help().contains("tcp://HOST:PORT"), "{e}");
+        let e = DeviceAddress::parse("udp://x:1").unwrap_err();
+        assert!(e.to_string().contains("unknown scheme"), "{e}");
+        assert!(DeviceAddress::parse("")
             .unwrap_err()
-            .contains("tcp://HOST:PORT"));
-        assert!(DeviceAddress::parse("udp://x:1")
-            .unwrap_err()
-            .contains("unknown scheme"));
-        assert!(DeviceAddress::parse("").unwrap_err().contains("--device"));
+            .help()
+            .contains("--device"));
     }
 }

@@ -2,9 +2,9 @@
 //! sensors, connections come and go, the pseudo-terminal serves the same protocol.
 
 use pam_control::{Mode, State};
+use pam_emulator::{Emulator, HandleMode, SimConfig};
+use pam_link::Client;
 use pam_protocol::{ReplyData, RequestBody};
-use pamctl::link::Client;
-use pamctl::sim::{Emulator, HandleMode, SimConfig};
 use std::time::{Duration, Instant};
 
 fn connect(address: &str) -> Client {
@@ -163,23 +163,4 @@ fn the_pseudo_terminal_serves_the_same_protocol() {
     c.command(RequestBody::Home).unwrap();
     let t = run(&c, 0.3);
     assert_eq!(t.state, State::Disarmed);
-}
-
-#[test]
-fn sim_rejects_unknown_effects_and_lists_the_known_ones() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pamctl"))
-        .args(["sim", "--with", "no_such_effect", "--listen", "127.0.0.1:0"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("no_such_effect") && err.contains("mains_hum"),
-        "{err}"
-    );
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pamctl"))
-        .args(["sim", "--list-effects"])
-        .output()
-        .unwrap();
-    assert!(String::from_utf8_lossy(&out.stdout).contains("transport_delay"));
 }

@@ -1,0 +1,58 @@
+//! The emulator's one error type: what went wrong, and with [`EmulatorError::help`] what
+//! to do about it (pamctl prints both).
+
+#[derive(Debug, thiserror::Error)]
+pub enum EmulatorError {
+    #[error("command timeout {seconds} s is outside the device's range (0–1 s]")]
+    CommandTimeout { seconds: f32 },
+    #[error("the device refused the emulator's calibration: {0:?}")]
+    Calibration(pam_protocol::ErrorCode),
+    #[error("cannot start the emulator's {thread} thread: {source}")]
+    Thread {
+        thread: &'static str,
+        source: std::io::Error,
+    },
+    #[error("cannot listen on {address}: {source}")]
+    Listen {
+        address: String,
+        source: std::io::Error,
+    },
+    #[cfg(target_os = "linux")]
+    #[error("cannot {what} a pseudo-terminal: {source}")]
+    Pty {
+        what: &'static str,
+        source: nix::Error,
+    },
+    #[error("cannot open a pseudo-terminal: {0}")]
+    PtyIo(std::io::Error),
+    #[error("the emulator has stopped")]
+    Stopped,
+    #[error("`{text}`: {reason}")]
+    Injection { text: String, reason: String },
+    #[error("`{text}`: {source}")]
+    PlantFault {
+        text: String,
+        source: pam_twin::faults::FaultParseError,
+    },
+}
+
+impl EmulatorError {
+    /// What to do about it.
+    pub fn help(&self) -> &'static str {
+        use EmulatorError::*;
+        match self {
+            CommandTimeout { .. } => "give --command-timeout-s between 0 and 1 (the firmware's default is 0.1)",
+            Calibration(_) => "an emulator bug: the twin's encoder calibration should always be accepted",
+            Thread { .. } => "the system is out of threads or memory; close other programs and try again",
+            Listen { .. } => "is another emulator using the port? choose another with --listen HOST:PORT (port 0: any free one)",
+            #[cfg(target_os = "linux")]
+            Pty { .. } => "check that /dev/ptmx exists and is usable, or serve on TCP only (without --pty)",
+            PtyIo(_) => "check that /dev/ptmx exists and is usable, or serve on TCP only (without --pty)",
+            Stopped => "start the emulator again",
+            Injection { .. } | PlantFault { .. } => {
+                "write KIND@SECONDS with KIND one of estop, estop_release, overrun:periods=N or a plant \
+                 fault (`pamctl sim --help` lists them), e.g. loadcell_frozen@5"
+            }
+        }
+    }
+}

@@ -1,0 +1,176 @@
+//! The twin, the device it is wired to, and what holds the handle.
+
+use crate::config::emulator_version;
+use crate::inject::{Board, Injection, Scheduled};
+use crate::{EmulatorError, HandleMode, SimConfig};
+use pam_control::{Mode, SafetyConfig, State};
+use pam_device::{Device, DeviceOptions, RawSensors};
+use pam_model::{RobotModel, RobotParams, Vec2};
+use pam_protocol::{Calibration, Config, EncoderCalibration, Request, RequestBody};
+use pam_twin::experiments::OperatorPath;
+use pam_twin::{HandleCondition, Measurement, Twin, TwinConfig};
+use std::sync::mpsc::Sender;
+
+/// Width of the emulated encoder timers (the board's TIM3/TIM4 are 16-bit).
+const ENCODER_COUNTER_BITS: u8 = 16;
+/// Arbitrary power-on value of the encoder counters: homing must not depend on it.
+const ENCODER_POWER_ON_COUNTS: i64 = 0x7A31;
+/// Operator: how long the hand holds the target still before moving.
+const OPERATOR_HOLD_S: f64 = 3.0;
+/// Operator path length; after it the hand holds the target still.
+const OPERATOR_PATH_S: f64 = 600.0;
+
+/// The twin and what holds its handle.
+pub(crate) struct Plant {
+    pub(crate) device: Device,
+    pub(crate) twin: Twin,
+    pub(crate) last: Measurement,
+    pub(crate) handle_mode: HandleMode,
+    pub(crate) model: RobotModel<f64>,
+    /// Operator path around (0, 0); the centre is added. Built only for the operator.
+    pub(crate) path: Option<OperatorPath>,
+    /// Condition chosen at the last arm/mode change, and when that was (plant time).
+    pub(crate) hold_point: Vec2<f64>,
+    pub(crate) since_s: f64,
+    pub(crate) last_mode: (State, Mode),
+    pub(crate) t_s: f64,
+    /// The emulated board: injected failures, E-stop, loop timing.
+    pub(crate) board: Board,
+    /// Scheduled injections not applied yet, latest first.
+    pub(crate) schedule: Vec<Scheduled>,
+    pub(crate) reports: Sender<String>,
+    /// Loop currents driven in the last period.
+    pub(crate) last_currents_ma: [f64; 4],
+}
+
+impl Plant {
+    pub(crate) fn new(config: &SimConfig, reports: Sender<String>) -> Result<Plant, EmulatorError> {
+        let mut twin_cfg = if config.identified_rig {
+            TwinConfig::identified_rig()
+        } else {
+            TwinConfig::thesis()
+        };
+        twin_cfg.effects = config.effects.clone();
+        twin_cfg.seed = config.seed;
+        let counts_per_rev = twin_cfg.sensors.encoder_counts_per_rev;
+        let mut twin = Twin::new(twin_cfg);
+        let mut safety = SafetyConfig::default_1khz();
+        safety.command_timeout_s = config.command_timeout_s;
+        safety
+            .validate()
+            .map_err(|_| EmulatorError::CommandTimeout {
+                seconds: config.command_timeout_s,
+            })?;
+        let mut device = Device::new(
+            RobotParams::thesis(),
+            safety,
+            DeviceOptions {
+                firmware_version: emulator_version(),
+                encoder_counter_bits: ENCODER_COUNTER_BITS,
+            },
+        );
+        // the rig's calibration: the twin's encoder resolution
+        let mut cal: Calibration = device.calibration();
+        for (enc, counts) in cal.encoder.iter_mut().zip(counts_per_rev) {
+            *enc = EncoderCalibration {
+                counts_per_rev: counts.max(1),
+                sign: 1,
+            };
+        }
+        let reply = device.handle(&Request {
+            id: 0,
+            body: RequestBody::SetConfig(Config::Calibration(cal)),
+        });
+        reply.result.map_err(EmulatorError::Calibration)?;
+        let last = twin.step(1e-6, [4.0; 4], &HandleCondition::Free);
+        let model = *twin.model();
+        let path = (config.handle == HandleMode::Operator)
+            .then(|| OperatorPath::new([0.0; 2], 0.04, (0.1, 2.0), OPERATOR_PATH_S, config.seed));
+        let hold_point = twin.state().handle_user_m;
+        let last_mode = (device.controller().state(), device.controller().mode());
+        let mut schedule = config.injections.clone();
+        schedule.sort_by(|a, b| b.at_s.total_cmp(&a.at_s));
+        let board = Board::new(device.period_us());
+        Ok(Plant {
+            device,
+            twin,
+            last,
+            handle_mode: config.handle,
+            model,
+            path,
+            hold_point,
+            since_s: 0.0,
+            last_mode,
+            t_s: 0.0,
+            board,
+            schedule,
+            reports,
+            last_currents_ma: [4.0; 4],
+        })
+    }
+
+    /// Applies `injection` from the coming period on and reports it.
+    pub(crate) fn inject(&mut self, injection: Injection, device_time_us: u64) {
+        self.board
+            .inject(injection, &self.last, self.last_currents_ma);
+        let _ = self.reports.send(format!(
+            "injected {injection:?} at time_us={}",
+            device_time_us as u32
+        ));
+    }
+
+    pub(crate) fn raw_sensors(&self) -> RawSensors {
+        let seen = self.board.sensors(self.last);
+        let counts = seen
+            .encoder_counts
+            .map(|c| (c + ENCODER_POWER_ON_COUNTS) as u32);
+        RawSensors {
+            encoder_counts: counts,
+            loadcell_volts: seen.loadcell_v.map(|v| v as f32),
+        }
+    }
+
+    /// What holds the handle during the coming period.
+    pub(crate) fn handle_condition(&mut self) -> HandleCondition {
+        let state = self.device.controller().state();
+        let mode = self.device.controller().mode();
+        if (state, mode) != self.last_mode {
+            self.last_mode = (state, mode);
+            self.since_s = self.t_s;
+            self.hold_point = match mode {
+                Mode::Joint { alpha_rad, .. } => self
+                    .model
+                    .kinematics
+                    .forward_user([alpha_rad[0] as f64, alpha_rad[1] as f64]),
+                Mode::Impedance { target_user_m, .. } => {
+                    [target_user_m[0] as f64, target_user_m[1] as f64]
+                }
+                _ => self.twin.state().handle_user_m,
+            };
+        }
+        let armed = state == State::Armed;
+        let force = matches!(mode, Mode::Force { .. } | Mode::ForceClosedLoop { .. });
+        // the operator moves the handle about the joint or the impedance target
+        let joint = matches!(mode, Mode::Joint { .. } | Mode::Impedance { .. });
+        match self.handle_mode {
+            HandleMode::Free => HandleCondition::Free,
+            HandleMode::Blocked if armed && force => HandleCondition::Blocked,
+            HandleMode::Blocked => HandleCondition::Free,
+            HandleMode::Held if armed => HandleCondition::held_at(self.hold_point),
+            HandleMode::Held => HandleCondition::Free,
+            HandleMode::Operator if armed && force => HandleCondition::Blocked,
+            HandleMode::Operator if armed && joint => {
+                let t = self.t_s - self.since_s - OPERATOR_HOLD_S;
+                match &self.path {
+                    Some(path) if t > 0.0 => {
+                        let (p, v) = path.at(t);
+                        let c = self.hold_point;
+                        HandleCondition::moved([c[0] + p[0], c[1] + p[1]], v)
+                    }
+                    _ => HandleCondition::held_at(self.hold_point),
+                }
+            }
+            HandleMode::Operator => HandleCondition::Free,
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! Configuration: every section read back, invalid parameters, calibration and limits refused.
+
+use super::*;
+
+pub fn get_config_returns_every_section() -> CheckResult {
+    let mut d = device();
+    holds(
+        "robot",
+        config(&mut d, ConfigSection::Robot)? == Config::Robot(RobotParams::thesis().into()),
+    )?;
+    holds(
+        "limits",
+        config(&mut d, ConfigSection::Limits)?
+            == Config::Limits(SafetyConfig::default_1khz().into()),
+    )?;
+    holds(
+        "calibration",
+        config(&mut d, ConfigSection::Calibration)? == Config::Calibration(d.calibration()),
+    )
+}
+
+pub fn invalid_robot_parameters_are_refused_and_nothing_changes() -> CheckResult {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    let before = config(&mut d, ConfigSection::Robot)?;
+    let thesis = RobotParams::<f32>::thesis();
+    let mut over_pressure = thesis;
+    over_pressure.pressure.max_bar = 6.0;
+    let mut nan = thesis;
+    nan.muscle.passive_n[2] = f32::NAN;
+    let mut bad_map = thesis;
+    bad_map.joints[1].channel_of_muscle = [0, 1];
+    let mut bad_cell = thesis;
+    bad_cell.load_cell.gain_n_per_v[0] = 0.0;
+    for p in [over_pressure, nan, bad_map, bad_cell] {
+        refused(
+            &mut d,
+            RequestBody::SetConfig(Config::Robot(p.into())),
+            ErrorCode::OutOfRange,
+        )?;
+    }
+    holds("unchanged", config(&mut d, ConfigSection::Robot)? == before)?;
+    let mut good = thesis;
+    good.joints[0].pulley_radius_m = 0.072;
+    done(&mut d, RequestBody::SetConfig(Config::Robot(good.into())))?;
+    holds(
+        "applied",
+        d.controller().model().params.joints[0].pulley_radius_m == 0.072,
+    )?;
+    done(&mut d, RequestBody::Home)?;
+    done(&mut d, RequestBody::Arm)?;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Robot(thesis.into())),
+        ErrorCode::WrongState,
+    )
+}
+
+pub fn invalid_calibration_is_refused_and_output_calibration_applies() -> CheckResult {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    let good = d.calibration();
+    let mut bad_sign = good;
+    bad_sign.encoder[0].sign = 0;
+    let mut bad_cpr = good;
+    bad_cpr.encoder[1].counts_per_rev = 0;
+    let mut bad_gain = good;
+    bad_gain.output[2].gain = 3.0;
+    let mut bad_offset = good;
+    bad_offset.output[0].offset_ma = f32::INFINITY;
+    for c in [bad_sign, bad_cpr, bad_gain, bad_offset] {
+        refused(
+            &mut d,
+            RequestBody::SetConfig(Config::Calibration(c)),
+            ErrorCode::OutOfRange,
+        )?;
+    }
+    holds("unchanged", d.calibration() == good)?;
+    let mut trimmed = good;
+    trimmed.output[1] = OutputCalibration {
+        gain: 1.0,
+        offset_ma: 0.25,
+    };
+    trimmed.output[2] = OutputCalibration {
+        gain: 0.9,
+        offset_ma: 0.0,
+    };
+    done(&mut d, RequestBody::SetConfig(Config::Calibration(trimmed)))?;
+    let out = steps(&mut d, 1, 1);
+    near("offset trim", out.current_ma[1], 4.25, 1e-6)?;
+    // 0.9 × 4 mA = 3.6 mA is below the loop range: clamped to 4 mA
+    near("clamped to the loop range", out.current_ma[2], 4.0, 1e-6)?;
+    let t = out.telemetry.unwrap_or_else(unreachable_telemetry);
+    holds("telemetry reports the loop current", t.current_ma[1] == 4.0)
+}
+
+pub fn limits_are_validated_and_the_period_is_fixed_while_armed() -> CheckResult {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    let mut slow = SafetyConfig::default_1khz();
+    slow.period_s = 0.020;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(slow.into())),
+        ErrorCode::OutOfRange,
+    )?;
+    let mut no_timeout = SafetyConfig::default_1khz();
+    no_timeout.command_timeout_s = f32::NAN;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(no_timeout.into())),
+        ErrorCode::OutOfRange,
+    )?;
+    holds("period unchanged", d.period_us() == 1000)?;
+    let mut two_ms = SafetyConfig::default_1khz();
+    two_ms.period_s = 0.002;
+    done(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(two_ms.into())),
+    )?;
+    holds("period 2 ms", d.period_us() == 2000)?;
+    done(&mut d, RequestBody::Home)?;
+    done(&mut d, RequestBody::Arm)?;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz().into())),
+        ErrorCode::WrongState,
+    )?;
+    let mut slower_slew = two_ms;
+    slower_slew.slew_bar_per_s = 20.0;
+    done(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(slower_slew.into())),
+    )
+}

@@ -1,0 +1,123 @@
+//! Power-on state, the handshake, arming and homing.
+
+use super::*;
+
+pub fn boots_disarmed_unhomed_and_vented() -> CheckResult {
+    let mut d = device();
+    let out = steps(&mut d, 1, 0);
+    holds("vent currents", out.current_ma.iter().all(|&i| i == 4.0))?;
+    let t = out.telemetry.ok_or(Failure {
+        what: "telemetry at boot",
+        got: 0.0,
+        expected: 1.0,
+        tolerance: 0.0,
+        index: 0,
+    })?;
+    holds("seq starts at 0", t.seq == 0)?;
+    holds(
+        "disarmed",
+        t.state == State::Disarmed && t.mode == ModeKind::Idle,
+    )?;
+    let s = status(&mut d)?;
+    holds(
+        "not homed",
+        !s.homed && s.period_us == 1000 && s.telemetry_divider == 1,
+    )
+}
+
+pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
+    let mut d = device();
+    match request(
+        &mut d,
+        RequestBody::Hello {
+            protocol_version: PROTOCOL_VERSION,
+        },
+    ) {
+        Ok(ReplyData::Hello(info)) => {
+            holds(
+                "protocol version",
+                info.protocol_version == PROTOCOL_VERSION,
+            )?;
+            holds(
+                "firmware version",
+                info.firmware_version == OPTIONS.firmware_version,
+            )?;
+            holds("period", info.period_us == 1000)?;
+            holds(
+                "params hash",
+                info.params_hash == pam_protocol::params_hash(&RobotParams::thesis()),
+            )?;
+        }
+        _ => holds("hello answered", false)?,
+    }
+    refused(
+        &mut d,
+        RequestBody::Hello {
+            protocol_version: PROTOCOL_VERSION + 1,
+        },
+        ErrorCode::UnsupportedVersion,
+    )
+}
+
+pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    refused(&mut d, RequestBody::Arm, ErrorCode::NotHomed)?;
+    holds("still disarmed", d.controller().state() == State::Disarmed)?;
+    done(&mut d, RequestBody::Home)?;
+    done(&mut d, RequestBody::Arm)?;
+    refused(&mut d, RequestBody::Arm, ErrorCode::WrongState)?;
+    done(
+        &mut d,
+        RequestBody::SetMode(
+            Mode::Pressures {
+                pressure_bar: [2.0; 4],
+            }
+            .into(),
+        ),
+    )?;
+    let out = steps_alive(&mut d, 50, 1);
+    holds("pressurised", out.current_ma.iter().all(|&i| i > 9.0))?;
+    done(&mut d, RequestBody::Disarm)?;
+    let out = steps(&mut d, 1, 60);
+    holds("vented at once", out.current_ma.iter().all(|&i| i == 4.0))
+}
+
+pub fn home_zeroes_the_angle_and_is_refused_while_armed() -> CheckResult {
+    let mut d = device();
+    let t = steps(&mut d, 1, 0)
+        .telemetry
+        .unwrap_or_else(unreachable_telemetry);
+    holds("boot position is the origin", t.alpha_rad == [0.0, 0.0])?;
+    // move slowly (10 counts per ms = 7.9 rad/s, below the encoder-jump speed)
+    let mut t = None;
+    for k in 1..=8 {
+        t = d
+            .step(
+                raw([HOME[0] + 10 * k, HOME[1] - 5 * k], k),
+                StepTiming::default(),
+            )
+            .telemetry;
+    }
+    let moved = [HOME[0] + 80, HOME[1] - 40];
+    let a = t.map(|t| t.alpha_rad).unwrap_or([9.0; 2]);
+    let per_count = 2.0 * core::f32::consts::PI / 8000.0;
+    near(
+        "alpha1 before homing",
+        a[0],
+        (moved[0] - HOME[0]) as f32 * per_count,
+        1e-6,
+    )?;
+    done(&mut d, RequestBody::Home)?;
+    let t = d.step(raw(moved, 9), StepTiming::default()).telemetry;
+    holds(
+        "homed position reads zero",
+        t.map(|t| t.alpha_rad) == Some([0.0, 0.0]),
+    )?;
+    holds(
+        "homing is no encoder jump",
+        d.controller().faults().is_none(),
+    )?;
+    done(&mut d, RequestBody::Arm)?;
+    refused(&mut d, RequestBody::Home, ErrorCode::WrongState)
+}

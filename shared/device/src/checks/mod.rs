@@ -1,0 +1,162 @@
+//! Checks of every request and error path of the device service, run by `cargo test` on
+//! the host and on the Cortex-M4F under QEMU (`qemu-tests/`).
+
+use crate::*;
+use pam_model::kinematics::Kinematics;
+
+pub use pam_model::checks::{Check, CheckResult, Failure};
+
+use pam_model::checks::{holds_that as holds, near_f32 as near};
+
+const OPTIONS: DeviceOptions = DeviceOptions {
+    firmware_version: Version {
+        major: 0,
+        minor: 1,
+        patch: 0,
+    },
+    encoder_counter_bits: 16,
+};
+
+fn device() -> Device {
+    Device::new(RobotParams::thesis(), SafetyConfig::default_1khz(), OPTIONS)
+}
+
+/// Encoders at `counts`, load cell near zero with the dither a live ADC has.
+fn raw(counts: [u32; 2], k: u32) -> RawSensors {
+    let d = if k.is_multiple_of(2) { 0.001 } else { -0.001 };
+    RawSensors {
+        encoder_counts: counts,
+        loadcell_volts: [0.02 + d, -0.01],
+    }
+}
+
+const HOME: [u32; 2] = [1000, 2000];
+
+fn request(d: &mut Device, body: RequestBody) -> Result<ReplyData, ErrorCode> {
+    let reply = d.handle(&Request { id: 77, body });
+    if reply.id != 77 {
+        return Err(ErrorCode::Malformed);
+    }
+    reply.result
+}
+
+fn done(d: &mut Device, body: RequestBody) -> CheckResult {
+    holds("request done", request(d, body) == Ok(ReplyData::Done))
+}
+
+fn refused(d: &mut Device, body: RequestBody, code: ErrorCode) -> CheckResult {
+    holds(
+        "request refused with its code",
+        request(d, body) == Err(code),
+    )
+}
+
+fn steps(d: &mut Device, n: u32, start: u32) -> StepResult {
+    let mut out = d.step(raw(HOME, start), StepTiming::default());
+    for k in 1..n {
+        out = d.step(raw(HOME, start + k), StepTiming::default());
+    }
+    out
+}
+
+/// Like [`steps`], with the host's heartbeat every 10 periods.
+fn steps_alive(d: &mut Device, n: u32, start: u32) -> StepResult {
+    let mut out = d.step(raw(HOME, start), StepTiming::default());
+    for k in 1..n {
+        if k % 10 == 0 {
+            d.handle(&Request {
+                id: 1,
+                body: RequestBody::Heartbeat,
+            });
+        }
+        out = d.step(raw(HOME, start + k), StepTiming::default());
+    }
+    out
+}
+
+/// Stepped once, homed, armed.
+fn armed_device() -> Result<Device, Failure> {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    done(&mut d, RequestBody::Home)?;
+    done(&mut d, RequestBody::Arm)?;
+    Ok(d)
+}
+
+fn status(d: &mut Device) -> Result<Status, Failure> {
+    match request(d, RequestBody::GetStatus) {
+        Ok(ReplyData::Status(s)) => Ok(s),
+        _ => Err(Failure {
+            what: "GetStatus answers a status",
+            got: 0.0,
+            expected: 1.0,
+            tolerance: 0.0,
+            index: 0,
+        }),
+    }
+}
+
+fn config(d: &mut Device, s: ConfigSection) -> Result<Config, Failure> {
+    match request(d, RequestBody::GetConfig(s)) {
+        Ok(ReplyData::Config(c)) => Ok(c),
+        _ => Err(Failure {
+            what: "GetConfig answers a config",
+            got: 0.0,
+            expected: 1.0,
+            tolerance: 0.0,
+            index: 0,
+        }),
+    }
+}
+
+fn unreachable_telemetry() -> Telemetry {
+    Telemetry {
+        seq: u32::MAX,
+        time_us: 0,
+        alpha_rad: [f32::NAN; 2],
+        force_user_n: [f32::NAN; 2],
+        force_ref_n: None,
+        current_ma: [f32::NAN; 4],
+        pressure_cmd_bar: [f32::NAN; 4],
+        mode: ModeKind::Idle,
+        state: State::Faulted.into(),
+        faults: u16::MAX,
+        limited: 0,
+        loop_exec_us: 0,
+        loop_jitter_us: 0,
+    }
+}
+
+mod config;
+mod lifecycle;
+mod link;
+mod modes;
+mod sensors;
+
+pub use config::*;
+pub use lifecycle::*;
+pub use link::*;
+pub use modes::*;
+pub use sensors::*;
+
+pam_model::register_checks!(
+    boots_disarmed_unhomed_and_vented,
+    hello_answers_versions_and_refuses_another_protocol,
+    arm_needs_homing_and_disarm_vents,
+    home_zeroes_the_angle_and_is_refused_while_armed,
+    encoder_counts_survive_counter_wrap_both_ways,
+    encoder_calibration_sets_scale_and_sign,
+    loadcell_volts_become_user_frame_newtons_and_tare_zeroes_them,
+    tare_before_any_sample_is_refused,
+    out_of_range_mode_is_refused_and_nothing_changes,
+    each_mode_reaches_the_outputs,
+    get_config_returns_every_section,
+    invalid_robot_parameters_are_refused_and_nothing_changes,
+    invalid_calibration_is_refused_and_output_calibration_applies,
+    limits_are_validated_and_the_period_is_fixed_while_armed,
+    telemetry_divider_and_sequence,
+    any_request_is_a_heartbeat_and_silence_times_out,
+    faults_clear_only_when_gone,
+    corrupted_frames_get_a_malformed_reply,
+    requests_survive_the_wire,
+);
