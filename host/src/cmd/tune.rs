@@ -6,7 +6,8 @@
 //! the device: the user applies the scale with `pamctl set force … --closed-loop
 //! --gain-scale S` (the link carries only the gain scale; the protocol is unchanged).
 
-use crate::cmd::model_loop::{ident_error, read_trial};
+use crate::cmd::model_loop::read_trial;
+use anyhow::{anyhow, bail, Context};
 use clap::Args;
 use pam_ident::{step, FilterSettings};
 use pam_model::RobotModel;
@@ -66,19 +67,16 @@ struct TuneJson {
     overshoot_pct: Vec<f64>,
 }
 
-pub fn run(a: TuneArgs, out: &mut impl Write) -> Result<(), String> {
-    let io = |e: std::io::Error| e.to_string();
+pub fn run(a: TuneArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let (trial, _) = read_trial(&a.log)?;
     if trial.force_ref_n.is_none() {
-        return Err(format!(
+        bail!(
             "{}: a step log needs the force reference columns fx_ref_n, fy_ref_n",
             a.log.display()
-        ));
+        );
     }
     let model = RobotModel::<f64>::thesis();
-    let p = trial
-        .prepare(&model, FilterSettings::default())
-        .map_err(ident_error)?;
+    let p = trial.prepare(&model, FilterSettings::default())?;
     let steps = step::analyse_steps(&p, a.threshold_n);
     let period_s = a.period_ms * 1e-3;
     let mut axes: Vec<(usize, StepPlant, Proposal)> = Vec::new();
@@ -95,11 +93,11 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> Result<(), String> {
             delay_s: a.delay_ms * 1e-3,
         };
         let proposal = tune::propose(&plant, period_s)
-            .map_err(|e| format!("{} axis {}: {e}", a.log.display(), ["X", "Y"][axis]))?;
+            .map_err(|e| anyhow!("{} axis {}: {e}", a.log.display(), ["X", "Y"][axis]))?;
         axes.push((axis, plant, proposal));
     }
     if axes.is_empty() {
-        return Err(format!("{}: no force step found", a.log.display()));
+        bail!("{}: no force step found", a.log.display());
     }
     let scale = axes
         .iter()
@@ -139,10 +137,10 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> Result<(), String> {
             settling_s: at_scale.iter().map(|p| p.settling_s).collect(),
             overshoot_pct: at_scale.iter().map(|p| p.overshoot_pct).collect(),
         };
-        let s = serde_json::to_string_pretty(&j).map_err(|e| e.to_string())?;
-        return writeln!(out, "{s}").map_err(io);
+        let s = serde_json::to_string_pretty(&j).context("the proposal as JSON")?;
+        return Ok(writeln!(out, "{s}")?);
     }
-    writeln!(out, "{}:", a.log.display()).map_err(io)?;
+    writeln!(out, "{}:", a.log.display())?;
     for (axis, pl, pr) in &axes {
         let w = pl.omega_n_rad_s;
         writeln!(
@@ -158,7 +156,7 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> Result<(), String> {
             pl.delay_s * 1e3,
             1.5 * a.period_ms
         )
-        .map_err(io)?;
+        ?;
         writeln!(
             out,
             "     proposed gain scale {:.2} (kp {:.2}, ki {:.1} /s, kd {:.3} s): GM {:.1} ({:.1} dB), PM {:.0}° at G; least over G ÷/× {}: GM {:.1}, PM {:.0}°",
@@ -173,7 +171,7 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> Result<(), String> {
             pr.margins_in_band.gain_margin,
             pr.margins_in_band.phase_margin_deg
         )
-        .map_err(io)?;
+        ?;
         writeln!(
             out,
             "     predicted {} N step: 5 % settling {:.3} s, overshoot {:.1} % (worst over the band {:.3} s); designed gains: {:.3} s, {:.1} %",
@@ -184,7 +182,7 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> Result<(), String> {
             pr.designed.settling_s,
             pr.designed.overshoot_pct
         )
-        .map_err(io)?;
+        ?;
     }
     let preds: Vec<String> = axes
         .iter()
@@ -202,11 +200,10 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> Result<(), String> {
         out,
         "gain scale {scale:.2} (one for both axes, the smaller): predicted {}",
         preds.join("; ")
-    )
-    .map_err(io)?;
+    )?;
     writeln!(
         out,
         "apply (nothing was sent): pamctl set force --force-n FX,FY --closed-loop [--feed-forward, as in the log] --gain-scale {scale:.2}"
-    )
-    .map_err(io)
+    )?;
+    Ok(())
 }
