@@ -203,12 +203,20 @@ pub fn fit(
     // then the
     // starts are screened by their cost and the best few refined
     let mut buf0 = [vec![0.0; n], vec![0.0; n]];
+    // the gains are refitted as multipliers of `unit`: 1, or the start's gains when a
+    // saturation of the measured force is screened (its knee is in the measured newtons,
+    // after the gain; at gain 1 the grid's knees would clip the wrong force)
+    let unit = if extras.contains(&StepExtra::ForceSaturation) {
+        start.gain.map(|g| if g.abs() > 1e-9 { g } else { 1.0 })
+    } else {
+        [1.0; 2]
+    };
     let mut screen = |r: &Response| -> (f64, Response) {
         let mut r = *r;
         let slopes = r.gain_slope_per_rad;
         r.gain_slope_per_rad = [[0.0; 2]; 2];
         r.offset_n = [0.0; 2];
-        r.gain = [1.0; 2];
+        r.gain = unit;
         simulate(&r, d, t, alpha, n, &mut buf);
         r.gain = [0.0; 2];
         simulate(&r, d, t, alpha, n, &mut buf0);
@@ -232,7 +240,7 @@ pub fn fit(
             } else {
                 (1.0, 0.0)
             };
-            gain[a] = g;
+            gain[a] = g * unit[a];
             offset[a] = o;
             for &i in &rows {
                 cost += (buf0[a][i] + g * (buf[a][i] - buf0[a][i]) + o - p.force_n[a][i]).powi(2);
