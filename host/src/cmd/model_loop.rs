@@ -131,7 +131,8 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
         )
     })?;
     if let Some(path) = &a.report {
-        let p = trial.prepare(&model, settings(a).filter)?;
+        // the samples the fits were made on (the analysis grid)
+        let p = diagnose::analysis_trial(&trial, &model, exp, settings(a))?;
         write_report(path, &report::diagnosis_page(&d, &fits, &p))?;
     }
     if a.json {

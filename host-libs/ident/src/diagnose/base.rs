@@ -77,7 +77,8 @@ pub(super) fn offset_columns(n: usize) -> [Column; 2] {
 /// trial's analysis: after the derivative filter (8 Hz) a dynamic trial carries nothing a
 /// 200 Hz grid loses, and every statistic the verdict rests on was already computed on it.
 pub(super) fn shape_stride(dt_s: f64) -> usize {
-    ((0.005 / dt_s).floor() as usize).max(1)
+    // (a log's mean period is rarely exact: 0.005 / 0.001000000001 must still be 5)
+    ((0.005 / dt_s + 1e-6).floor() as usize).max(1)
 }
 
 /// Σ y² of both axes over the first `rows` samples, every `stride`-th one.

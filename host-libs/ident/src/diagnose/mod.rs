@@ -300,6 +300,45 @@ fn choose_drive(
     best.map(|(_, d, r, commanded)| (d, r, commanded))
 }
 
+/// The trial as the model loop analyses it ([`Loop::p`]): prepared (for a dynamic trial
+/// with the derivative filter's best cutoff) and on the analysis grid. A report of a
+/// diagnosis draws the fits over these samples.
+pub fn analysis_trial(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    experiment: Experiment,
+    settings: Settings,
+) -> Result<Prepared, crate::IdentError> {
+    check_long_enough(trial)?;
+    let p = prepared_at_log_rate(trial, model, experiment, settings)?;
+    Ok(on_analysis_grid(p, experiment))
+}
+
+fn prepared_at_log_rate(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    experiment: Experiment,
+    settings: Settings,
+) -> Result<Prepared, crate::IdentError> {
+    if experiment == Experiment::Dynamic && settings.adapt_cutoff {
+        prepare_with_best_cutoff(trial, model, settings.filter)
+    } else {
+        trial.prepare(model, settings.filter)
+    }
+}
+
+/// Multirate: a trial is filtered (and its steps found) at the log's rate and analysed on a
+/// 5 ms grid. A dynamic trial's signals are low-passed far below it and every statistic of
+/// the verdict was already computed there; a step trial's model is simulated on every
+/// sample of the grid, with the commands averaged over each period.
+fn on_analysis_grid(p: Prepared, experiment: Experiment) -> Prepared {
+    let stride = shape_stride(p.dt_s);
+    match experiment {
+        Experiment::Dynamic => p.every(stride),
+        Experiment::Step => p.every_with_mean_commands(stride),
+    }
+}
+
 impl<'a> Loop<'a> {
     pub fn new(
         trial: &Trial,
@@ -308,15 +347,9 @@ impl<'a> Loop<'a> {
         settings: Settings,
     ) -> Result<Self, crate::IdentError> {
         check_long_enough(trial)?;
-        let mut p = if experiment == Experiment::Dynamic && settings.adapt_cutoff {
-            prepare_with_best_cutoff(trial, model, settings.filter)?
-        } else {
-            trial.prepare(model, settings.filter)?
-        };
+        let mut p = prepared_at_log_rate(trial, model, experiment, settings)?;
         if experiment == Experiment::Dynamic {
-            // multirate: filtered at the log's rate, analysed on a 5 ms grid (a no-op when
-            // the best cutoff already decimated it)
-            p = p.every(shape_stride(p.dt_s));
+            p = on_analysis_grid(p, experiment);
         }
         if experiment == Experiment::Step && p.force_ref_n.is_none() {
             return Err(crate::IdentError::NoForceReference);
@@ -346,10 +379,8 @@ impl<'a> Loop<'a> {
                 avg(&|q| q.omega_n_rad_s, 20.0),
                 [init[0].gain, init[1].gain],
             ));
-            // multirate: the steps are found on the log's rate; the model, simulated on
-            // every sample, is fitted on a 5 ms grid (its residuals were already scored
-            // there), with the commands averaged over each period
-            p = p.every_with_mean_commands(shape_stride(p.dt_s));
+            // the steps are found at the log's rate, the model fitted on the analysis grid
+            p = on_analysis_grid(p, experiment);
             let (d, base, commanded) = choose_drive(&p, model, step_init.expect("set above"))
                 .ok_or(crate::IdentError::NoForceReference)?;
             *base_step.lock().expect("base cache") = Some(base);
