@@ -73,7 +73,9 @@ const BUF: usize = RECORD_MAX + WRITE_SIZE_MAX;
 
 const CRC32: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
 
-/// What a load found.
+/// What a load found. (A record is large next to the other variants; it is returned once
+/// per boot, never stored in a collection.)
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Loaded {
     /// A good record of this firmware's layout.
@@ -107,6 +109,7 @@ fn flash_err<E: NorFlashError>(e: E) -> StoreError {
 }
 
 /// What one slot holds.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Slot {
     Erased,
@@ -138,7 +141,7 @@ impl<F: NorFlash> ConfigStore<F> {
             .checked_add(2 * F::ERASE_SIZE)
             .is_some_and(|end| end <= flash.capacity());
         if !fits
-            || base as usize % F::ERASE_SIZE != 0
+            || !(base as usize).is_multiple_of(F::ERASE_SIZE)
             || F::ERASE_SIZE < BUF
             || F::WRITE_SIZE > WRITE_SIZE_MAX
             || F::READ_SIZE > 1

@@ -95,7 +95,7 @@ impl<const N: usize> RamFlash<N> {
 
     fn range(&self, offset: u32, len: usize, align: usize) -> Result<usize, RamFlashError> {
         let start = offset as usize;
-        let aligned = start % align == 0 && len % align == 0;
+        let aligned = start.is_multiple_of(align) && len.is_multiple_of(align);
         if !aligned || start.checked_add(len).is_none_or(|end| end > N) {
             return Err(RamFlashError::OutOfBounds);
         }
