@@ -57,6 +57,12 @@ pub fn advice(code: ErrorCode) -> &'static str {
         ErrorCode::NotHomed => {
             "the encoders are not homed: put the arm at the neutral pose and run `pamctl home`"
         }
+        ErrorCode::StorageFailed => {
+            "the device's flash failed, or the device has no configuration store; the configuration in use is unchanged"
+        }
+        ErrorCode::NoStoredConfig => {
+            "the device's flash holds no good configuration record (see `pamctl status`); nothing was changed"
+        }
     }
 }
 
@@ -176,6 +182,9 @@ fn body_name(b: &RequestBody) -> &'static str {
         RequestBody::GetConfig(_) => "config get",
         RequestBody::SetConfig(_) => "config set",
         RequestBody::SetTelemetry { .. } => "the telemetry rate",
+        RequestBody::PersistConfig => "config persist",
+        RequestBody::RestoreConfig => "config restore",
+        RequestBody::EraseConfig => "config erase",
     }
 }
 

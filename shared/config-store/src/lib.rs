@@ -71,7 +71,8 @@ pub const RECORD_MAX: usize = HEADER_BYTES + PAYLOAD_MAX + CRC_BYTES;
 const WRITE_SIZE_MAX: usize = 32;
 const BUF: usize = RECORD_MAX + WRITE_SIZE_MAX;
 
-const CRC32: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
+const CRC32: crc::Crc<u32, crc::NoTable> =
+    crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
 
 /// What a load found. (A record is large next to the other variants; it is returned once
 /// per boot, never stored in a collection.)
@@ -189,12 +190,14 @@ impl<F: NorFlash> ConfigStore<F> {
         if format != FORMAT_VERSION || layout != LAYOUT_HASH {
             return Ok(Slot::OtherVersion { seq });
         }
-        Ok(match postcard::from_bytes::<StoredConfig>(&buf[HEADER_BYTES..end]) {
-            Ok(config) => Slot::Good { seq, config },
-            // the CRC held, so this firmware wrote it with the same layout: cannot happen
-            // short of a hash collision; treat it as damage
-            Err(_) => Slot::Corrupt,
-        })
+        Ok(
+            match postcard::from_bytes::<StoredConfig>(&buf[HEADER_BYTES..end]) {
+                Ok(config) => Slot::Good { seq, config },
+                // the CRC held, so this firmware wrote it with the same layout: cannot happen
+                // short of a hash collision; treat it as damage
+                Err(_) => Slot::Corrupt,
+            },
+        )
     }
 
     fn slots(&mut self) -> Result<[Slot; 2], StoreError> {
@@ -208,13 +211,15 @@ impl<F: NorFlash> ConfigStore<F> {
         if let Some((_, _, config)) = good {
             return Ok(Loaded::Record(config));
         }
-        Ok(if slots.iter().any(|s| matches!(s, Slot::OtherVersion { .. })) {
-            Loaded::OtherVersion
-        } else if slots.iter().all(|s| *s == Slot::Erased) {
-            Loaded::Missing
-        } else {
-            Loaded::Corrupt
-        })
+        Ok(
+            if slots.iter().any(|s| matches!(s, Slot::OtherVersion { .. })) {
+                Loaded::OtherVersion
+            } else if slots.iter().all(|s| *s == Slot::Erased) {
+                Loaded::Missing
+            } else {
+                Loaded::Corrupt
+            },
+        )
     }
 
     /// Writes `config` as the newest record, into the slot that does not hold the newest

@@ -145,7 +145,10 @@ impl<const N: usize> NorFlash for RamFlash<N> {
         let start = self.range(offset, bytes.len(), Self::WRITE_SIZE)?;
         for (k, chunk) in bytes.chunks(Self::WRITE_SIZE).enumerate() {
             let at = start + k * Self::WRITE_SIZE;
-            if self.bytes[at..at + Self::WRITE_SIZE].iter().any(|&b| b != 0xFF) {
+            if self.bytes[at..at + Self::WRITE_SIZE]
+                .iter()
+                .any(|&b| b != 0xFF)
+            {
                 return Err(RamFlashError::NotErased);
             }
             for (i, &b) in chunk.iter().enumerate() {
