@@ -236,6 +236,46 @@ fn UsageFault() {
     fault_halt(CpuFaultKind::UsageFault, 0)
 }
 
+/// The wire form of a record, for `status`.
+impl From<FaultRecord> for pam_protocol::CpuFault {
+    fn from(r: FaultRecord) -> Self {
+        use pam_protocol::CpuFaultKind as K;
+        pam_protocol::CpuFault {
+            kind: match r.kind {
+                CpuFaultKind::HardFault => K::HardFault,
+                CpuFaultKind::MemManage => K::MemManage,
+                CpuFaultKind::BusFault => K::BusFault,
+                CpuFaultKind::UsageFault => K::UsageFault,
+                CpuFaultKind::UnexpectedInterrupt => K::UnexpectedInterrupt,
+            },
+            pc: r.pc,
+            address: r.address,
+        }
+    }
+}
+
+/// Flash double-bit ECC errors seen (and survived) since boot.
+pub static FLASH_ECC_ERRORS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+
+/// The G4 raises an NMI for a flash double-bit ECC error (RM0440 §3.3.4, FLASH_ECCR.ECCD).
+/// The one flash area that is ever programmed is the configuration record's; a power loss
+/// while it is written can leave such a double-word, and reading it at boot must give a
+/// record that fails its CRC (defaults + SELF_CHECK), not a fault, a watchdog reset and
+/// the same again at every boot. Any other NMI ends like a CPU fault.
+// SAFETY (cortex-m-rt's requirement for an NMI handler): it shares nothing with the code
+// it interrupts but the FLASH_ECCR flag it clears and an atomic counter.
+#[exception]
+unsafe fn NonMaskableInt() {
+    let flash = embassy_stm32::pac::FLASH;
+    if flash.eccr().read().eccd() {
+        // write 1 to clear
+        flash.eccr().modify(|w| w.set_eccd(true));
+        FLASH_ECC_ERRORS.fetch_add(1, Ordering::Relaxed);
+        return;
+    }
+    fault_halt(CpuFaultKind::UnexpectedInterrupt, u32::MAX)
+}
+
 #[exception]
 unsafe fn DefaultHandler(irqn: i16) {
     // the IRQ number travels in the record's address field
@@ -281,6 +321,15 @@ pub fn paint_stack() {
         // SAFETY: [bottom, sp − margin) is RAM below the live stack that nothing uses.
         unsafe { (p as *mut u32).write_volatile(STACK_PAINT) };
         p += 4;
+    }
+}
+
+impl From<StackUsage> for pam_protocol::StackUsage {
+    fn from(s: StackUsage) -> Self {
+        pam_protocol::StackUsage {
+            used_max_bytes: s.used_max_bytes,
+            size_bytes: s.size_bytes,
+        }
     }
 }
 

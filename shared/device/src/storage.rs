@@ -147,6 +147,11 @@ impl Device {
         self.board = health;
     }
 
+    /// Where the configuration in use came from (boot or the last restore/persist).
+    pub fn config_origin(&self) -> ConfigOrigin {
+        self.config_origin
+    }
+
     pub fn board_health(&self) -> BoardHealth {
         self.board
     }
