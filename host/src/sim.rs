@@ -17,6 +17,7 @@
 //! never the real-time loop.
 
 mod conn;
+pub mod flash;
 pub mod inject;
 
 use conn::{attach, push_frame, Connection};
@@ -70,6 +71,8 @@ pub struct SimConfig {
     pub identified_rig: bool,
     /// Faults to inject at given emulated times (`inject`).
     pub injections: Vec<Scheduled>,
+    /// The file that holds the emulated configuration flash (`flash`); `None`: in memory.
+    pub config_flash: Option<std::path::PathBuf>,
 }
 
 impl Default for SimConfig {
@@ -81,6 +84,7 @@ impl Default for SimConfig {
             command_timeout_s: SafetyConfig::default_1khz().command_timeout_s,
             identified_rig: false,
             injections: Vec::new(),
+            config_flash: None,
         }
     }
 }
@@ -320,6 +324,8 @@ struct Plant {
     reports: Sender<String>,
     /// Loop currents driven in the last period.
     last_currents_ma: [f64; 4],
+    /// The configuration flash (persist, restore, erase; read at start).
+    store: pam_config_store::ConfigStore<flash::SimFlash>,
 }
 
 impl Plant {
@@ -364,6 +370,9 @@ impl Plant {
         reply
             .result
             .map_err(|e| format!("the device refused the emulator's calibration: {e:?}"))?;
+        // like the firmware's boot: the record in flash, if there is a good one
+        let mut store = flash::store(config.config_flash.clone())?;
+        device.boot_config(store.load());
         let last = twin.step(1e-6, [4.0; 4], &HandleCondition::Free);
         let model = *twin.model();
         let path = (config.handle == HandleMode::Operator)
@@ -388,7 +397,19 @@ impl Plant {
             schedule,
             reports,
             last_currents_ma: [4.0; 4],
+            store,
         })
+    }
+
+    /// A request frame, the storage requests with the emulated flash.
+    fn handle_frame(
+        &mut self,
+        frame: Result<Request, pam_protocol::DecodeError>,
+    ) -> pam_protocol::Reply {
+        match &frame {
+            Ok(request) => self.device.handle_with_store(&mut self.store, request),
+            Err(_) => self.device.handle_frame(frame),
+        }
     }
 
     /// Applies `injection` from the coming period on and reports it.
@@ -512,7 +533,7 @@ fn real_time_loop(mut plant: Plant, events: Receiver<Event>, stop: &AtomicBool, 
                     let mut out = Vec::new();
                     for b in bytes {
                         if let Some(frame) = c.decoder.push(b) {
-                            let reply = plant.device.handle_frame(frame);
+                            let reply = plant.handle_frame(frame);
                             push_frame(&mut out, &DeviceMessage::Reply(reply));
                         }
                     }
