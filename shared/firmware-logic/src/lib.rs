@@ -9,3 +9,4 @@ pub mod counter;
 pub mod current_loop;
 pub mod cycle_stats;
 pub mod debounce;
+pub mod vdda;
