@@ -137,6 +137,7 @@ fn main() -> ! {
     let cpu_fault = panic::FaultRecord::take();
     let mut core = unwrap!(cortex_m::Peripherals::take());
     panic::enable_fault_exceptions(&mut core.SCB);
+    let stack_guard = panic::enable_stack_guard(&mut core.MPU);
     let board = Board::new(embassy_stm32::init(board::clock_config()));
 
     // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
@@ -148,9 +149,10 @@ fn main() -> ! {
     let estop = estop::EStop::new(board.estop);
     panic::paint_stack();
     info!(
-        "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}",
+        "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}, stack guard {}",
         env!("CARGO_PKG_VERSION"),
-        reset_cause
+        reset_cause,
+        stack_guard
     );
 
     let encoder1 = QuadratureEncoder::new(

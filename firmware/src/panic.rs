@@ -283,14 +283,24 @@ unsafe fn DefaultHandler(irqn: i16) {
 }
 
 // ---------------------------------------------------------------------------------------
-// Stack high-water mark
+// Stack guard and high-water mark
 //
-// At boot the unused stack (from cortex-m-rt's `_stack_end`, the end of the statics, up
-// to a margin below the live stack pointer) is filled with a pattern; [`stack_usage`]
-// later finds the lowest word that changed. The stack grows down from `_stack_start`
-// (the end of RAM) towards the statics: a run whose free stack falls below
-// `board::STACK_MIN_FREE_BYTES` latches `Faults::STACK_LOW`.
+// The stack grows down from `_stack_start` (the end of RAM) towards the statics, which end
+// at cortex-m-rt's `_stack_end`. Just above them an MPU region of 1 KiB forbids every
+// access ([`enable_stack_guard`], `pam_firmware_logic::stack_guard`): an overflow faults
+// (MemManage, escalated to HardFault when the handler cannot push either; HardFault runs
+// with the MPU off, HFNMIENA = 0, so its handler vents and records) instead of silently
+// overwriting the statics, the telemetry channel and the task pools. Why not flip-link
+// (which moves the stack below the statics so that an overflow leaves RAM): it is a
+// separate linker binary that `./test.sh` and every developer would have to
+// `cargo install`; the MPU needs nothing outside the firmware.
+//
+// At boot the unused stack above the guard (up to a margin below the live stack pointer) is
+// filled with a pattern; [`stack_usage`] later finds the lowest word that changed. A run
+// whose free stack falls below `board::STACK_MIN_FREE_BYTES` latches `Faults::STACK_LOW`.
 // ---------------------------------------------------------------------------------------
+
+use pam_firmware_logic::stack_guard::StackGuard;
 
 const STACK_PAINT: u32 = 0x5AC5_5AC5;
 /// Left unpainted below the stack pointer at the time of painting (the painting
@@ -302,12 +312,45 @@ extern "C" {
     static _stack_end: u32;
 }
 
-fn stack_bounds() -> (usize, usize) {
+fn guard() -> Option<StackGuard> {
     // linker symbols: only their addresses are taken
-    (
-        addr_of!(_stack_end) as usize,
-        addr_of!(_stack_start) as usize,
-    )
+    let (end, start) = (
+        addr_of!(_stack_end) as u32,
+        addr_of!(_stack_start) as u32,
+    );
+    StackGuard::new(end, start, crate::board::STACK_MIN_FREE_BYTES)
+}
+
+/// The usable stack: (lowest address, above the guard if there is one; top).
+fn stack_bounds() -> (usize, usize) {
+    let top = addr_of!(_stack_start) as usize;
+    match guard() {
+        Some(g) => (g.floor as usize, top),
+        None => (addr_of!(_stack_end) as usize, top),
+    }
+}
+
+/// Makes the guard region no-access (MPU region 0; privileged code keeps the default
+/// memory map everywhere else). Call once at boot, before anything deep runs. Returns
+/// false if the stack is too small for a guard (then there is none).
+pub fn enable_stack_guard(mpu: &mut cortex_m::peripheral::MPU) -> bool {
+    let Some(g) = guard() else {
+        return false;
+    };
+    // RASR: XN (28), AP = 000 no access (26:24), normal memory S C (18, 17), SIZE, ENABLE
+    let rasr = (1 << 28) | (1 << 18) | (1 << 17) | (g.rasr_size_field() << 1) | 1;
+    // SAFETY: the region covers only the guard, which nothing uses (the statics end below
+    // it, the painted stack starts above it); PRIVDEFENA keeps the default map elsewhere.
+    unsafe {
+        mpu.rnr.write(0);
+        mpu.rbar.write(g.base);
+        mpu.rasr.write(rasr);
+        // ENABLE | PRIVDEFENA; HFNMIENA = 0: HardFault and NMI run without the MPU
+        mpu.ctrl.write(0b101);
+    }
+    cortex_m::asm::dsb();
+    cortex_m::asm::isb();
+    true
 }
 
 /// Fills the unused stack with the pattern. Call once at boot.
