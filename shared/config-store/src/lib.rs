@@ -25,6 +25,9 @@
 
 mod ram;
 
+#[cfg(any(test, feature = "checks"))]
+pub mod checks;
+
 pub use ram::{PowerCut, RamFlash, RamFlashError};
 
 use embedded_storage::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKind};
