@@ -40,7 +40,7 @@ use embassy_stm32::gpio::Pull;
 use embassy_stm32::interrupt::Priority;
 use embassy_stm32::pac;
 use embassy_stm32::peripherals::{
-    ADC1, ADC2, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0, PC1,
+    ADC1, ADC2, FLASH, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0, PC1,
     PC12, PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
 };
 use embassy_stm32::time::Hertz;
@@ -249,6 +249,8 @@ pub struct Board {
     /// OUT_EN#: the four output buffers' /OE (pulled high on the board: disabled until the
     /// firmware drives it low, after the outputs run at 4 mA; docs/output-stage.md).
     pub output_enable: Peri<'static, PB1>,
+    /// The configuration record's pages (`config_flash`).
+    pub flash: Peri<'static, FLASH>,
 }
 
 impl Board {
@@ -290,6 +292,7 @@ impl Board {
             watchdog: p.IWDG,
             estop: p.PB0,
             output_enable: p.PB1,
+            flash: p.FLASH,
         }
     }
 }

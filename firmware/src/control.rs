@@ -17,7 +17,9 @@ use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::channel::Channel;
 use embassy_time::{Duration, Instant, Ticker};
 use pam_control::Faults;
-use pam_device::{Device, RawSensors, StepTiming};
+use pam_device::{BoardHealth, Device, RawSensors, StepTiming};
+use pam_firmware_logic::vdda;
+use pam_protocol::{BOARD_CHECK_ADC_DUAL, BOARD_CHECK_VDDA};
 use pam_protocol::{FaultEvent, Telemetry};
 
 use crate::board;
@@ -81,6 +83,18 @@ fn saturating_us(cycles: u32) -> u16 {
     (loop_timing::ns(cycles) / 1_000).min(u32::from(u16::MAX)) as u16
 }
 
+/// The board checks failing now: dual mode not set, or a VDDA measured out of range.
+fn board_checks(dual_mode_ok: bool, vdda_v: Option<f32>) -> u8 {
+    let mut checks = 0;
+    if !dual_mode_ok {
+        checks |= BOARD_CHECK_ADC_DUAL;
+    }
+    if vdda_v.is_some_and(|v| !vdda::in_range(v)) {
+        checks |= BOARD_CHECK_VDDA;
+    }
+    checks
+}
+
 #[embassy_executor::task]
 pub async fn control_task(mut hw: ControlHardware) {
     let mut period_us = bounded_period_us(with_device(|d| d.period_us()).unwrap_or(1_000));
@@ -96,6 +110,9 @@ pub async fn control_task(mut hw: ControlHardware) {
         let encoder_counts =
             [hw.encoder1.read_counts(), hw.encoder2.read_counts()].map(|count| count as u32);
         let adc = hw.load_cell.read();
+        hw.load_cell.vdda_tick();
+        let vdda_v = hw.load_cell.vdda_v();
+        let board_checks = board_checks(hw.load_cell.dual_mode_ok(), vdda_v);
         let open_loop = hw.outputs.poll_open_loop();
         let stopped = hw.estop.poll();
         let (loadcell_volts, saturated) = match adc {
@@ -123,6 +140,12 @@ pub async fn control_task(mut hw: ControlHardware) {
             if open_loop.iter().any(|&open| open) {
                 device.raise(Faults::OUTPUT_OPEN_LOOP);
             }
+            // a failing check keeps SELF_CHECK raised (pam-device)
+            device.set_board_health(BoardHealth {
+                board_checks,
+                vdda_v,
+                ..device.board_health()
+            });
             (device.step(raw, timing), device.period_us())
         });
 

@@ -1,7 +1,8 @@
 //! The host link: USB CDC-ACM carrying `pam-protocol` frames (COBS(postcard ‖ CRC) ‖ 0x00).
 //!
 //! * Requests in: bytes → `FrameDecoder<Request>` → `Device::handle_frame` (inside the
-//!   device's critical section, one request long) → the reply goes to the writer.
+//!   device's critical section, one request long) → the reply goes to the writer; the
+//!   storage requests through [`config_flash::handle`] (flash work outside that section).
 //! * Out: replies first, then fault events, then telemetry, each encoded as a
 //!   `DeviceMessage` and written in packets of at most 64 bytes. The control task fills the
 //!   telemetry and fault channels with `try_send` and never waits for this task.
@@ -19,6 +20,7 @@ use embassy_usb::UsbDevice;
 use pam_protocol::{encode_frame, DeviceMessage, FrameDecoder, Reply, Request, MAX_FRAME};
 
 use crate::board::UsbPeripheral;
+use crate::config_flash::{self, Store};
 use crate::control::{with_device, FAULT_EVENTS, TELEMETRY};
 
 /// Full-speed bulk packet size.
@@ -41,20 +43,30 @@ pub async fn usb_task(mut usb: UsbDevice<'static, UsbDriver>) -> ! {
 
 /// Serves one host session after another.
 #[embassy_executor::task]
-pub async fn link_task(class: CdcAcmClass<'static, UsbDriver>) -> ! {
+pub async fn link_task(
+    class: CdcAcmClass<'static, UsbDriver>,
+    mut store: Option<Store>,
+) -> ! {
     let (mut tx, mut rx) = class.split();
     loop {
         rx.wait_connection().await;
         defmt::info!("link: host connected");
         // Nothing from a previous session may leak into this one.
         while REPLIES.try_receive().is_ok() {}
-        let _ = select(read_requests(&mut rx), write_messages(&mut tx)).await;
+        let _ = select(
+            read_requests(&mut rx, store.as_mut()),
+            write_messages(&mut tx),
+        )
+        .await;
         defmt::info!("link: host disconnected");
     }
 }
 
 /// Bytes in → frames → device → replies. Returns when the host goes away.
-async fn read_requests(rx: &mut Receiver<'static, UsbDriver>) -> EndpointError {
+async fn read_requests(
+    rx: &mut Receiver<'static, UsbDriver>,
+    mut store: Option<&mut Store>,
+) -> EndpointError {
     let mut decoder = FrameDecoder::<Request>::new();
     let mut packet = [0u8; USB_PACKET_BYTES];
     loop {
@@ -66,7 +78,13 @@ async fn read_requests(rx: &mut Receiver<'static, UsbDriver>) -> EndpointError {
             if let Some(frame) = decoder.push(byte) {
                 // A frame arriving before main installed the device cannot happen (the
                 // link starts after it); answer nothing rather than invent a reply.
-                if let Some(reply) = with_device(|device| device.handle_frame(frame)) {
+                // Storage requests do their flash work outside the device's lock.
+                let reply = match &frame {
+                    Ok(request) => config_flash::handle(store.as_deref_mut(), request),
+                    Err(_) => None,
+                }
+                .or_else(|| with_device(|device| device.handle_frame(frame)));
+                if let Some(reply) = reply {
                     REPLIES.send(reply).await;
                 }
             }

@@ -23,9 +23,26 @@
 //! The HAL does the power-up, the calibration (single-ended and differential) and the
 //! enable; the dual-mode injected setup is done here on the registers (RM0440 §21.4.32),
 //! because embassy-stm32 0.6 has no software-triggered dual injected API.
+//!
+//! # Dual mode read-back
+//!
+//! RM0440 allows ADC12_CCR.DUAL to be written only while the ADCs are disabled, and the
+//! HAL writes it after enabling ADC1. Whether the write took is read back at boot
+//! ([`LoadCellAdc::dual_mode_ok`]); if not, the board check `BOARD_CHECK_ADC_DUAL` keeps
+//! `SELF_CHECK` raised and the robot cannot arm (without dual mode the slave never converts
+//! and every read would time out anyway, as NON_FINITE).
+//!
+//! # VDDA
+//!
+//! The ADC's full scale is VDDA, and the front end's reading scales with it
+//! (`pam_firmware_logic::vdda`). Every [`VREFINT_PERIODS`] the regular group of ADC1 (free
+//! in this dual mode) converts VREFINT, started after one period's injected read and
+//! collected at the next (no waiting in the loop); the readings are scaled by the measured
+//! VDDA while it is within 3.3 V ± 5 %, by the nominal 3.3 V otherwise.
 
 use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, AnyAdcChannel, Dual};
-use embassy_stm32::pac::adc::vals::Exten;
+use embassy_stm32::pac::adc::vals::{Exten, SampleTime};
+use pam_firmware_logic::vdda;
 
 use crate::board::{self, LoadCellAdcMaster, LoadCellAdcSlave};
 
@@ -51,7 +68,20 @@ pub struct LoadCellAdc {
     _slave: Adc<'static, LoadCellAdcSlave>,
     _x: AnyAdcChannel<'static, LoadCellAdcMaster>,
     _z: AnyAdcChannel<'static, LoadCellAdcSlave>,
+    dual_mode_ok: bool,
+    vrefint_cal: u16,
+    /// The last VDDA measurement (`None`: none yet, or the calibration word is not one).
+    vdda_v: Option<f32>,
+    vrefint_started: bool,
+    periods_to_vrefint: u16,
 }
+
+/// VDDA is measured every this many periods (10 Hz at 1 kHz).
+pub const VREFINT_PERIODS: u16 = 100;
+/// ADC1's channel for VREFINT (RM0440 §21.4.11).
+const VREFINT_CHANNEL: u8 = 18;
+/// Factory calibration: the VREFINT code at VDDA = 3.0 V (datasheet, "VREFINT_CAL").
+const VREFINT_CAL_ADDRESS: usize = 0x1FFF_75AA;
 
 /// Polling bound: each ISR read is a few AHB cycles, so 2000 polls last far longer than
 /// the 60-clock (1.41 µs) conversion, and at worst ~25 µs if the ADC is dead.
@@ -98,11 +128,64 @@ impl LoadCellAdc {
                 w.set_jeoc(true);
             });
         }
+        let common = board::LOAD_CELL_ADC_COMMON;
+        let dual_mode_ok = common.ccr().read().dual() == Dual::DUAL_J;
+        if !dual_mode_ok {
+            defmt::error!("ADC12_CCR.DUAL did not take: dual injected mode off");
+        }
+        // VREFINT on ADC1's regular group: the datasheet's minimum sampling time is 4 µs,
+        // 247.5 ADC clocks are 5.8 µs at 42.5 MHz
+        common.ccr().modify(|w| w.set_vrefen(true));
+        m.smpr2()
+            .modify(|w| w.set_smp(VREFINT_CHANNEL as usize - 10, SampleTime::CYCLES247_5));
+        m.sqr1().modify(|w| {
+            w.set_l(0);
+            w.set_sq(0, VREFINT_CHANNEL);
+        });
+        // SAFETY: a half-word of the system memory's engineering bytes, always readable.
+        let vrefint_cal = unsafe { (VREFINT_CAL_ADDRESS as *const u16).read_volatile() };
         Self {
             _master: master,
             _slave: slave,
             _x: x,
             _z: z,
+            dual_mode_ok,
+            vrefint_cal,
+            vdda_v: None,
+            vrefint_started: false,
+            periods_to_vrefint: 1,
+        }
+    }
+
+    /// ADC1/ADC2 are in dual injected-simultaneous mode (read back at boot).
+    pub fn dual_mode_ok(&self) -> bool {
+        self.dual_mode_ok
+    }
+
+    /// The last VDDA measurement.
+    pub fn vdda_v(&self) -> Option<f32> {
+        self.vdda_v
+    }
+
+    /// Once per period, after [`Self::read`]: collects a VREFINT conversion started in the
+    /// previous period, and starts one every [`VREFINT_PERIODS`]. Never waits.
+    pub fn vdda_tick(&mut self) {
+        let m = board::LOAD_CELL_ADC_MASTER;
+        if self.vrefint_started {
+            if m.isr().read().eoc() {
+                // reading DR clears EOC
+                let counts = m.dr().read().rdata() & board::ADC_FULL_SCALE_COUNTS;
+                self.vdda_v = vdda::vdda_v(self.vrefint_cal, counts);
+                self.vrefint_started = false;
+            }
+            // not done after a whole period: try again at the next
+            return;
+        }
+        self.periods_to_vrefint = self.periods_to_vrefint.saturating_sub(1);
+        if self.periods_to_vrefint == 0 {
+            self.periods_to_vrefint = VREFINT_PERIODS;
+            m.cr().modify(|w| w.set_adstart(true));
+            self.vrefint_started = true;
         }
     }
 
@@ -138,8 +221,9 @@ impl LoadCellAdc {
             });
         }
         let front_end = board::LOAD_CELL_FRONT_END;
+        let vdda_v = vdda::for_scaling(self.vdda_v);
         Ok(LoadCellSample {
-            volts: raw_counts.map(|r| front_end.input_volts(r)),
+            volts: raw_counts.map(|r| front_end.input_volts_at(r, vdda_v)),
             saturated: raw_counts.iter().any(|&r| front_end.saturated(r)),
             raw_counts,
         })

@@ -17,6 +17,7 @@
 #![no_main]
 
 mod board;
+mod config_flash;
 mod control;
 mod current_output;
 mod encoder;
@@ -40,7 +41,7 @@ use embassy_stm32::usb::Driver;
 use embassy_time::Timer;
 use embassy_usb::class::cdc_acm::{CdcAcmClass, State};
 use pam_control::{Faults, SafetyConfig};
-use pam_device::{Device, DeviceOptions};
+use pam_device::{BoardHealth, Device, DeviceOptions};
 use pam_model::RobotParams;
 use pam_protocol::Version;
 use static_cell::StaticCell;
@@ -100,9 +101,16 @@ async fn status_log() {
     loop {
         Timer::after_secs(1).await;
         let stack = panic::stack_usage();
-        if stack.free_min_bytes() < board::STACK_MIN_FREE_BYTES {
-            control::with_device(|d| d.raise(Faults::STACK_LOW));
-        }
+        control::with_device(|d| {
+            if stack.free_min_bytes() < board::STACK_MIN_FREE_BYTES {
+                d.raise(Faults::STACK_LOW);
+            }
+            // for `pamctl status`
+            d.set_board_health(BoardHealth {
+                stack: Some(stack.into()),
+                ..d.board_health()
+            });
+        });
         let t = loop_timing::snapshot();
         let state = control::with_device(|d| (d.controller().state(), d.controller().faults().0));
         info!(
@@ -129,6 +137,7 @@ fn main() -> ! {
     let cpu_fault = panic::FaultRecord::take();
     let mut core = unwrap!(cortex_m::Peripherals::take());
     panic::enable_fault_exceptions(&mut core.SCB);
+    let stack_guard = panic::enable_stack_guard(&mut core.MPU);
     let board = Board::new(embassy_stm32::init(board::clock_config()));
 
     // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
@@ -140,9 +149,10 @@ fn main() -> ! {
     let estop = estop::EStop::new(board.estop);
     panic::paint_stack();
     info!(
-        "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}",
+        "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}, stack guard {}",
         env!("CARGO_PKG_VERSION"),
-        reset_cause
+        reset_cause,
+        stack_guard
     );
 
     let encoder1 = QuadratureEncoder::new(
@@ -157,7 +167,9 @@ fn main() -> ! {
     );
     let load_cell = load_cell_adc::LoadCellAdc::new(board.load_cell);
 
-    // Thesis parameters until the host sends the rig's (no persistent storage yet).
+    // The thesis parameters, then the record in flash if there is a good one
+    // (`pam_device::storage` for what a missing or bad record does).
+    let mut store = config_flash::open(board.flash);
     let mut device = Device::new(
         RobotParams::thesis(),
         SafetyConfig::default_1khz(),
@@ -167,6 +179,12 @@ fn main() -> ! {
             encoder_counter_bits: 32,
         },
     );
+    device.boot_config(match store.as_mut() {
+        Ok(store) => store.load(),
+        Err(e) => Err(*e),
+    });
+    // ConfigOrigin's variant index (docs/protocol.md): 0 flash, 1 no record, 2 corrupt…
+    info!("config: origin {}", device.config_origin() as u8);
     if reset_cause.is_watchdog() {
         warn!("the last reset was a watchdog reset: latched WATCHDOG_RESET");
         device.raise(Faults::WATCHDOG_RESET);
@@ -177,6 +195,10 @@ fn main() -> ! {
             record
         );
         device.raise(Faults::CPU_FAULT);
+        device.set_board_health(BoardHealth {
+            last_cpu_fault: Some(record.into()),
+            ..device.board_health()
+        });
     }
     let period_us = device.period_us();
     control::install_device(device);
@@ -230,7 +252,7 @@ fn main() -> ! {
     let executor = THREAD_EXECUTOR.init(Executor::new());
     executor.run(|spawner| {
         spawner.spawn(unwrap!(link::usb_task(usb)));
-        spawner.spawn(unwrap!(link::link_task(class)));
+        spawner.spawn(unwrap!(link::link_task(class, store.ok())));
         spawner.spawn(unwrap!(heartbeat(led)));
         spawner.spawn(unwrap!(status_log()));
     })

@@ -236,6 +236,46 @@ fn UsageFault() {
     fault_halt(CpuFaultKind::UsageFault, 0)
 }
 
+/// The wire form of a record, for `status`.
+impl From<FaultRecord> for pam_protocol::CpuFault {
+    fn from(r: FaultRecord) -> Self {
+        use pam_protocol::CpuFaultKind as K;
+        pam_protocol::CpuFault {
+            kind: match r.kind {
+                CpuFaultKind::HardFault => K::HardFault,
+                CpuFaultKind::MemManage => K::MemManage,
+                CpuFaultKind::BusFault => K::BusFault,
+                CpuFaultKind::UsageFault => K::UsageFault,
+                CpuFaultKind::UnexpectedInterrupt => K::UnexpectedInterrupt,
+            },
+            pc: r.pc,
+            address: r.address,
+        }
+    }
+}
+
+/// Flash double-bit ECC errors seen (and survived) since boot.
+pub static FLASH_ECC_ERRORS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+
+/// The G4 raises an NMI for a flash double-bit ECC error (RM0440 §3.3.4, FLASH_ECCR.ECCD).
+/// The one flash area that is ever programmed is the configuration record's; a power loss
+/// while it is written can leave such a double-word, and reading it at boot must give a
+/// record that fails its CRC (defaults + SELF_CHECK), not a fault, a watchdog reset and
+/// the same again at every boot. Any other NMI ends like a CPU fault.
+// SAFETY (cortex-m-rt's requirement for an NMI handler): it shares nothing with the code
+// it interrupts but the FLASH_ECCR flag it clears and an atomic counter.
+#[exception]
+unsafe fn NonMaskableInt() {
+    let flash = embassy_stm32::pac::FLASH;
+    if flash.eccr().read().eccd() {
+        // write 1 to clear
+        flash.eccr().modify(|w| w.set_eccd(true));
+        FLASH_ECC_ERRORS.fetch_add(1, Ordering::Relaxed);
+        return;
+    }
+    fault_halt(CpuFaultKind::UnexpectedInterrupt, u32::MAX)
+}
+
 #[exception]
 unsafe fn DefaultHandler(irqn: i16) {
     // the IRQ number travels in the record's address field
@@ -243,14 +283,24 @@ unsafe fn DefaultHandler(irqn: i16) {
 }
 
 // ---------------------------------------------------------------------------------------
-// Stack high-water mark
+// Stack guard and high-water mark
 //
-// At boot the unused stack (from cortex-m-rt's `_stack_end`, the end of the statics, up
-// to a margin below the live stack pointer) is filled with a pattern; [`stack_usage`]
-// later finds the lowest word that changed. The stack grows down from `_stack_start`
-// (the end of RAM) towards the statics: a run whose free stack falls below
-// `board::STACK_MIN_FREE_BYTES` latches `Faults::STACK_LOW`.
+// The stack grows down from `_stack_start` (the end of RAM) towards the statics, which end
+// at cortex-m-rt's `_stack_end`. Just above them an MPU region of 1 KiB forbids every
+// access ([`enable_stack_guard`], `pam_firmware_logic::stack_guard`): an overflow faults
+// (MemManage, escalated to HardFault when the handler cannot push either; HardFault runs
+// with the MPU off, HFNMIENA = 0, so its handler vents and records) instead of silently
+// overwriting the statics, the telemetry channel and the task pools. Why not flip-link
+// (which moves the stack below the statics so that an overflow leaves RAM): it is a
+// separate linker binary that `./test.sh` and every developer would have to
+// `cargo install`; the MPU needs nothing outside the firmware.
+//
+// At boot the unused stack above the guard (up to a margin below the live stack pointer) is
+// filled with a pattern; [`stack_usage`] later finds the lowest word that changed. A run
+// whose free stack falls below `board::STACK_MIN_FREE_BYTES` latches `Faults::STACK_LOW`.
 // ---------------------------------------------------------------------------------------
+
+use pam_firmware_logic::stack_guard::StackGuard;
 
 const STACK_PAINT: u32 = 0x5AC5_5AC5;
 /// Left unpainted below the stack pointer at the time of painting (the painting
@@ -262,12 +312,45 @@ extern "C" {
     static _stack_end: u32;
 }
 
-fn stack_bounds() -> (usize, usize) {
+fn guard() -> Option<StackGuard> {
     // linker symbols: only their addresses are taken
-    (
-        addr_of!(_stack_end) as usize,
-        addr_of!(_stack_start) as usize,
-    )
+    let (end, start) = (
+        addr_of!(_stack_end) as u32,
+        addr_of!(_stack_start) as u32,
+    );
+    StackGuard::new(end, start, crate::board::STACK_MIN_FREE_BYTES)
+}
+
+/// The usable stack: (lowest address, above the guard if there is one; top).
+fn stack_bounds() -> (usize, usize) {
+    let top = addr_of!(_stack_start) as usize;
+    match guard() {
+        Some(g) => (g.floor as usize, top),
+        None => (addr_of!(_stack_end) as usize, top),
+    }
+}
+
+/// Makes the guard region no-access (MPU region 0; privileged code keeps the default
+/// memory map everywhere else). Call once at boot, before anything deep runs. Returns
+/// false if the stack is too small for a guard (then there is none).
+pub fn enable_stack_guard(mpu: &mut cortex_m::peripheral::MPU) -> bool {
+    let Some(g) = guard() else {
+        return false;
+    };
+    // RASR: XN (28), AP = 000 no access (26:24), normal memory S C (18, 17), SIZE, ENABLE
+    let rasr = (1 << 28) | (1 << 18) | (1 << 17) | (g.rasr_size_field() << 1) | 1;
+    // SAFETY: the region covers only the guard, which nothing uses (the statics end below
+    // it, the painted stack starts above it); PRIVDEFENA keeps the default map elsewhere.
+    unsafe {
+        mpu.rnr.write(0);
+        mpu.rbar.write(g.base);
+        mpu.rasr.write(rasr);
+        // ENABLE | PRIVDEFENA; HFNMIENA = 0: HardFault and NMI run without the MPU
+        mpu.ctrl.write(0b101);
+    }
+    cortex_m::asm::dsb();
+    cortex_m::asm::isb();
+    true
 }
 
 /// Fills the unused stack with the pattern. Call once at boot.
@@ -281,6 +364,15 @@ pub fn paint_stack() {
         // SAFETY: [bottom, sp − margin) is RAM below the live stack that nothing uses.
         unsafe { (p as *mut u32).write_volatile(STACK_PAINT) };
         p += 4;
+    }
+}
+
+impl From<StackUsage> for pam_protocol::StackUsage {
+    fn from(s: StackUsage) -> Self {
+        pam_protocol::StackUsage {
+            used_max_bytes: s.used_max_bytes,
+            size_bytes: s.size_bytes,
+        }
     }
 }
 

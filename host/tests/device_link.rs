@@ -47,7 +47,7 @@ fn tmp(name: &str) -> std::path::PathBuf {
 fn status_of_a_fresh_device() {
     let d = TestDevice::start(Options::default());
     let out = ok(&d.address, &["status"]);
-    assert!(out.contains("device: firmware 0.9.1, protocol 3"), "{out}");
+    assert!(out.contains("device: firmware 0.9.1, protocol 4"), "{out}");
     assert!(out.contains("state: disarmed"), "{out}");
     assert!(out.contains("mode: idle"), "{out}");
     assert!(out.contains("faults: none"), "{out}");
@@ -56,6 +56,15 @@ fn status_of_a_fresh_device() {
         "{out}"
     );
     assert!(out.contains("loop: 1000 µs period"), "{out}");
+    // a device without a configuration store (this test's) says so; no board lines
+    assert!(
+        out.contains("\nconfig: thesis defaults (no flash store)\n"),
+        "{out}"
+    );
+    assert!(
+        !out.contains("stack:") && !out.contains("board checks:"),
+        "{out}"
+    );
     assert!(out.contains("sample: α +0.000°"), "{out}");
 }
 
@@ -104,7 +113,7 @@ fn protocol_version_mismatch_is_explained() {
     });
     let err = fails(&d.address, &["status"]);
     assert!(
-        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 3"),
+        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 4"),
         "{err}"
     );
 }

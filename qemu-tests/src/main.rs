@@ -84,6 +84,7 @@ fn main() -> ! {
         ("control", pam_control::checks::CHECKS),
         ("control force loop", pam_control::force_loop_checks::CHECKS),
         ("device", pam_device::checks::CHECKS),
+        ("config store", pam_config_store::checks::CHECKS),
     ] {
         for c in checks {
             match (c.run)() {

@@ -39,6 +39,8 @@ pub struct SimConfig {
     pub identified_rig: bool,
     /// Faults to inject at given emulated times (`inject`).
     pub injections: Vec<Scheduled>,
+    /// The file that holds the emulated configuration flash (`flash`); `None`: in memory.
+    pub config_flash: Option<std::path::PathBuf>,
 }
 
 impl Default for SimConfig {
@@ -50,6 +52,7 @@ impl Default for SimConfig {
             command_timeout_s: SafetyConfig::default_1khz().command_timeout_s,
             identified_rig: false,
             injections: Vec::new(),
+            config_flash: None,
         }
     }
 }

@@ -34,6 +34,13 @@ pub enum EmulatorError {
         text: String,
         source: pam_twin::faults::FaultParseError,
     },
+    #[error("--config-flash {path}: {source}")]
+    ConfigFlash {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("the emulated configuration flash: {0}")]
+    ConfigStore(String),
 }
 
 impl EmulatorError {
@@ -49,6 +56,8 @@ impl EmulatorError {
             Pty { .. } => "check that /dev/ptmx exists and is usable, or serve on TCP only (without --pty)",
             PtyIo(_) => "check that /dev/ptmx exists and is usable, or serve on TCP only (without --pty)",
             Stopped => "start the emulator again",
+            ConfigFlash { .. } => "give a file the emulator can read and write (it is created when missing), or leave --config-flash out for a flash in memory",
+            ConfigStore(_) => "an emulator bug: the emulated flash's geometry should always fit the store",
             Injection { .. } | PlantFault { .. } => {
                 "write KIND@SECONDS with KIND one of estop, estop_release, overrun:periods=N or a plant \
                  fault (`pamctl sim --help` lists them), e.g. loadcell_frozen@5"

@@ -20,6 +20,7 @@ mod config;
 mod conn;
 mod emulator;
 pub mod error;
+pub mod flash;
 pub mod inject;
 mod plant;
 mod rt;

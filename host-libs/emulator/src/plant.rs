@@ -41,6 +41,8 @@ pub(crate) struct Plant {
     pub(crate) reports: Sender<String>,
     /// Loop currents driven in the last period.
     pub(crate) last_currents_ma: [f64; 4],
+    /// The configuration flash (persist, restore, erase; read at start).
+    pub(crate) store: pam_config_store::ConfigStore<crate::flash::SimFlash>,
 }
 
 impl Plant {
@@ -82,6 +84,9 @@ impl Plant {
             body: RequestBody::SetConfig(Config::Calibration(cal)),
         });
         reply.result.map_err(EmulatorError::Calibration)?;
+        // like the firmware's boot: the record in flash, if there is a good one
+        let mut store = crate::flash::store(config.config_flash.clone())?;
+        device.boot_config(store.load());
         let last = twin.step(1e-6, [4.0; 4], &HandleCondition::Free);
         let model = *twin.model();
         let path = (config.handle == HandleMode::Operator)
@@ -106,7 +111,19 @@ impl Plant {
             schedule,
             reports,
             last_currents_ma: [4.0; 4],
+            store,
         })
+    }
+
+    /// A request frame, the storage requests with the emulated flash.
+    pub(crate) fn handle_frame(
+        &mut self,
+        frame: Result<Request, pam_protocol::DecodeError>,
+    ) -> pam_protocol::Reply {
+        match &frame {
+            Ok(request) => self.device.handle_with_store(&mut self.store, request),
+            Err(_) => self.device.handle_frame(frame),
+        }
     }
 
     /// Applies `injection` from the coming period on and reports it.

@@ -74,7 +74,7 @@ pub(crate) fn real_time_loop(
                     let mut out = Vec::new();
                     for b in bytes {
                         if let Some(frame) = c.decoder.push(b) {
-                            let reply = plant.device.handle_frame(frame);
+                            let reply = plant.handle_frame(frame);
                             push_frame(&mut out, &DeviceMessage::Reply(reply));
                         }
                     }

@@ -89,6 +89,9 @@ fn body_name(b: &RequestBody) -> &'static str {
         RequestBody::GetConfig(_) => "config get",
         RequestBody::SetConfig(_) => "config set",
         RequestBody::SetTelemetry { .. } => "the telemetry rate",
+        RequestBody::PersistConfig => "config persist",
+        RequestBody::RestoreConfig => "config restore",
+        RequestBody::EraseConfig => "config erase",
     }
 }
 

@@ -123,5 +123,11 @@ pub fn advice(code: ErrorCode) -> &'static str {
         ErrorCode::NotHomed => {
             "the encoders are not homed: put the arm at the neutral pose and run `pamctl home`"
         }
+        ErrorCode::StorageFailed => {
+            "the device's flash failed, or the device has no configuration store; the configuration in use is unchanged"
+        }
+        ErrorCode::NoStoredConfig => {
+            "the device's flash holds no good configuration record (see `pamctl status`); nothing was changed"
+        }
     }
 }

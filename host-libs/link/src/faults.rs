@@ -3,7 +3,7 @@
 /// Names of the latched fault bits (`pam_control::Faults`).
 pub fn fault_names(bits: u16) -> String {
     use pam_control::Faults;
-    const NAMES: [(Faults, &str); 15] = [
+    const NAMES: [(Faults, &str); 16] = [
         (Faults::COMMAND_TIMEOUT, "command timeout"),
         (Faults::NON_FINITE, "non-finite sensor value"),
         (Faults::ANGLE_OUT_OF_RANGE, "angle out of range"),
@@ -24,6 +24,10 @@ pub fn fault_names(bits: u16) -> String {
         (
             Faults::CONTROL_UNSTABLE,
             "closed loop unstable (oscillation or persistent force error)",
+        ),
+        (
+            Faults::SELF_CHECK,
+            "self-check (configuration defaults or board check: see status)",
         ),
     ];
     if bits == 0 {
@@ -62,7 +66,11 @@ mod tests {
             fault_names(Faults::CONTROL_UNSTABLE.0),
             "closed loop unstable (oscillation or persistent force error)"
         );
-        assert_eq!(fault_names(1 << 15), "unknown bits 0x8000");
+        assert!(fault_names(Faults::SELF_CHECK.0).starts_with("self-check"));
+        assert_eq!(
+            fault_names(0x8000 | 0x4000),
+            format!("{}, {}", fault_names(0x4000), fault_names(0x8000))
+        );
         assert_eq!(fault_names(0), "none");
     }
 }

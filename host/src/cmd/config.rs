@@ -1,4 +1,8 @@
-//! `pamctl config get|set|load|save`: the device's configuration sections as TOML.
+//! `pamctl config get|set|load|save`: the device's configuration sections as TOML, between
+//! a file on the host and the configuration the device runs with (its RAM).
+//! `pamctl config persist|restore|erase`: between that RAM copy and the device's flash,
+//! from which it boots (a missing record boots the thesis defaults; a damaged one too, with
+//! the `SELF_CHECK` fault; `pamctl status` says which).
 //!
 //! File layout: optional tables `[robot]` (every model parameter), `[calibration]`
 //! (encoders, load cell, output stages) and `[limits]` (the supervisor's limits; its
@@ -33,6 +37,15 @@ pub enum ConfigCommand {
     Load { file: PathBuf },
     /// Write every section to a TOML file.
     Save { file: PathBuf },
+    /// Make the device write the configuration it runs with to its flash: the next boot
+    /// starts from it (not while armed).
+    Persist,
+    /// Make the device replace the configuration it runs with by the one in its flash
+    /// (not while armed; refused, nothing changed, if the flash holds no good record).
+    Restore,
+    /// Make the device erase the configuration in its flash: the next boot starts from the
+    /// thesis defaults. The configuration it runs with now is unchanged.
+    Erase,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -197,6 +210,27 @@ pub fn run(c: ConfigCommand, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Re
                 .with_context(|| format!("cannot read {}", file.display()))?;
             let f = parse_toml(&text, &file.display().to_string())?;
             send(&client, &f, out)
+        }
+        ConfigCommand::Persist => {
+            client
+                .command(RequestBody::PersistConfig)
+                .map_err(|e| e.to_string())?;
+            super::done(out, "configuration written to the device's flash")
+        }
+        ConfigCommand::Restore => {
+            client
+                .command(RequestBody::RestoreConfig)
+                .map_err(|e| e.to_string())?;
+            super::done(out, "configuration restored from the device's flash")
+        }
+        ConfigCommand::Erase => {
+            client
+                .command(RequestBody::EraseConfig)
+                .map_err(|e| e.to_string())?;
+            super::done(
+                out,
+                "configuration in the device's flash erased (the next boot uses the defaults)",
+            )
         }
         ConfigCommand::Set { assignments } => {
             let current = fetch(&client, Section::All)?;

@@ -46,6 +46,11 @@ pub struct SimArgs {
     /// (for tests that must choose the moment).
     #[arg(long)]
     pub stdin_control: bool,
+    /// Keep the emulated configuration flash in FILE (created on the first persist): what
+    /// `pamctl config persist` wrote is there when the emulator starts again. Without it
+    /// the flash is in memory and starts erased.
+    #[arg(long, value_name = "FILE")]
+    pub config_flash: Option<std::path::PathBuf>,
     /// List the twin's effects and their parameters, then exit.
     #[arg(long)]
     pub list_effects: bool,
@@ -78,6 +83,7 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         handle: args.handle,
         seed: args.seed,
         identified_rig: args.identified_rig,
+        config_flash: args.config_flash.clone(),
         ..SimConfig::default()
     };
     if let Some(t) = args.command_timeout_s {

@@ -2,7 +2,10 @@
 
 use crate::LinkArgs;
 use pam_control::{Mode, State};
-use pam_protocol::{ReplyData, RequestBody, Telemetry};
+use pam_protocol::{
+    ConfigOrigin, CpuFaultKind, ReplyData, RequestBody, Status, Telemetry, BOARD_CHECK_ADC_DUAL,
+    BOARD_CHECK_VDDA,
+};
 use std::io::Write;
 use std::time::Duration;
 
@@ -103,6 +106,69 @@ pub fn describe_sample(t: &Telemetry) -> String {
     )
 }
 
+/// Where the configuration came from, and whether it was changed since.
+pub fn describe_config(s: &Status) -> String {
+    let origin = match s.config {
+        ConfigOrigin::Flash => "from flash",
+        ConfigOrigin::DefaultsNoRecord => "thesis defaults (no record in flash)",
+        ConfigOrigin::DefaultsCorrupt => "thesis defaults: the record in flash is CORRUPT",
+        ConfigOrigin::DefaultsOtherVersion => {
+            "thesis defaults: the record in flash is of ANOTHER FIRMWARE VERSION"
+        }
+        ConfigOrigin::DefaultsRefused => "thesis defaults: the device REFUSED the record in flash",
+        ConfigOrigin::DefaultsNoStorage => "thesis defaults (no flash store)",
+    };
+    let unsaved = if s.config_unsaved {
+        "; changed since (`pamctl config persist` keeps it)"
+    } else {
+        ""
+    };
+    format!("{origin}{unsaved}")
+}
+
+/// The board's self-report: VDDA, stack, board checks, the last CPU fault.
+pub fn describe_board(s: &Status) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut checks = Vec::new();
+    if s.board_checks & BOARD_CHECK_VDDA != 0 {
+        checks.push("VDDA out of range");
+    }
+    if s.board_checks & BOARD_CHECK_ADC_DUAL != 0 {
+        checks.push("ADC dual mode not set");
+    }
+    if s.board_checks & !(BOARD_CHECK_VDDA | BOARD_CHECK_ADC_DUAL) != 0 {
+        checks.push("unknown");
+    }
+    if !checks.is_empty() {
+        lines.push(format!("board checks: FAILING: {}", checks.join(", ")));
+    }
+    if let Some(v) = s.vdda_v {
+        lines.push(format!("vdda: {v:.3} V"));
+    }
+    if let Some(st) = s.stack {
+        lines.push(format!(
+            "stack: {} of {} B used at most ({} B free)",
+            st.used_max_bytes,
+            st.size_bytes,
+            st.size_bytes.saturating_sub(st.used_max_bytes)
+        ));
+    }
+    if let Some(f) = s.last_cpu_fault {
+        let kind = match f.kind {
+            CpuFaultKind::HardFault => "HardFault",
+            CpuFaultKind::MemManage => "MemManage",
+            CpuFaultKind::BusFault => "BusFault",
+            CpuFaultKind::UsageFault => "UsageFault",
+            CpuFaultKind::UnexpectedInterrupt => "unexpected interrupt",
+        };
+        lines.push(format!(
+            "last run ended in: {kind} at pc {:#010x} (address {:#010x})",
+            f.pc, f.address
+        ));
+    }
+    lines
+}
+
 pub fn run(link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let client = super::connect(link)?;
     let info = *client.info();
@@ -155,6 +221,10 @@ pub fn run(link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
             s.period_us, s.telemetry_divider
         ),
     )?;
+    w(out, format!("config: {}", describe_config(&s)))?;
+    for line in describe_board(&s) {
+        w(out, line)?;
+    }
     match sample {
         Some(t) => w(out, format!("sample: {}", describe_sample(&t)))?,
         None => w(

@@ -36,6 +36,12 @@ impl Faults {
     pub const STATIC_IMBALANCE: Faults = Faults(1 << 13);
     /// Set by the closed force loop's guard: sustained oscillation or a persistent error.
     pub const CONTROL_UNSTABLE: Faults = Faults(1 << 14);
+    /// A self-check of the device failed; `status` says which (protocol 4's `Status`):
+    /// the configuration record in flash was corrupt, of another layout or refused, or the
+    /// flash unreadable, so the thesis defaults are in use (latched once at boot, cleared by
+    /// `clear`); or a board check fails (VDDA out of range, ADC dual mode not set), which
+    /// the device re-raises every period while it lasts.
+    pub const SELF_CHECK: Faults = Faults(1 << 15);
 
     pub const fn with(self, o: Faults) -> Faults {
         Faults(self.0 | o.0)

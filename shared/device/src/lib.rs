@@ -32,6 +32,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod frontend;
+pub mod storage;
 mod validate;
 
 #[cfg(any(test, feature = "checks"))]
@@ -41,10 +42,12 @@ use frontend::Encoders;
 use pam_control::{Controller, Faults, Mode, Reject, SafetyConfig, Sensors, State};
 use pam_model::{Real, RobotModel, RobotParams};
 use pam_protocol::{
-    Calibration, Config, ConfigSection, DecodeError, DeviceInfo, EncoderCalibration, ErrorCode,
-    FaultEvent, ModeKind, OutputCalibration, Reply, ReplyData, Request, RequestBody, Status,
-    Telemetry, Version, LIMITED_OUTPUT, PROTOCOL_VERSION, SCHEMA_FINGERPRINT, UNKNOWN_REQUEST_ID,
+    Calibration, Config, ConfigOrigin, ConfigSection, DecodeError, DeviceInfo, EncoderCalibration,
+    ErrorCode, FaultEvent, ModeKind, OutputCalibration, Reply, ReplyData, Request, RequestBody,
+    Status, Telemetry, Version, LIMITED_OUTPUT, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
+    UNKNOWN_REQUEST_ID,
 };
+pub use storage::{run_storage, BoardHealth, StorageDone, StorageJob};
 
 /// One period's raw readings, as the peripherals give them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -99,6 +102,10 @@ pub struct Device {
     last_raw: Option<RawSensors>,
     last_sensors: Option<Sensors>,
     last_faults: Faults,
+    /// Where the configuration came from (boot or restore), and whether it changed since.
+    config_origin: ConfigOrigin,
+    config_unsaved: bool,
+    board: BoardHealth,
 }
 
 impl Device {
@@ -130,6 +137,9 @@ impl Device {
             last_raw: None,
             last_sensors: None,
             last_faults: Faults::NONE,
+            config_origin: ConfigOrigin::DefaultsNoStorage,
+            config_unsaved: false,
+            board: BoardHealth::default(),
         }
     }
 
@@ -172,6 +182,9 @@ impl Device {
         };
         self.last_raw = Some(raw);
         self.last_sensors = Some(sensors);
+        if self.board.board_checks != 0 {
+            self.controller.raise(Faults::SELF_CHECK);
+        }
         let out = self.controller.step(&sensors);
 
         let ip = &self.controller.model().params.ip;
@@ -308,6 +321,7 @@ impl Device {
                 let mut cell = self.controller.model().params.load_cell;
                 cell.tare(raw.loadcell_volts);
                 self.controller.set_load_cell(cell);
+                self.config_unsaved = true;
                 DONE
             }
             RequestBody::ClearFaults => {
@@ -323,6 +337,12 @@ impl Device {
                 homed: self.encoders.homed(),
                 period_us: self.period_us(),
                 telemetry_divider: self.telemetry_divider,
+                config: self.config_origin,
+                config_unsaved: self.config_unsaved,
+                board_checks: self.board.board_checks,
+                vdda_v: self.board.vdda_v,
+                stack: self.board.stack,
+                last_cpu_fault: self.board.last_cpu_fault,
             })),
             RequestBody::SetMode(mode) => {
                 self.controller.set_mode(mode.into()).map_err(error_code)?;
@@ -335,12 +355,17 @@ impl Device {
             })),
             RequestBody::SetConfig(config) => {
                 self.set_config(&config, armed)?;
+                self.config_unsaved = true;
                 DONE
             }
             RequestBody::SetTelemetry { divider } => {
                 self.telemetry_divider = divider;
                 self.periods_to_telemetry = divider.min(1);
                 DONE
+            }
+            // the caller has no store ([`Device::handle_with_store`] has one)
+            RequestBody::PersistConfig | RequestBody::RestoreConfig | RequestBody::EraseConfig => {
+                Err(ErrorCode::StorageFailed)
             }
         }
     }

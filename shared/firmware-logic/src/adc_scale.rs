@@ -22,6 +22,13 @@ impl AdcFrontEnd {
         (adc_v - self.mid_v) / self.gain
     }
 
+    /// The same with the ADC's full scale at `vdda_v` rather than `vref_v`. The front end's
+    /// mid-point is a divider from VDDA (ratiometric), its gain is not: the whole reading
+    /// scales with VDDA (`crate::vdda`).
+    pub fn input_volts_at(&self, counts: u16, vdda_v: f32) -> f32 {
+        self.input_volts(counts) * (vdda_v / self.vref_v)
+    }
+
     pub fn saturated(&self, counts: u16) -> bool {
         counts <= self.rail_margin_counts
             || counts
@@ -68,6 +75,33 @@ mod tests {
         assert!(!LOAD_CELL.saturated(counts_for(-10.0)));
         assert!(!LOAD_CELL.saturated(counts_for(10.0)));
         assert!(!LOAD_CELL.saturated(counts_for(0.0)));
+    }
+
+    /// The front end of docs/output-stage.md at another VDDA: the divider's node is
+    /// (V_amp/R1 + VDDA/R2) / (1/R1 + 1/R2 + 1/R3) and the ADC's full scale is VDDA.
+    fn counts_at(v_in: f32, vdda: f32) -> u16 {
+        let (r1, r2, r3) = (100e3f32, 30.1e3, 43.2e3);
+        let node = (v_in / r1 + vdda / r2) / (1.0 / r1 + 1.0 / r2 + 1.0 / r3);
+        (node / vdda * 4095.0).round() as u16
+    }
+
+    #[test]
+    fn a_measured_vdda_removes_the_supplys_scale_error() {
+        let one_code_v = 3.3 / 4095.0 / 0.1507;
+        for vdda in [3.15f32, 3.3, 3.45] {
+            for v in [-9.0f32, -1.0, 0.5, 8.0] {
+                let c = counts_at(v, vdda);
+                let corrected = LOAD_CELL.input_volts_at(c, vdda);
+                // the divider's own rounding (1.652 V, 0.1507) is worth a few mV
+                assert!(
+                    (corrected - v).abs() < one_code_v + 0.01,
+                    "{vdda} V, {v} V → {corrected}"
+                );
+            }
+        }
+        // without it, at 3.15 V the 8 V reads as ≈ 8.4 V (the full scale shrank with VDDA)
+        let c = counts_at(8.0, 3.15);
+        assert!((LOAD_CELL.input_volts(c) - 8.0 * 3.3 / 3.15).abs() < 0.02);
     }
 
     #[test]

@@ -9,3 +9,5 @@ pub mod counter;
 pub mod current_loop;
 pub mod cycle_stats;
 pub mod debounce;
+pub mod stack_guard;
+pub mod vdda;

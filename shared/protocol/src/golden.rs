@@ -213,6 +213,9 @@ fn request_variant(b: &RequestBody) -> &'static str {
         RequestBody::GetConfig(_) => "GetConfig",
         RequestBody::SetConfig(_) => "SetConfig",
         RequestBody::SetTelemetry { .. } => "SetTelemetry",
+        RequestBody::PersistConfig => "PersistConfig",
+        RequestBody::RestoreConfig => "RestoreConfig",
+        RequestBody::EraseConfig => "EraseConfig",
     }
 }
 
@@ -312,6 +315,9 @@ fn golden_requests() -> Vec<(Request, &'static str)> {
             r(RequestBody::SetTelemetry { divider: 300 }),
             "ac 02 0b ac 02",
         ),
+        (r(RequestBody::PersistConfig), "ac 02 0c"),
+        (r(RequestBody::RestoreConfig), "ac 02 0d"),
+        (r(RequestBody::EraseConfig), "ac 02 0e"),
     ]
 }
 
@@ -339,7 +345,9 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
             "00 ac 02 00 01 02 84 86 88 08 01 02 ac 02 e8 07 ef fd b6 f5 0d",
         ),
         // … 02 Status: 02 Faulted, 03 Force {4 × f32, 01 feed_forward}, 80 03 faults
-        // 0x180, 01 homed, e8 07 period_us, 0a divider
+        // 0x180, 01 homed, e8 07 period_us, 0a divider, 03 DefaultsOtherVersion, 01 unsaved,
+        // 02 board checks, 01 Some vdda 3.0, 01 Some stack (ac 02 used 300, e8 07 size
+        // 1000), 01 Some CPU fault (02 BusFault, ac 02 pc 300, 01 address)
         (
             reply(Ok(ReplyData::Status(Status {
                 state: wire::State::Faulted,
@@ -348,9 +356,22 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
                 homed: true,
                 period_us: 1000,
                 telemetry_divider: 10,
+                config: ConfigOrigin::DefaultsOtherVersion,
+                config_unsaved: true,
+                board_checks: BOARD_CHECK_ADC_DUAL,
+                vdda_v: Some(3.0),
+                stack: Some(StackUsage {
+                    used_max_bytes: 300,
+                    size_bytes: 1000,
+                }),
+                last_cpu_fault: Some(CpuFault {
+                    kind: CpuFaultKind::BusFault,
+                    pc: 300,
+                    address: 1,
+                }),
             }))),
             "00 ac 02 00 02 02 03 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01 \
-            80 03 01 e8 07 0a",
+            80 03 01 e8 07 0a 03 01 02 01 00 00 40 40 01 ac 02 e8 07 01 02 ac 02 01",
         ),
         // … 03 Config, 00 Robot: joint 1 (7 × f32, 01 00 channels, 3 × f32 segment),
         // joint 2 (… 02 03 …), muscle, pressure, ip, load cell (1.0 … 5.0), gain plane
@@ -408,6 +429,8 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
         (ErrorCode::WrongState, "00 ac 02 01 03"),
         (ErrorCode::FaultStillPresent, "00 ac 02 01 04"),
         (ErrorCode::NotHomed, "00 ac 02 01 05"),
+        (ErrorCode::StorageFailed, "00 ac 02 01 06"),
+        (ErrorCode::NoStoredConfig, "00 ac 02 01 07"),
     ];
     v.extend(errors.map(|(code, hex)| (reply(Err(code)), hex)));
     v
@@ -465,7 +488,7 @@ fn the_goldens_cover_every_variant() {
         .iter()
         .map(|(r, _)| request_variant(&r.body))
         .collect();
-    assert_eq!(reqs.len(), 12, "{reqs:?}");
+    assert_eq!(reqs.len(), 15, "{reqs:?}");
     let modes: std::collections::HashSet<_> = golden_requests()
         .iter()
         .filter_map(|(r, _)| match r.body {
@@ -478,8 +501,8 @@ fn the_goldens_cover_every_variant() {
         .iter()
         .map(|(m, _)| device_variant(m))
         .collect();
-    // Done, Hello, Status, Config, six error codes, telemetry, fault event
-    assert_eq!(msgs.len(), 12, "{msgs:?}");
+    // Done, Hello, Status, Config, eight error codes, telemetry, fault event
+    assert_eq!(msgs.len(), 14, "{msgs:?}");
 }
 
 #[test]
@@ -488,7 +511,7 @@ fn the_schema_fingerprint_is_pinned() {
     // the same commit as the golden bytes above.
     println!("SCHEMA_FINGERPRINT = {SCHEMA_FINGERPRINT:#010x}");
     assert_eq!(
-        SCHEMA_FINGERPRINT, 0xf893_7e26,
+        SCHEMA_FINGERPRINT, 0x29db_e41e,
         "{SCHEMA_FINGERPRINT:#010x}"
     );
 }

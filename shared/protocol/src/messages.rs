@@ -17,7 +17,10 @@ use serde::{Deserialize, Serialize};
 
 /// Version of everything in this module. Bump on any change of the wire format.
 /// 2: the protocol's own wire types, `DeviceInfo::schema_fingerprint`.
-pub const PROTOCOL_VERSION: u16 = 3;
+/// 4: the configuration in flash (`PersistConfig`, `RestoreConfig`, `EraseConfig`, two
+/// error codes) and the board's health in `Status` (configuration origin, stack, last CPU
+/// fault, VDDA, board checks).
+pub const PROTOCOL_VERSION: u16 = 4;
 
 /// Fingerprint of the wire format: FNV-1a over [`PROTOCOL_VERSION`] and the shape of
 /// [`Request`] and [`DeviceMessage`] (every type they contain, see [`crate::wire::schema`]),
@@ -75,6 +78,15 @@ wire_enum! {
         SetTelemetry {
             divider: u16,
         },
+        /// Writes the configuration in use (robot, calibration, limits) to the device's
+        /// flash, where the next boot finds it. Not while armed.
+        PersistConfig,
+        /// Replaces the configuration in use with the one in flash. Not while armed;
+        /// `NoStoredConfig` (nothing changed) if the flash holds no good record.
+        RestoreConfig,
+        /// Erases the configuration in flash (the next boot starts from the defaults); the
+        /// configuration in use is unchanged. Not while armed.
+        EraseConfig,
     }
 }
 
@@ -209,6 +221,78 @@ wire_struct! {
         pub homed: bool,
         pub period_us: u32,
         pub telemetry_divider: u16,
+        /// Where the configuration in use came from at boot or at the last restore.
+        pub config: ConfigOrigin,
+        /// The configuration in use differs from what the next boot would load
+        /// (`SetConfig`, `Tare` or `EraseConfig` since the last load or persist).
+        pub config_unsaved: bool,
+        /// [`BOARD_CHECK_VDDA`] | [`BOARD_CHECK_ADC_DUAL`]: the board checks failing now
+        /// (each keeps `SELF_CHECK` latched). Always 0 in the emulator.
+        pub board_checks: u8,
+        /// The analog supply measured through VREFINT; `None` where nothing measures it.
+        pub vdda_v: Option<f32>,
+        /// The stack's high-water mark (painted stack); `None` in the emulator.
+        pub stack: Option<StackUsage>,
+        /// The CPU fault exception that ended the previous run, if one did.
+        pub last_cpu_fault: Option<CpuFault>,
+    }
+}
+
+/// [`Status::board_checks`]: VDDA (through VREFINT) outside its range.
+pub const BOARD_CHECK_VDDA: u8 = 1 << 0;
+/// [`Status::board_checks`]: ADC1/ADC2 dual mode did not read back as set.
+pub const BOARD_CHECK_ADC_DUAL: u8 = 1 << 1;
+
+wire_enum! {
+    /// Where the configuration in use came from. Every `Defaults…` is the thesis's values;
+    /// those marked (fault) latch `SELF_CHECK`.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub enum ConfigOrigin {
+        /// The record in flash.
+        Flash,
+        /// Defaults: the flash holds no record (never persisted, or erased).
+        DefaultsNoRecord,
+        /// Defaults: the record failed its CRC (fault).
+        DefaultsCorrupt,
+        /// Defaults: the record was written by a firmware with another layout (fault).
+        DefaultsOtherVersion,
+        /// Defaults: the record checked, but the device refused its values (fault).
+        DefaultsRefused,
+        /// Defaults: the flash could not be read (fault), or no store was consulted.
+        DefaultsNoStorage,
+    }
+}
+
+wire_struct! {
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct StackUsage {
+        /// The deepest the stack has been since boot.
+        pub used_max_bytes: u32,
+        pub size_bytes: u32,
+    }
+}
+
+wire_enum! {
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub enum CpuFaultKind {
+        HardFault,
+        MemManage,
+        BusFault,
+        UsageFault,
+        /// An interrupt without a handler (`address` holds its number).
+        UnexpectedInterrupt,
+    }
+}
+
+wire_struct! {
+    /// The record a CPU fault handler left in no-init RAM before the watchdog reset.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+    pub struct CpuFault {
+        pub kind: CpuFaultKind,
+        /// The stacked PC (HardFault); 0 where the handler had no exception frame.
+        pub pc: u32,
+        /// MMFAR/BFAR when valid, the IRQ number for an unexpected interrupt, else 0.
+        pub address: u32,
     }
 }
 
@@ -228,6 +312,11 @@ wire_enum! {
         FaultStillPresent,
         /// Arm refused: the encoders have not been homed.
         NotHomed,
+        /// The flash failed (erase, write or read), or this device has no configuration
+        /// store.
+        StorageFailed,
+        /// `RestoreConfig`: the flash holds no good record (see `Status::config`).
+        NoStoredConfig,
     }
 }
 

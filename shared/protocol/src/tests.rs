@@ -75,6 +75,9 @@ fn every_request() -> Vec<Request> {
         RequestBody::SetConfig(Config::Calibration(calibration())),
         RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz().into())),
         RequestBody::SetTelemetry { divider: 10 },
+        RequestBody::PersistConfig,
+        RequestBody::RestoreConfig,
+        RequestBody::EraseConfig,
     ];
     bodies
         .iter()
@@ -112,6 +115,19 @@ fn every_device_message() -> Vec<DeviceMessage> {
         homed: true,
         period_us: 1000,
         telemetry_divider: 1,
+        config: ConfigOrigin::DefaultsCorrupt,
+        config_unsaved: true,
+        board_checks: BOARD_CHECK_VDDA | BOARD_CHECK_ADC_DUAL,
+        vdda_v: Some(3.29),
+        stack: Some(StackUsage {
+            used_max_bytes: 4_321,
+            size_bytes: 120_000,
+        }),
+        last_cpu_fault: Some(CpuFault {
+            kind: CpuFaultKind::BusFault,
+            pc: 0x0800_1234,
+            address: 0x4000_0000,
+        }),
     };
     let info = DeviceInfo {
         protocol_version: PROTOCOL_VERSION,
@@ -141,6 +157,8 @@ fn every_device_message() -> Vec<DeviceMessage> {
         Err(ErrorCode::WrongState),
         Err(ErrorCode::FaultStillPresent),
         Err(ErrorCode::NotHomed),
+        Err(ErrorCode::StorageFailed),
+        Err(ErrorCode::NoStoredConfig),
     ]
     .into_iter()
     .enumerate()
