@@ -4,9 +4,9 @@
 //! starts with an erased flash). The file is the pages' raw bytes: damaging it is how the
 //! tests make a corrupt record.
 
+use crate::EmulatorError;
 use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
 use pam_config_store::{ConfigStore, RamFlash, RamFlashError, StoreError};
-use crate::EmulatorError;
 use std::path::PathBuf;
 
 /// Two pages, like `firmware/src/config_flash.rs`.

@@ -212,21 +212,15 @@ pub fn run(c: ConfigCommand, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Re
             send(&client, &f, out)
         }
         ConfigCommand::Persist => {
-            client
-                .command(RequestBody::PersistConfig)
-                .map_err(|e| e.to_string())?;
+            client.command(RequestBody::PersistConfig)?;
             super::done(out, "configuration written to the device's flash")
         }
         ConfigCommand::Restore => {
-            client
-                .command(RequestBody::RestoreConfig)
-                .map_err(|e| e.to_string())?;
+            client.command(RequestBody::RestoreConfig)?;
             super::done(out, "configuration restored from the device's flash")
         }
         ConfigCommand::Erase => {
-            client
-                .command(RequestBody::EraseConfig)
-                .map_err(|e| e.to_string())?;
+            client.command(RequestBody::EraseConfig)?;
             super::done(
                 out,
                 "configuration in the device's flash erased (the next boot uses the defaults)",
