@@ -457,6 +457,7 @@ pub fn catalog() -> Vec<&'static dyn ModelEffect> {
         &JointPlay,
         &SettlingDrift,
         &CommandSlew,
+        &ForceSlew,
         &ElasticLoop,
         &MaxwellSlip,
         &CubicAboutEquilibrium,

@@ -298,3 +298,31 @@ impl ModelEffect for CommandSlew {
         &[StepExtra::CommandSlew]
     }
 }
+
+/// The handle force slews at limited rates (N/s), different up and down: a rate limiter on
+/// the force reference, or the converters' flow seen at the handle, whichever drive the
+/// model uses (a limit in bar/s on each converter maps to different force rates per axis).
+pub struct ForceSlew;
+impl ModelEffect for ForceSlew {
+    fn id(&self) -> &'static str {
+        "force_slew"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::RateLimits)
+    }
+    fn shape_name(&self) -> &'static str {
+        "force_slew"
+    }
+    fn summary(&self) -> &'static str {
+        "the handle force ramps at limited rates (N/s), different up and down"
+    }
+    fn signature(&self) -> &'static str {
+        "large steps ramp; the ramp's slope in newtons per second is the same on both axes"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Step
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::ForceSlew]
+    }
+}

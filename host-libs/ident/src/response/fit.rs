@@ -178,6 +178,30 @@ pub fn fit(
             );
         }
     }
+    if extras.contains(&StepExtra::ForceSlew) && !start.force_rise_n_per_s.is_finite() {
+        // the cost is flat while the limit is inactive: start at fractions of the fastest
+        // rate the start's handle force reaches, alike and unlike up and down
+        simulate(start, d, t, alpha, n, &mut buf);
+        let peak = axes
+            .iter()
+            .flat_map(|&a| buf[a][..n].windows(2).map(|w| (w[1] - w[0]).abs()))
+            .fold(0.0, f64::max)
+            / p.dt_s;
+        if peak > 0.0 {
+            let mut v = Vec::new();
+            for f in [0.5, 0.25, 0.12, 0.06, 0.03] {
+                for (fr, ff) in [(f, f), (f, f * 0.5), (f * 0.5, f)] {
+                    for s in &starts {
+                        let mut q = *s;
+                        q.force_rise_n_per_s = fr * peak;
+                        q.force_fall_n_per_s = ff * peak;
+                        v.push(q);
+                    }
+                }
+            }
+            starts = v;
+        }
+    }
     if extras.contains(&StepExtra::Delay) && start.delay_s == 0.0 {
         // a dead time hides in a base whose dynamics slowed down to absorb it: start at
         // several delays, with the base's dynamics and with the converters' own
@@ -204,13 +228,14 @@ pub fn fit(
     // starts are screened by their cost and the best few refined
     let mut buf0 = [vec![0.0; n], vec![0.0; n]];
     // the gains are refitted as multipliers of `unit`: 1, or the start's gains when a
-    // saturation of the measured force is screened (its knee is in the measured newtons,
-    // after the gain; at gain 1 the grid's knees would clip the wrong force)
-    let unit = if extras.contains(&StepExtra::ForceSaturation) {
-        start.gain.map(|g| if g.abs() > 1e-9 { g } else { 1.0 })
-    } else {
-        [1.0; 2]
-    };
+    // saturation or slew of the measured force is screened (its knee and rates are in the
+    // measured newtons, after the gain; at gain 1 the grid would act on the wrong force)
+    let unit =
+        if extras.contains(&StepExtra::ForceSaturation) || extras.contains(&StepExtra::ForceSlew) {
+            start.gain.map(|g| if g.abs() > 1e-9 { g } else { 1.0 })
+        } else {
+            [1.0; 2]
+        };
     let mut screen = |r: &Response| -> (f64, Response) {
         let mut r = *r;
         let slopes = r.gain_slope_per_rad;

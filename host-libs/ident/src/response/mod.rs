@@ -43,6 +43,8 @@ pub enum StepExtra {
     /// One channel (a converter, or a force axis without currents) cannot deliver more
     /// than a cap: its set-points above it are compressed (which channel: a grid).
     ChannelCap,
+    /// The handle force slews at limited rates (N/s, up and down), whatever the drive.
+    ForceSlew,
     PoseGain,
     Hysteresis,
     Drift,

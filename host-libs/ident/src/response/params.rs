@@ -30,6 +30,9 @@ pub struct Response {
     pub cap_channel: Option<usize>,
     pub cap: f64,
     pub cap_span: f64,
+    /// Largest rates at which the handle force may rise and fall (N/s, measured force).
+    pub force_rise_n_per_s: f64,
+    pub force_fall_n_per_s: f64,
     pub gain: [f64; 2],
     /// dG/dα1, dG/dα2 per axis (pose-dependent gain, eq. 5.2).
     pub gain_slope_per_rad: [[f64; 2]; 2],
@@ -56,6 +59,8 @@ impl Response {
             cap_channel: None,
             cap: f64::INFINITY,
             cap_span: 1.0,
+            force_rise_n_per_s: f64::INFINITY,
+            force_fall_n_per_s: f64::INFINITY,
             gain,
             gain_slope_per_rad: [[0.0; 2]; 2],
             hysteresis_n: [0.0; 2],
@@ -106,6 +111,10 @@ impl Response {
                 v.push((format!("cap_{unit}"), self.cap));
                 v.push((format!("max_{unit}"), self.cap + self.cap_span));
             }
+            (StepExtra::ForceSlew, _) => {
+                v.push(("force_rise_n_per_s".into(), self.force_rise_n_per_s));
+                v.push(("force_fall_n_per_s".into(), self.force_fall_n_per_s));
+            }
             (StepExtra::PoseGain, _) => {
                 // relative slopes, comparable with a gain plane normalised by G
                 for &a in axes {
@@ -143,7 +152,8 @@ pub fn extra_param_count(extras: &[StepExtra], axes: &[usize]) -> usize {
             | StepExtra::CommandSlew
             | StepExtra::Saturation
             | StepExtra::ForceSaturation
-            | StepExtra::ChannelCap => 2,
+            | StepExtra::ChannelCap
+            | StepExtra::ForceSlew => 2,
             StepExtra::PoseGain => 2 * axes.len(),
             StepExtra::Hysteresis => axes.len(),
             StepExtra::Drift => axes.len(),
@@ -166,6 +176,7 @@ pub(super) fn pack(r: &Response, extras: &[StepExtra], axes: &[usize]) -> Vec<f6
             StepExtra::Saturation => v.extend([r.knee, r.knee_span]),
             StepExtra::ForceSaturation => v.extend([r.force_knee_n, r.force_span_n]),
             StepExtra::ChannelCap => v.extend([r.cap, r.cap_span]),
+            StepExtra::ForceSlew => v.extend([r.force_rise_n_per_s, r.force_fall_n_per_s]),
             StepExtra::PoseGain => {
                 for &a in axes {
                     v.extend(r.gain_slope_per_rad[a])
@@ -214,6 +225,10 @@ pub(super) fn unpack(
                 r.cap = next();
                 r.cap_span = next();
             }
+            StepExtra::ForceSlew => {
+                r.force_rise_n_per_s = next();
+                r.force_fall_n_per_s = next();
+            }
             StepExtra::PoseGain => {
                 for &a in axes {
                     r.gain_slope_per_rad[a] = [next(), next()];
@@ -252,6 +267,8 @@ pub(super) fn lower_bounds(
             StepExtra::Saturation | StepExtra::ForceSaturation | StepExtra::ChannelCap => {
                 v.extend([(i, 0.0), (i + 1, 1e-3)])
             }
+            // a tenth of a newton per second: slower than any step trial could show
+            StepExtra::ForceSlew => v.extend([(i, 0.1), (i + 1, 0.1)]),
             _ => {}
         }
         i += extra_param_count(&[*x], axes);

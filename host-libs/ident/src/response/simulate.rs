@@ -90,6 +90,13 @@ pub fn simulate(
         })
         .collect();
     let hysteresis = r.hysteresis_n != [0.0; 2];
+    // a slew limit on the handle force: its largest change per sample, up and down
+    let force_slewed = r.force_rise_n_per_s.is_finite() || r.force_fall_n_per_s.is_finite();
+    let (force_up, force_down) = (
+        r.force_rise_n_per_s.max(1e-9) * d.dt_s,
+        r.force_fall_n_per_s.max(1e-9) * d.dt_s,
+    );
+    let mut slewed: [Option<f64>; 2] = [None; 2];
     for i in 0..n {
         let forces = d.channel_forces(i, &x);
         for a in 0..2 {
@@ -110,6 +117,12 @@ pub fn simulate(
             let mut force = g * f;
             if force_limited {
                 force = saturate(force, r.force_knee_n, force_span);
+            }
+            if force_slewed {
+                if let Some(prev) = slewed[a] {
+                    force = force.clamp(prev - force_down, prev + force_up);
+                }
+                slewed[a] = Some(force);
             }
             out[a][i] = force + hx[a] + r.offset_n[a] + r.drift_n_per_s[a] * (t_s[i] - t0);
         }

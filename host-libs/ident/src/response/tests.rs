@@ -208,3 +208,66 @@ fn a_cap_on_one_channel_is_found_on_that_channel() {
     let named = f.extra_params(StepExtra::ChannelCap, Units::Force, &[0, 1]);
     assert_eq!(named[0], ("axis".to_string(), 2.0));
 }
+
+/// Limits on the measured handle force, with a rig's gain well below 1: a saturation
+/// (knee and maximum in measured newtons) and a slew (N/s up and down) are recovered from
+/// a start at the base's gain, as the diagnosis starts them.
+#[test]
+fn fit_recovers_limits_of_the_measured_force() {
+    let dt = 0.005;
+    let mut set = Vec::new();
+    for k in 0..16 {
+        let level = [0.0, 8.0, -8.0, 16.0, 12.0, -12.0, 24.0, -24.0][k % 8];
+        set.extend(std::iter::repeat_n(level, 300));
+    }
+    let (d, t) = force_drive(set, dt);
+    let n = t.len();
+    let zero = vec![0.0; n];
+    let base = Response::base(0.42, 23.04, [0.55, 1.0]);
+    let saturated = Response {
+        force_knee_n: 8.0,
+        force_span_n: 1.5,
+        ..base
+    };
+    let slewed = Response {
+        force_rise_n_per_s: 30.0,
+        force_fall_n_per_s: 18.0,
+        ..base
+    };
+    for (extra, truth) in [
+        (StepExtra::ForceSaturation, saturated),
+        (StepExtra::ForceSlew, slewed),
+    ] {
+        let mut y = [vec![0.0; n], vec![0.0; n]];
+        simulate(&truth, &d, &t, [&zero, &zero], n, &mut y);
+        let trial = crate::Trial {
+            t_s: t.clone(),
+            alpha_rad: [zero.clone(), zero.clone()],
+            force_n: [y[0].clone(), zero.clone()],
+            force_ref_n: Some([d.set.iter().map(|s| s[0]).collect(), zero.clone()]),
+            current_ma: None,
+        };
+        let p = trial
+            .prepare(&RobotModel::thesis(), Default::default())
+            .unwrap();
+        // the base fitted without the limit: its gain is the rig's
+        let start = Response::base(0.5, 20.0, [0.5, 1.0]);
+        let f = fit(&p, &d, &start, &[extra], &[0], n);
+        let checks = match extra {
+            StepExtra::ForceSaturation => vec![
+                ("knee", f.force_knee_n, 8.0),
+                ("max", f.force_knee_n + f.force_span_n, 9.5),
+            ],
+            _ => vec![
+                ("rise", f.force_rise_n_per_s, 30.0),
+                ("fall", f.force_fall_n_per_s, 18.0),
+            ],
+        };
+        for (name, got, want) in checks.into_iter().chain([("gain", f.gain[0], 0.55)]) {
+            assert!(
+                (got - want).abs() < 0.05 * want,
+                "{extra:?} {name}: {got} vs {want}; {f:?}"
+            );
+        }
+    }
+}

@@ -1,0 +1,78 @@
+//! Logs of the independent generator (`pam-synth`) the loop once got wrong, kept so the
+//! causes stay mended. Each is one case of the confusion run's plan
+//! (`confusion --logs 320 --seed0 9000`), checked to be the case it was; the loop must name
+//! the family the generator hid and recover its parameters in the generator's own units.
+//! - 9022: a hard clip of the measured force at 11.3 N (a rig with gain ≈ 0.55), named
+//!   hysteresis while the saturation's starting grid was screened at gain 1.
+//! - 9257: the handle force slewing at 73 N/s up, 42 N/s down, behind a drive from the
+//!   currents; the rate family then had limits in bar/s only, which fit another rate per
+//!   axis, and the verdict was "none".
+
+use pam_ident::diagnose::{diagnose, Settings};
+use pam_ident::effects::Experiment as LoopExperiment;
+use pam_ident::Trial;
+use pam_model::RobotModel;
+use pam_synth::judge::plan;
+use pam_synth::{generate, Family, Shape};
+use serde_json::Value;
+
+const SEED0: u64 = 9000;
+
+/// The case at `index` of the plan, its truth's parameters and the diagnosis as JSON.
+fn diagnosis_of(index: usize, family: Family, shape: Shape) -> (Value, Value) {
+    let spec = plan(index + 1, SEED0, None)[index].clone();
+    assert_eq!(
+        (spec.family, spec.shape),
+        (family, shape),
+        "the plan changed"
+    );
+    let g = generate(&spec).expect("generating");
+    let log = pam_log::read_str(&g.log_text, None).expect("the generated log");
+    let trial = Trial::from_log(&log).unwrap();
+    let (d, _) = diagnose(
+        &trial,
+        &RobotModel::thesis(),
+        LoopExperiment::Step,
+        Settings::default(),
+    )
+    .unwrap();
+    (
+        serde_json::to_value(&d).unwrap(),
+        serde_json::to_value(&g.truth.params).unwrap(),
+    )
+}
+
+fn near(got: &Value, want: &Value, tol: f64, what: &str) {
+    let (g, w) = (got.as_f64().unwrap(), want.as_f64().unwrap());
+    assert!((g - w).abs() <= tol * w.abs(), "{what}: {g} against {w}");
+}
+
+#[test]
+fn a_hard_clip_of_the_measured_force_is_a_saturation_at_its_level() {
+    let (d, truth) = diagnosis_of(22, Family::Saturation, Shape::HardClip);
+    assert_eq!(d["verdict"], "effect", "{d:#}");
+    let top = &d["effects"][0];
+    assert_eq!(top["family"], "saturation", "{d:#}");
+    near(&top["params"]["max_n"], &truth["knee_n"], 0.05, "the clip");
+}
+
+#[test]
+fn a_slew_of_the_handle_force_is_a_rate_limit_in_newtons_per_second() {
+    let (d, truth) = diagnosis_of(257, Family::RateLimits, Shape::OutputSlew);
+    assert_eq!(d["verdict"], "effect", "{d:#}");
+    let top = &d["effects"][0];
+    assert_eq!(top["family"], "rate_limits", "{d:#}");
+    assert_eq!(top["shape"], "force_slew", "{d:#}");
+    near(
+        &top["params"]["force_rise_n_per_s"],
+        &truth["rise_n_per_s"],
+        0.1,
+        "rise",
+    );
+    near(
+        &top["params"]["force_fall_n_per_s"],
+        &truth["fall_n_per_s"],
+        0.1,
+        "fall",
+    );
+}
