@@ -118,5 +118,12 @@ async fn write_messages(tx: &mut Sender<'static, UsbDriver>) -> EndpointError {
                 return e;
             }
         }
+        // a bulk transfer that ends on a full packet is only complete after a zero-length
+        // one: without it the host's driver holds the frame until the next packet arrives
+        if len % USB_PACKET_BYTES == 0 {
+            if let Err(e) = tx.write_packet(&[]).await {
+                return e;
+            }
+        }
     }
 }
