@@ -25,6 +25,24 @@ fn force_drive(set: Vec<f64>, dt: f64) -> (Drive, Vec<f64>) {
     )
 }
 
+/// The x-axis response of `truth` to the force drive `d` as a prepared trial (noiseless).
+fn x_axis_trial(truth: &Response, d: &Drive, t: &[f64]) -> Prepared {
+    let n = t.len();
+    let zero = vec![0.0; n];
+    let mut y = [vec![0.0; n], vec![0.0; n]];
+    simulate(truth, d, t, [&zero, &zero], n, &mut y);
+    let trial = crate::Trial {
+        t_s: t.to_vec(),
+        alpha_rad: [zero.clone(), zero.clone()],
+        force_n: [y[0].clone(), zero.clone()],
+        force_ref_n: Some([d.set.iter().map(|s| s[0]).collect(), zero.clone()]),
+        current_ma: None,
+    };
+    trial
+        .prepare(&RobotModel::thesis(), Default::default())
+        .unwrap()
+}
+
 /// The unlimited model is the second order of Table 5.2: overshoot e^{−πζ/√(1−ζ²)}.
 #[test]
 fn base_is_the_second_order() {
@@ -78,7 +96,6 @@ fn fit_recovers_the_extras() {
     }
     let (d, t) = force_drive(set, dt);
     let n = t.len();
-    let zero = vec![0.0; n];
     let mut full = Response::base(0.42, 23.04, [0.9, 1.0]);
     full.delay_s = 0.03;
     full.rise_per_s = 40.0;
@@ -119,18 +136,7 @@ fn fit_recovers_the_extras() {
         ),
     ];
     for (extras, truth) in cases {
-        let mut y = [vec![0.0; n], vec![0.0; n]];
-        simulate(&truth, &d, &t, [&zero, &zero], n, &mut y);
-        let trial = crate::Trial {
-            t_s: t.clone(),
-            alpha_rad: [zero.clone(), zero.clone()],
-            force_n: [y[0].clone(), zero.clone()],
-            force_ref_n: Some([d.set.iter().map(|s| s[0]).collect(), zero.clone()]),
-            current_ma: None,
-        };
-        let p = trial
-            .prepare(&RobotModel::thesis(), Default::default())
-            .unwrap();
+        let p = x_axis_trial(&truth, &d, &t);
         let start = Response::base(0.6, 18.0, [1.0, 1.0]);
         let f = fit(&p, &d, &start, extras, &[0], n);
         let mut checks = vec![("zeta", f.zeta, 0.42), ("gain", f.gain[0], 0.9)];
@@ -222,7 +228,6 @@ fn fit_recovers_limits_of_the_measured_force() {
     }
     let (d, t) = force_drive(set, dt);
     let n = t.len();
-    let zero = vec![0.0; n];
     let base = Response::base(0.42, 23.04, [0.55, 1.0]);
     let saturated = Response {
         force_knee_n: 8.0,
@@ -238,18 +243,7 @@ fn fit_recovers_limits_of_the_measured_force() {
         (StepExtra::ForceSaturation, saturated),
         (StepExtra::ForceSlew, slewed),
     ] {
-        let mut y = [vec![0.0; n], vec![0.0; n]];
-        simulate(&truth, &d, &t, [&zero, &zero], n, &mut y);
-        let trial = crate::Trial {
-            t_s: t.clone(),
-            alpha_rad: [zero.clone(), zero.clone()],
-            force_n: [y[0].clone(), zero.clone()],
-            force_ref_n: Some([d.set.iter().map(|s| s[0]).collect(), zero.clone()]),
-            current_ma: None,
-        };
-        let p = trial
-            .prepare(&RobotModel::thesis(), Default::default())
-            .unwrap();
+        let p = x_axis_trial(&truth, &d, &t);
         // the base fitted without the limit: its gain is the rig's
         let start = Response::base(0.5, 20.0, [0.5, 1.0]);
         let f = fit(&p, &d, &start, &[extra], &[0], n);
