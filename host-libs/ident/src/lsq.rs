@@ -4,9 +4,8 @@
 //! a regressor that is identically zero or collinear gives a zero parameter instead of a
 //! blow-up), and an active set for parameters that must stay positive.
 
-use std::borrow::Cow;
 use std::ops::Range;
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 /// One parameter's regressor: its contribution per unit parameter to the X and Y force.
 /// The values are shared (`Arc`): the base model's columns go into every effect's fit, and
@@ -15,69 +14,23 @@ use std::sync::{Arc, OnceLock};
 pub struct Column {
     pub name: String,
     pub axis: [Option<Arc<Vec<f64>>>; 2],
-    /// Every `stride`-th value of each axis (rows 0, s, 2s, …), made on first use and shared
-    /// by the clones. The shape choice and the cross-validation fit on every 5 ms row: a
-    /// strided pass over a 1 kHz column reads every cache line anyway, and the base's
-    /// columns enter every fit, so contiguous copies made once cut `diagnose`'s time on a
-    /// 90 s dynamic log by half (measured with `cargo bench -p pam-ident --bench diagnose`).
-    sparse: Arc<OnceLock<Sparse>>,
-}
-
-#[derive(Debug)]
-struct Sparse {
-    stride: usize,
-    axis: [Option<Vec<f64>>; 2],
 }
 
 impl Column {
     pub fn both(name: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
-        Column::new(name, [Some(Arc::new(x)), Some(Arc::new(y))])
-    }
-    pub fn on(name: impl Into<String>, axis: usize, v: Vec<f64>) -> Self {
-        let mut values = [None, None];
-        values[axis] = Some(Arc::new(v));
-        Column::new(name, values)
-    }
-    fn new(name: impl Into<String>, axis: [Option<Arc<Vec<f64>>>; 2]) -> Self {
         Column {
             name: name.into(),
-            axis,
-            sparse: Arc::new(OnceLock::new()),
+            axis: [Some(Arc::new(x)), Some(Arc::new(y))],
         }
     }
-
-    /// Axis `a`'s values on the rows 0, `stride`, 2·`stride`, … (cached for the first stride
-    /// asked for; another stride is computed on the spot).
-    pub fn every(&self, a: usize, stride: usize) -> Option<Cow<'_, [f64]>> {
-        let full = self.axis[a].as_ref()?;
-        if stride <= 1 {
-            return Some(Cow::Borrowed(full.as_slice()));
-        }
-        let decimate = |v: &Vec<f64>| v.iter().step_by(stride).copied().collect::<Vec<f64>>();
-        let sparse = self.sparse.get_or_init(|| Sparse {
-            stride,
-            axis: self.axis.clone().map(|v| v.map(|v| decimate(&v))),
-        });
-        Some(if sparse.stride == stride {
-            Cow::Borrowed(sparse.axis[a].as_deref().unwrap_or(&[]))
-        } else {
-            Cow::Owned(decimate(full))
-        })
+    pub fn on(name: impl Into<String>, axis: usize, v: Vec<f64>) -> Self {
+        let mut c = Column {
+            name: name.into(),
+            axis: [None, None],
+        };
+        c.axis[axis] = Some(Arc::new(v));
+        c
     }
-}
-
-/// The rows of `rows` on the global grid of `stride` (the multiples of `stride`): the rows
-/// every strided fit uses, so that sums over blocks add up to sums over their union.
-pub fn grid_rows(rows: Range<usize>, stride: usize) -> std::iter::StepBy<Range<usize>> {
-    let stride = stride.max(1);
-    (rows.start.div_ceil(stride) * stride..rows.end.max(rows.start)).step_by(stride)
-}
-
-/// `rows` as indices into a vector decimated by `stride` ([`Column::every`]).
-fn sparse_range(rows: &Range<usize>, stride: usize) -> Range<usize> {
-    let stride = stride.max(1);
-    let start = rows.start.div_ceil(stride);
-    start..rows.end.div_ceil(stride).max(start)
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -116,30 +69,11 @@ impl Normal {
 }
 
 pub fn normal_equations(cols: &[Column], target: &[&[f64]; 2], rows: Range<usize>) -> Normal {
-    normal_equations_strided(cols, target, rows, 1)
-}
-
-/// Both axes of `target` on the grid rows of `rows`, contiguous.
-fn sparse_target(target: &[&[f64]; 2], rows: &Range<usize>, stride: usize) -> [Vec<f64>; 2] {
-    target.map(|t| {
-        grid_rows(rows.clone(), stride)
-            .map(|i| t[i])
-            .collect::<Vec<f64>>()
-    })
-}
-
-/// Normal equations on every `stride`-th row (a cheap fit for choosing shape parameters).
-pub fn normal_equations_strided(
-    cols: &[Column],
-    target: &[&[f64]; 2],
-    rows: Range<usize>,
-    stride: usize,
-) -> Normal {
     let empty = Normal {
         gram: Vec::new(),
         rhs: Vec::new(),
     };
-    normal_equations_extended(&empty, cols, target, rows, stride)
+    normal_equations_extended(&empty, cols, target, rows)
 }
 
 /// Like [`normal_equations_extended`] for a new target: the known columns' Gram block is
@@ -150,38 +84,26 @@ pub fn normal_equations_retarget(
     cols: &[Column],
     target: &[&[f64]; 2],
     rows: Range<usize>,
-    stride: usize,
 ) -> Normal {
-    let view = RowView::new(target, &rows, stride);
-    let mut n = normal_equations_extended(known, cols, target, rows, stride);
+    let view = RowView::new(target, &rows);
+    let mut n = normal_equations_extended(known, cols, target, rows);
     for j in 0..known.rhs.len().min(cols.len()) {
         n.rhs[j] = view.rhs(&cols[j]);
     }
     n
 }
 
-/// The rows a set of normal equations sums over: `rows`, every `stride`-th on the global
-/// grid, with the target there.
+/// The rows a set of normal equations sums over, with the target there.
 struct RowView<'a> {
-    stride: usize,
     range: Range<usize>,
-    target: [Cow<'a, [f64]>; 2],
+    target: [&'a [f64]; 2],
 }
 
 impl<'a> RowView<'a> {
-    fn new(target: &[&'a [f64]; 2], rows: &Range<usize>, stride: usize) -> Self {
-        if stride <= 1 {
-            RowView {
-                stride: 1,
-                range: rows.clone(),
-                target: target.map(|t| Cow::Borrowed(&t[rows.clone()])),
-            }
-        } else {
-            RowView {
-                stride,
-                range: sparse_range(rows, stride),
-                target: sparse_target(target, rows, stride).map(Cow::Owned),
-            }
+    fn new(target: &[&'a [f64]; 2], rows: &Range<usize>) -> Self {
+        RowView {
+            range: rows.clone(),
+            target: target.map(|t| &t[rows.clone()]),
         }
     }
 
@@ -190,8 +112,8 @@ impl<'a> RowView<'a> {
         (0..2)
             .filter_map(|a| {
                 Some(dot(
-                    &c.every(a, self.stride)?[self.range.clone()],
-                    &self.target[a],
+                    &c.axis[a].as_ref()?[self.range.clone()],
+                    self.target[a],
                 ))
             })
             .sum()
@@ -201,7 +123,7 @@ impl<'a> RowView<'a> {
     fn gram(&self, cj: &Column, ck: &Column) -> f64 {
         (0..2)
             .filter_map(|a| {
-                let (x, y) = (cj.every(a, self.stride)?, ck.every(a, self.stride)?);
+                let (x, y) = (cj.axis[a].as_ref()?, ck.axis[a].as_ref()?);
                 Some(dot(&x[self.range.clone()], &y[self.range.clone()]))
             })
             .sum()
@@ -209,16 +131,15 @@ impl<'a> RowView<'a> {
 }
 
 /// Normal equations of `cols` whose first `known.rhs.len()` columns are those `known` was
-/// computed from (same rows, stride and target): only the new columns' products are
-/// computed. The base model's columns are shared by every effect's fit.
+/// computed from (same rows and target): only the new columns' products are computed. The
+/// base model's columns are shared by every effect's fit.
 pub fn normal_equations_extended(
     known: &Normal,
     cols: &[Column],
     target: &[&[f64]; 2],
     rows: Range<usize>,
-    stride: usize,
 ) -> Normal {
-    let view = RowView::new(target, &rows, stride);
+    let view = RowView::new(target, &rows);
     let p = cols.len();
     let nk = known.rhs.len().min(p);
     let mut gram = vec![vec![0.0; p]; p];

@@ -10,10 +10,9 @@ pub(super) struct BaseVariant {
     pub(super) offset: bool,
     pub(super) pneumatic: (f64, f64),
     pub(super) stiffness: Stiffness,
-    /// Normal equations of `cols` on the training rows, every row and every
-    /// [`shape_stride`]-th: shared by every fit with this variant.
+    /// Normal equations of `cols` on the training rows: shared by every fit with this
+    /// variant.
     pub(super) normal: lsq::Normal,
-    pub(super) normal_strided: lsq::Normal,
 }
 
 impl BaseVariant {
@@ -46,7 +45,7 @@ pub fn prepare_with_best_cutoff(
             ..filter
         };
         let p = trial.prepare(model, settings)?;
-        let p = p.every(shape_stride(p.dt_s));
+        let p = p.every(analysis_stride(p.dt_s));
         let y = msd::target(&p);
         let mut cols = msd::msd_columns(&p);
         cols.extend(offset_columns(p.len()));
@@ -73,24 +72,18 @@ pub(super) fn offset_columns(n: usize) -> [Column; 2] {
     ]
 }
 
-/// Row stride of the cheap fits that choose shape parameters (5 ms), and of a dynamic
-/// trial's analysis: after the derivative filter (8 Hz) a dynamic trial carries nothing a
-/// 200 Hz grid loses, and every statistic the verdict rests on was already computed on it.
-pub(super) fn shape_stride(dt_s: f64) -> usize {
+/// The stride that puts a trial on the model loop's 5 ms analysis grid
+/// ([`super::analysis_trial`]): after the derivative filter (8 Hz) a dynamic trial carries
+/// nothing a 200 Hz grid loses. On the grid the stride is 1: every fit uses every row.
+pub(super) fn analysis_stride(dt_s: f64) -> usize {
     // (a log's mean period is rarely exact: 0.005 / 0.001000000001 must still be 5)
     ((0.005 / dt_s + 1e-6).floor() as usize).max(1)
 }
 
-/// Σ y² of both axes over the first `rows` samples, every `stride`-th one.
-pub(super) fn strided_sum_of_squares(y: &[Vec<f64>; 2], rows: usize, stride: usize) -> f64 {
+/// Σ y² of both axes over the first `rows` samples.
+pub(super) fn sum_of_squares(y: &[Vec<f64>; 2], rows: usize) -> f64 {
     y.iter()
-        .map(|axis| {
-            axis[..rows]
-                .iter()
-                .step_by(stride)
-                .map(|v| v * v)
-                .sum::<f64>()
-        })
+        .map(|axis| axis[..rows].iter().map(|v| v * v).sum::<f64>())
         .sum()
 }
 
@@ -283,9 +276,8 @@ pub(super) fn choose_pneumatic(
     stiffness: Stiffness,
 ) -> Option<(Vec<Column>, (f64, f64))> {
     let y = msd::target(p);
-    let stride = shape_stride(p.dt_s);
     let rows = 0..p.split;
-    let yty = strided_sum_of_squares(&y, p.split, stride);
+    let yty = sum_of_squares(&y, p.split);
     let wn0 = model.params.ip.natural_freq_rad_s;
     let ctx = DynCtx::new(p, model);
     let z0 = model.params.ip.damping_ratio;
@@ -300,7 +292,7 @@ pub(super) fn choose_pneumatic(
     let plain = base_columns(p, &ctx, stiffness, 0.0, 0.0)?;
     let plain_off = with_offset(&plain);
     let target = [y[0].as_slice(), y[1].as_slice()];
-    let ne_plain = lsq::normal_equations_strided(&plain_off, &target, rows.clone(), stride);
+    let ne_plain = lsq::normal_equations(&plain_off, &target, rows.clone());
     let th_plain = lsq::solve(&ne_plain, &stiffness.positive());
     let rss_plain = lsq::rss(&ne_plain, yty, &th_plain);
     // the pneumatic columns go after the plain ones (and before the offsets, as in
@@ -319,13 +311,8 @@ pub(super) fn choose_pneumatic(
             wn0 * wf,
             z,
         ));
-        let ne = lsq::normal_equations_extended(
-            &plain_ne,
-            &with_offset(&cols),
-            &target,
-            rows.clone(),
-            stride,
-        );
+        let ne =
+            lsq::normal_equations_extended(&plain_ne, &with_offset(&cols), &target, rows.clone());
         let th = lsq::solve(&ne, &stiffness.positive());
         let r = lsq::rss(&ne, yty, &th);
         if best.as_ref().is_none_or(|b| r < b.0) {

@@ -5,8 +5,7 @@
 //! on the rest and scored on it. Normal equations add over rows, so each candidate's
 //! per-block normal equations are computed once and every fold's training normal is the
 //! total minus its block: a fold costs a few small solves, not a pass over the data.
-//! Scores use every `shape_stride`-th row (5 ms) on one grid over the whole trial
-//! ([`lsq::grid_rows`]), as the shape choice does, so the blocks' sums add up.
+//! The trial is on the 5 ms analysis grid ([`analysis_trial`]): every row is scored.
 
 use super::*;
 use std::ops::Range;
@@ -39,7 +38,6 @@ impl FoldScores {
 /// each base variant's normal equations on each block.
 pub(super) struct CvCache {
     blocks: Vec<Range<usize>>,
-    stride: usize,
     yty: Vec<f64>,
     sst: Vec<f64>,
     base: Vec<Vec<lsq::Normal>>,
@@ -83,7 +81,6 @@ impl<'a> Loop<'a> {
         self.cv.get_or_init(|| {
             let p = &self.p;
             let n = p.len();
-            let stride = shape_stride(p.dt_s);
             let blocks: Vec<Range<usize>> = (0..FOLDS)
                 .map(|k| (k * n / FOLDS)..((k + 1) * n / FOLDS))
                 .collect();
@@ -95,7 +92,7 @@ impl<'a> Loop<'a> {
             for r in &blocks {
                 let (mut s2, mut st) = (0.0, 0.0);
                 for a in 0..2 {
-                    let v: Vec<f64> = lsq::grid_rows(r.clone(), stride).map(|i| y[a][i]).collect();
+                    let v = &y[a][r.clone()];
                     let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
                     s2 += v.iter().map(|x| x * x).sum::<f64>();
                     st += v.iter().map(|x| (x - m).powi(2)).sum::<f64>();
@@ -109,15 +106,12 @@ impl<'a> Loop<'a> {
                 .map(|bv| {
                     blocks
                         .iter()
-                        .map(|r| {
-                            lsq::normal_equations_strided(&bv.cols, &target, r.clone(), stride)
-                        })
+                        .map(|r| lsq::normal_equations(&bv.cols, &target, r.clone()))
                         .collect()
                 })
                 .collect();
             CvCache {
                 blocks,
-                stride,
                 yty,
                 sst,
                 base,
@@ -135,7 +129,7 @@ impl<'a> Loop<'a> {
             .enumerate()
             .map(|(b, r)| {
                 let known = c.base[v][b].prefix(nb);
-                Self::normal_with_known(&known, &cols, &t.y, shift, r.clone(), c.stride)
+                Self::normal_with_known(&known, &cols, &t.y, shift, r.clone())
             })
             .collect();
         let yty = if shift == 0 {
@@ -145,11 +139,7 @@ impl<'a> Loop<'a> {
                 .iter()
                 .map(|r| {
                     (0..2)
-                        .map(|a| {
-                            lsq::grid_rows(r.clone(), c.stride)
-                                .map(|i| t.y[a][i] * t.y[a][i])
-                                .sum::<f64>()
-                        })
+                        .map(|a| t.y[a][r.clone()].iter().map(|v| v * v).sum::<f64>())
                         .sum()
                 })
                 .collect()
@@ -177,10 +167,9 @@ impl<'a> Loop<'a> {
         free: Option<(&dyn ModelEffect, &[Shape])>,
     ) -> FoldScores {
         let ctx = DynCtx::new(&self.p, self.model);
-        let y = &self.target(0).y;
         let mut terms: Vec<DynTerm> = fixed
             .iter()
-            .map(|e| e.dynamic_term(&ctx, &self.choose_shape(&ctx, *e, y)))
+            .map(|e| e.dynamic_term(&ctx, &self.choose_shape(&ctx, *e)))
             .collect();
         let mut candidates = Vec::new();
         let free_terms: Vec<Option<DynTerm>> = match free {
@@ -237,8 +226,7 @@ impl<'a> Loop<'a> {
     /// chooses among its best few.
     pub(super) fn cv_effect(&self, fixed: &[&dyn ModelEffect], e: &dyn ModelEffect) -> FoldScores {
         let ctx = DynCtx::new(&self.p, self.model);
-        let y = &self.target(0).y;
-        let mut shapes = self.ranked_shapes(&ctx, e, y);
+        let mut shapes = self.ranked_shapes(&ctx, e);
         shapes.truncate(FREE_SHAPES);
         self.cv_dynamic(fixed, Some((e, &shapes)))
     }

@@ -103,13 +103,12 @@ impl<'a> Loop<'a> {
         y: &[Vec<f64>; 2],
         shift: usize,
         rows: std::ops::Range<usize>,
-        stride: usize,
     ) -> lsq::Normal {
         let target = [y[0].as_slice(), y[1].as_slice()];
         if shift > 0 {
-            lsq::normal_equations_retarget(known, cols, &target, rows, stride)
+            lsq::normal_equations_retarget(known, cols, &target, rows)
         } else {
-            lsq::normal_equations_extended(known, cols, &target, rows, stride)
+            lsq::normal_equations_extended(known, cols, &target, rows)
         }
     }
 
@@ -121,26 +120,16 @@ impl<'a> Loop<'a> {
         n * rss.max(1e-300).ln() + k as f64 * n.ln()
     }
 
-    pub(super) fn choose_shape(
-        &self,
-        ctx: &DynCtx,
-        e: &dyn ModelEffect,
-        y: &[Vec<f64>; 2],
-    ) -> Shape {
-        self.ranked_shapes(ctx, e, y)
+    pub(super) fn choose_shape(&self, ctx: &DynCtx, e: &dyn ModelEffect) -> Shape {
+        self.ranked_shapes(ctx, e)
             .into_iter()
             .next()
             .unwrap_or_default()
     }
 
-    /// The effect's shapes, best first by the information criterion of a fit on every
-    /// `shape_stride`-th training row (each with the base variant it fits best).
-    pub(super) fn ranked_shapes(
-        &self,
-        ctx: &DynCtx,
-        e: &dyn ModelEffect,
-        y: &[Vec<f64>; 2],
-    ) -> Vec<Shape> {
+    /// The effect's shapes, best first by the information criterion of a fit on the
+    /// training rows (each with the base variant it fits best).
+    pub(super) fn ranked_shapes(&self, ctx: &DynCtx, e: &dyn ModelEffect) -> Vec<Shape> {
         if let Some(s) = self.shapes.lock().expect("shape cache").get(e.id()) {
             return s.clone();
         }
@@ -152,9 +141,6 @@ impl<'a> Loop<'a> {
                 shapes
             }
         } else {
-            let stride = shape_stride(self.p.dt_s);
-            let rows = 0..self.p.split;
-            let yty0 = strided_sum_of_squares(y, self.p.split, stride);
             let mut scored: Vec<(f64, Shape)> = Vec::new();
             for s in shapes {
                 let term = [e.dynamic_term(ctx, &s)];
@@ -163,25 +149,10 @@ impl<'a> Loop<'a> {
                     let Some((cols, _, positive, shift, nb)) = self.assemble(v, &term) else {
                         continue;
                     };
-                    let known = &self.base_variants[v].normal_strided.prefix(nb);
-                    let (ne, yty) = if shift > 0 {
-                        let t = self.target(shift);
-                        let yty = strided_sum_of_squares(&t.y, self.p.split, stride);
-                        let ne = Self::normal_with_known(
-                            known,
-                            &cols,
-                            &t.y,
-                            shift,
-                            rows.clone(),
-                            stride,
-                        );
-                        (ne, yty)
-                    } else {
-                        let ne = Self::normal_with_known(known, &cols, y, 0, rows.clone(), stride);
-                        (ne, yty0)
-                    };
+                    let ne = self.training_normal(v, &cols, shift, nb);
+                    let yty = self.target(shift).yty_train;
                     let th = self.solve_dynamic(&ne, &positive);
-                    let r = self.criterion(lsq::rss(&ne, yty, &th) * stride as f64, cols.len(), v);
+                    let r = self.criterion(lsq::rss(&ne, yty, &th), cols.len(), v);
                     best = best.min(r);
                 }
                 scored.push((best, s));
@@ -207,7 +178,7 @@ impl<'a> Loop<'a> {
     ) -> lsq::Normal {
         let known = &self.base_variants[v].normal.prefix(base_len);
         let t = self.target(shift);
-        Self::normal_with_known(known, cols, &t.y, shift, 0..self.p.split, 1)
+        Self::normal_with_known(known, cols, &t.y, shift, 0..self.p.split)
     }
 
     /// The base variants effects are fitted with: the [`SHORTLIST`] the base alone fits
@@ -250,7 +221,7 @@ impl<'a> Loop<'a> {
         let chosen: Vec<(&dyn ModelEffect, Shape)> = effects
             .iter()
             .filter(|e| e.applies(Experiment::Dynamic))
-            .map(|e| (*e, self.choose_shape(&ctx, *e, &y)))
+            .map(|e| (*e, self.choose_shape(&ctx, *e)))
             .collect();
         // every base variant; keep the one the training part prefers
         let mut best: Option<VariantFit> = None;

@@ -332,7 +332,11 @@ fn prepared_at_log_rate(
 /// the verdict was already computed there; a step trial's model is simulated on every
 /// sample of the grid, with the commands averaged over each period.
 fn on_analysis_grid(p: Prepared, experiment: Experiment) -> Prepared {
-    let stride = shape_stride(p.dt_s);
+    let stride = analysis_stride(p.dt_s);
+    if stride <= 1 {
+        // already on the grid (a slow log, or the best cutoff's preparation)
+        return p;
+    }
     match experiment {
         Experiment::Dynamic => p.every(stride),
         Experiment::Step => p.every_with_mean_commands(stride),
@@ -414,19 +418,12 @@ impl<'a> Loop<'a> {
                 for (cols, pneumatic) in forms {
                     let target = [y[0].as_slice(), y[1].as_slice()];
                     let normal = lsq::normal_equations(&cols, &target, 0..p.split);
-                    let normal_strided = lsq::normal_equations_strided(
-                        &cols,
-                        &target,
-                        0..p.split,
-                        shape_stride(p.dt_s),
-                    );
                     v.push(BaseVariant {
                         cols,
                         offset,
                         pneumatic,
                         stiffness,
                         normal,
-                        normal_strided,
                     });
                 }
             }
