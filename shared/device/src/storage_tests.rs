@@ -2,24 +2,14 @@
 //! G4's rules). The storage format itself is tested in pam-config-store.
 
 use super::*;
-use crate::{DeviceOptions, RawSensors, StepTiming};
+use crate::{RawSensors, StepTiming};
 use pam_config_store::{PowerCut, RamFlash};
-use pam_protocol::{ConfigSection, ReplyData, Status, Version, BOARD_CHECK_VDDA};
+use pam_protocol::{ConfigSection, ReplyData, Status, BOARD_CHECK_VDDA};
 
 type Flash = RamFlash<4096>;
 
-const OPTIONS: DeviceOptions = DeviceOptions {
-    firmware_version: Version {
-        major: 0,
-        minor: 1,
-        patch: 0,
-    },
-    encoder_counter_bits: 16,
-};
-
-fn device() -> Device {
-    Device::new(RobotParams::thesis(), SafetyConfig::default_1khz(), OPTIONS)
-}
+// the device the service's own checks use
+use crate::checks::{device, OPTIONS};
 
 fn step(d: &mut Device) -> crate::StepResult {
     d.step(

@@ -8,7 +8,7 @@ pub use pam_model::checks::{Check, CheckResult, Failure};
 
 use pam_model::checks::{holds_that as holds, near_f32 as near};
 
-const OPTIONS: DeviceOptions = DeviceOptions {
+pub(crate) const OPTIONS: DeviceOptions = DeviceOptions {
     firmware_version: Version {
         major: 0,
         minor: 1,
@@ -17,7 +17,7 @@ const OPTIONS: DeviceOptions = DeviceOptions {
     encoder_counter_bits: 16,
 };
 
-fn device() -> Device {
+pub(crate) fn device() -> Device {
     Device::new(RobotParams::thesis(), SafetyConfig::default_1khz(), OPTIONS)
 }
 
