@@ -88,8 +88,11 @@ impl Butterworth {
     }
 
     /// Forward-backward filtering: zero phase, squared magnitude. The ends are extended by
-    /// odd reflection (2·x₀ − x_k) over about four time constants, so a signal that is a
-    /// ramp at the edge passes unchanged instead of being pulled towards zero.
+    /// odd reflection (2·x̂₀ − x_k) over about four time constants, so a signal that is a
+    /// ramp at the edge passes unchanged instead of being pulled towards zero. The pivot x̂₀
+    /// is the edge value of a straight line fitted over half a cutoff period, not the edge
+    /// sample itself: a noisy last sample (a raw derivative of quantised angles) would
+    /// otherwise become a step of twice its error that the filter spreads over the edge.
     pub fn filtfilt(&self, x: &[f64], sample_rate_hz: f64, cutoff_hz: f64) -> Vec<f64> {
         let n = x.len();
         if n < 2 {
@@ -98,13 +101,16 @@ impl Butterworth {
         let pad = ((4.0 * sample_rate_hz / cutoff_hz).ceil() as usize)
             .max(3 * 2 * self.sections.len())
             .min(n - 1);
+        let window = ((0.5 * sample_rate_hz / cutoff_hz).round() as usize).clamp(1, n);
+        let first = edge_value(x[..window].iter().copied());
+        let last = edge_value(x[n - window..].iter().rev().copied());
         let mut ext = Vec::with_capacity(n + 2 * pad);
         for k in (1..=pad).rev() {
-            ext.push(2.0 * x[0] - x[k]);
+            ext.push(2.0 * first - x[k]);
         }
         ext.extend_from_slice(x);
         for k in 1..=pad {
-            ext.push(2.0 * x[n - 1] - x[n - 1 - k]);
+            ext.push(2.0 * last - x[n - 1 - k]);
         }
         self.filter_in_place(&mut ext);
         ext.reverse();
@@ -127,6 +133,25 @@ impl Butterworth {
         }
         m
     }
+}
+
+/// The value at the first of `samples` (ordered from the edge inwards) of their
+/// least-squares straight line.
+fn edge_value(samples: impl Iterator<Item = f64>) -> f64 {
+    let (mut m, mut sk, mut skk, mut sy, mut sky) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (k, y) in samples.enumerate() {
+        let k = k as f64;
+        m += 1.0;
+        sk += k;
+        skk += k * k;
+        sy += y;
+        sky += k * y;
+    }
+    let det = m * skk - sk * sk;
+    if det.abs() <= 1e-12 * (m * skk).max(1e-300) {
+        return sy / m.max(1.0);
+    }
+    (skk * sy - sk * sky) / det
 }
 
 #[cfg(test)]
@@ -172,6 +197,26 @@ mod tests {
         let yz = f.filtfilt(&z, fs, 8.0);
         let worst_mid = yz[1000..3000].iter().fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(worst_mid < 1e-4, "50 Hz left: {worst_mid}");
+    }
+
+    /// A raw derivative of quantised angles: a slow ramp whose edge samples carry a count's
+    /// jump. The filtered ends stay on the ramp instead of following the edge sample (with
+    /// the edge sample as the reflection's pivot the ends sit 0.3 off).
+    #[test]
+    fn filtfilt_ends_do_not_follow_a_noisy_edge_sample() {
+        let fs = 500.0;
+        let f = Butterworth::lowpass(10, 3.2, fs).unwrap();
+        let n = 5000;
+        let ramp = |i: usize| 0.01 * i as f64 / fs;
+        let mut x: Vec<f64> = (0..n).map(ramp).collect();
+        x[0] += 0.3;
+        x[n - 1] -= 0.3;
+        let y = f.filtfilt(&x, fs, 3.2);
+        let worst_end = (0..200)
+            .chain(n - 200..n)
+            .map(|i| (y[i] - ramp(i)).abs())
+            .fold(0.0, f64::max);
+        assert!(worst_end < 0.02, "ends off the ramp by {worst_end}");
     }
 
     #[test]

@@ -1,7 +1,10 @@
 //! Levenberg–Marquardt for small nonlinear least-squares problems (the impedance fit of
-//! §4.4 and the second-order step-response fit of §5.3), with a forward-difference Jacobian.
+//! §4.4 and the second-order step-response fit of §5.3), with a forward-difference Jacobian
+//! whose columns are evaluated on all cores (a step fit's residuals are a simulation of
+//! the whole trial, each column one more).
 
 use crate::lsq::symmetric_eigen;
+use rayon::prelude::*;
 
 /// Minimises Σ r(θ)² from `theta0`. `residuals` writes into its output slice; parameters
 /// listed in `lower` are kept at or above the given bound. Returns θ and the final cost.
@@ -10,7 +13,7 @@ pub fn minimize(
     lower: &[(usize, f64)],
     n_res: usize,
     max_iter: usize,
-    mut residuals: impl FnMut(&[f64], &mut [f64]),
+    residuals: impl Fn(&[f64], &mut [f64]) + Sync,
 ) -> (Vec<f64>, f64) {
     let p = theta0.len();
     let clamp = |t: &mut Vec<f64>| {
@@ -29,15 +32,15 @@ pub fn minimize(
     let mut jac = vec![vec![0.0; n_res]; p];
     let mut rt = vec![0.0; n_res];
     for _ in 0..max_iter {
-        for j in 0..p {
+        jac.par_iter_mut().enumerate().for_each(|(j, col)| {
             let h = 1e-6 * theta[j].abs().max(1e-3);
             let mut t = theta.clone();
             t[j] += h;
-            residuals(&t, &mut rt);
-            for k in 0..n_res {
-                jac[j][k] = (rt[k] - r[k]) / h;
+            residuals(&t, col);
+            for (c, r) in col.iter_mut().zip(&r) {
+                *c = (*c - r) / h;
             }
-        }
+        });
         let mut g = vec![vec![0.0; p]; p];
         let mut b = vec![0.0; p];
         for i in 0..p {

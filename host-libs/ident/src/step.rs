@@ -293,10 +293,10 @@ pub fn fit_axis(
     // 1 kHz log costs no more to fit than a 200 Hz one
     let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
     let sel: Vec<usize> = (0..n).step_by(stride).collect();
-    let mut buf = vec![0.0; n];
     let t = &p.t_s[..n];
     let init = [start.gain, start.zeta, start.omega_n_rad_s];
     let (theta, _) = lm::minimize(&init, &[(1, 0.02), (2, 0.1)], sel.len(), 30, |v, r| {
+        let mut buf = vec![0.0; n];
         simulate(
             &StepParams::base(v[0], v[1], v[2]),
             t,

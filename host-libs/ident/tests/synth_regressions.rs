@@ -7,6 +7,10 @@
 //! - 9257: the handle force slewing at 73 N/s up, 42 N/s down, behind a drive from the
 //!   currents; the rate family then had limits in bar/s only, which fit another rate per
 //!   axis, and the verdict was "none".
+//! - 9058: quadratic drag of 71 N·s²/m² at 2 ms, named backlash: the last raw velocity
+//!   sample (a count's jump) was the pivot of the derivative filter's end padding, so the
+//!   last 70 ms carried a velocity of 0.26 m/s that was not there, and every fold's drag
+//!   fit with that block in training came out negative (clamped to zero).
 
 use pam_ident::diagnose::{diagnose, Settings};
 use pam_ident::effects::Experiment as LoopExperiment;
@@ -20,6 +24,15 @@ const SEED0: u64 = 9000;
 
 /// The case at `index` of the plan, its truth's parameters and the diagnosis as JSON.
 fn diagnosis_of(index: usize, family: Family, shape: Shape) -> (Value, Value) {
+    diagnosis_as(index, family, shape, LoopExperiment::Step)
+}
+
+fn diagnosis_as(
+    index: usize,
+    family: Family,
+    shape: Shape,
+    experiment: LoopExperiment,
+) -> (Value, Value) {
     let spec = plan(index + 1, SEED0, None)[index].clone();
     assert_eq!(
         (spec.family, spec.shape),
@@ -32,7 +45,7 @@ fn diagnosis_of(index: usize, family: Family, shape: Shape) -> (Value, Value) {
     let (d, _) = diagnose(
         &trial,
         &RobotModel::thesis(),
-        LoopExperiment::Step,
+        experiment,
         Settings::default(),
     )
     .unwrap();
@@ -74,5 +87,19 @@ fn a_slew_of_the_handle_force_is_a_rate_limit_in_newtons_per_second() {
         &truth["fall_n_per_s"],
         0.1,
         "fall",
+    );
+}
+
+#[test]
+fn quadratic_drag_is_found_although_the_last_velocity_sample_jumps() {
+    let (d, truth) = diagnosis_as(58, Family::Drag, Shape::Quadratic, LoopExperiment::Dynamic);
+    assert_eq!(d["verdict"], "effect", "{d:#}");
+    let top = &d["effects"][0];
+    assert_eq!(top["family"], "drag", "{d:#}");
+    near(
+        &top["params"]["coeff_n_s2_per_m2"],
+        &truth["drag_n_s2_per_m2"],
+        0.1,
+        "the drag coefficient",
     );
 }

@@ -41,7 +41,7 @@ pub fn fit(
     let rows: Vec<usize> = (0..n).step_by(stride).collect();
     let t = &p.t_s[..n];
     let alpha = [&p.alpha_rad[0][..n], &p.alpha_rad[1][..n]];
-    let mut buf = [vec![0.0; n], vec![0.0; n]];
+    let mut sims = Sims::new(n);
 
     // two extras with their own grids: the rates first, then the saturation's wider grid
     // from there
@@ -181,10 +181,10 @@ pub fn fit(
     if extras.contains(&StepExtra::ForceSlew) && !start.force_rise_n_per_s.is_finite() {
         // the cost is flat while the limit is inactive: start at fractions of the fastest
         // rate the start's handle force reaches, alike and unlike up and down
-        simulate(start, d, t, alpha, n, &mut buf);
+        simulate(start, d, t, alpha, n, &mut sims.unit);
         let peak = axes
             .iter()
-            .flat_map(|&a| buf[a][..n].windows(2).map(|w| (w[1] - w[0]).abs()))
+            .flat_map(|&a| sims.unit[a][..n].windows(2).map(|w| (w[1] - w[0]).abs()))
             .fold(0.0, f64::max)
             / p.dt_s;
         if peak > 0.0 {
@@ -226,7 +226,6 @@ pub fn fit(
     // every start gets its least-squares gains and offsets (the output is linear in them),
     // then the
     // starts are screened by their cost and the best few refined
-    let mut buf0 = [vec![0.0; n], vec![0.0; n]];
     // the gains are refitted as multipliers of `unit`: 1, or the start's gains when a
     // saturation or slew of the measured force is screened (its knee and rates are in the
     // measured newtons, after the gain; at gain 1 the grid would act on the wrong force)
@@ -236,23 +235,66 @@ pub fn fit(
         } else {
             [1.0; 2]
         };
-    let mut screen = |r: &Response| -> (f64, Response) {
+    // the cost of `r` with each axis's gain (a multiple of `unit`) and offset solved by least
+    // squares, the output being linear in them; the residuals are written when asked for
+    let project = |r: &Response,
+                   unit: Option<[f64; 2]>,
+                   fallback: &Response,
+                   sims: &mut Sims,
+                   mut res: Option<&mut [f64]>|
+     -> (f64, Response) {
         let mut r = *r;
-        let slopes = r.gain_slope_per_rad;
-        r.gain_slope_per_rad = [[0.0; 2]; 2];
         r.offset_n = [0.0; 2];
+        let Some(unit) = unit else {
+            // the gains as they are: only the offsets, each the mean remainder
+            simulate(&r, d, t, alpha, n, &mut sims.unit);
+            let (mut cost, mut j) = (0.0, 0);
+            for &a in axes {
+                let o = rows
+                    .iter()
+                    .map(|&i| p.force_n[a][i] - sims.unit[a][i])
+                    .sum::<f64>()
+                    / rows.len().max(1) as f64;
+                r.offset_n[a] = o;
+                for &i in &rows {
+                    let e = sims.unit[a][i] + o - p.force_n[a][i];
+                    cost += e * e;
+                    if let Some(res) = res.as_deref_mut() {
+                        res[j] = e;
+                        j += 1;
+                    }
+                }
+            }
+            return (cost, r);
+        };
         r.gain = unit;
-        simulate(&r, d, t, alpha, n, &mut buf);
-        r.gain = [0.0; 2];
-        simulate(&r, d, t, alpha, n, &mut buf0);
+        simulate(&r, d, t, alpha, n, &mut sims.unit);
+        // what does not scale with the gain: the hysteresis offset (simulated through the
+        // regulation) and the drift
+        let hysteresis = r.hysteresis_n != [0.0; 2];
+        if hysteresis {
+            r.gain = [0.0; 2];
+            for z in &mut sims.zero {
+                z.resize(n, 0.0);
+            }
+            simulate(&r, d, t, alpha, n, &mut sims.zero);
+        }
         let mut cost = 0.0;
-        let (mut gain, mut offset) = (start.gain, start.offset_n);
+        let (mut gain, mut offset) = (fallback.gain, fallback.offset_n);
+        let mut j = 0;
         for &a in axes {
+            let zero = |i: usize| {
+                if hysteresis {
+                    sims.zero[a][i]
+                } else {
+                    r.drift_n_per_s[a] * (t[i] - t[0])
+                }
+            };
             // y − rest = G·f + offset, least squares in (G, offset)
             let (mut sf, mut sff, mut sy, mut sfy, mut m) = (0.0, 0.0, 0.0, 0.0, 0.0);
             for &i in &rows {
-                let f = buf[a][i] - buf0[a][i];
-                let y = p.force_n[a][i] - buf0[a][i];
+                let f = sims.unit[a][i] - zero(i);
+                let y = p.force_n[a][i] - zero(i);
                 sf += f;
                 sff += f * f;
                 sy += y;
@@ -268,11 +310,23 @@ pub fn fit(
             gain[a] = g * unit[a];
             offset[a] = o;
             for &i in &rows {
-                cost += (buf0[a][i] + g * (buf[a][i] - buf0[a][i]) + o - p.force_n[a][i]).powi(2);
+                let e = zero(i) + g * (sims.unit[a][i] - zero(i)) + o - p.force_n[a][i];
+                cost += e * e;
+                if let Some(res) = res.as_deref_mut() {
+                    res[j] = e;
+                    j += 1;
+                }
             }
         }
         r.gain = gain;
         r.offset_n = offset;
+        (cost, r)
+    };
+    let mut screen = |r: &Response| -> (f64, Response) {
+        let mut r = *r;
+        let slopes = r.gain_slope_per_rad;
+        r.gain_slope_per_rad = [[0.0; 2]; 2];
+        let (cost, mut r) = project(&r, Some(unit), start, &mut sims, None);
         r.gain_slope_per_rad = slopes;
         (cost, r)
     };
@@ -283,29 +337,91 @@ pub fn fit(
         starts = scored.into_iter().take(keep).map(|s| s.1).collect();
     }
     let n_res = rows.len() * axes.len();
+    // the output is linear in each axis's offset, and in its gain unless a limit in the
+    // measured newtons, shared by the axes, scales with it (force channels carry the gain
+    // into their rate limits and saturation; converter channels only into the force-side
+    // ones): the linear parameters are solved by least squares inside every evaluation
+    // (variable projection), so the Jacobian has only the nonlinear columns
+    let force_side = |x: &StepExtra| {
+        matches!(
+            x,
+            StepExtra::ForceSaturation | StepExtra::ForceSlew | StepExtra::PoseGain
+        ) || (d.units == Units::Force
+            && matches!(
+                x,
+                StepExtra::SlewRate
+                    | StepExtra::CommandSlew
+                    | StepExtra::Saturation
+                    | StepExtra::ChannelCap
+            ))
+    };
+    let start_limited = start.force_knee_n.is_finite()
+        || start.force_rise_n_per_s.is_finite()
+        || start.force_fall_n_per_s.is_finite()
+        || start.gain_slope_per_rad != [[0.0; 2]; 2]
+        || (d.units == Units::Force
+            && (start.rise_per_s.is_finite()
+                || start.fall_per_s.is_finite()
+                || start.knee.is_finite()
+                || start.cap_channel.is_some()));
+    let linear_gains = !extras.iter().any(force_side) && !start_limited;
+    let na = axes.len();
+    let linear = if linear_gains {
+        2..2 + 2 * na
+    } else {
+        2 + na..2 + 2 * na
+    };
+    let unit_gain = linear_gains.then_some([1.0; 2]);
+    let lower_nl: Vec<(usize, f64)> = lower
+        .iter()
+        .filter(|(i, _)| !linear.contains(i))
+        .map(|&(i, lo)| (if i >= linear.end { i - linear.len() } else { i }, lo))
+        .collect();
     // each start is its own template: a grid start carries the capped channel, a choice
     // that is not among the packed parameters
-    let mut best: Option<(Vec<f64>, f64, Response)> = None;
+    let mut best: Option<(f64, Response)> = None;
     for s0 in starts {
-        let init = pack(&s0, extras, axes);
-        let (theta, cost) = lm::minimize(&init, &lower, n_res, 30, |v, res| {
-            let q = unpack(v, extras, axes, &s0);
-            simulate(&q, d, t, alpha, n, &mut buf);
-            let mut j = 0;
-            for &a in axes {
-                for &i in &rows {
-                    res[j] = buf[a][i] - p.force_n[a][i];
-                    j += 1;
-                }
-            }
+        let full = pack(&s0, extras, axes);
+        let init: Vec<f64> = full
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !linear.contains(i))
+            .map(|(_, v)| *v)
+            .collect();
+        let expand = |v: &[f64]| -> Response {
+            let mut f = v[..linear.start].to_vec();
+            f.extend(std::iter::repeat_n(0.0, linear.len()));
+            f.extend_from_slice(&v[linear.start..]);
+            unpack(&f, extras, axes, &s0)
+        };
+        let (theta, _) = lm::minimize(&init, &lower_nl, n_res, 30, |v, res| {
+            // each evaluation its own buffers: the Jacobian's columns run in parallel
+            project(&expand(v), unit_gain, &s0, &mut Sims::new(n), Some(res));
         });
-        if best.as_ref().is_none_or(|b| cost < b.1) {
-            best = Some((theta, cost, s0));
+        let fitted = project(&expand(&theta), unit_gain, &s0, &mut sims, None);
+        if best.as_ref().is_none_or(|b| fitted.0 < b.0) {
+            best = Some(fitted);
         }
     }
     match best {
-        Some((theta, _, s0)) => unpack(&theta, extras, axes, &s0),
+        Some((_, r)) => r,
         None => *start,
+    }
+}
+
+/// The simulations a fit evaluates into: at the trial gain, and at gain zero (what does not
+/// scale with the gain; allocated when needed).
+struct Sims {
+    unit: [Vec<f64>; 2],
+    zero: [Vec<f64>; 2],
+}
+
+impl Sims {
+    fn new(n: usize) -> Self {
+        Sims {
+            unit: [vec![0.0; n], vec![0.0; n]],
+            zero: [Vec::new(), Vec::new()],
+        }
     }
 }
 
