@@ -17,6 +17,7 @@ fn trial(k_n_per_m: f64) -> ([f64; 2], [f64; 2]) {
     let imp = VirtualImpedance {
         stiffness_n_per_m: [k_n_per_m; 2],
         damping_n_s_per_m: [5.0; 2],
+        mass_kg: [0.0; 2],
     };
     let log = impedance_trial(&cfg, 1, imp, 20.0).expect("no fault");
     let p = Trial::from_log(&log)

@@ -119,6 +119,7 @@ fn a_released_handle_in_impedance_mode_is_caught_before_it_runs() {
         target_user_m,
         stiffness_n_per_m: [300.0; 2],
         damping_n_s_per_m: [5.0; 2],
+        mass_kg: [0.0; 2],
     };
     ctl.arm().unwrap();
     // held at the target while the pressures settle…
@@ -161,4 +162,80 @@ fn a_released_handle_in_impedance_mode_is_caught_before_it_runs() {
     assert!(at >= 1000, "faulted while held ({at} ms)");
     assert!(at < 1090, "{} ms after the release", at - 1000);
     assert!(moved_cm < 1.0, "{moved_cm:.1} cm");
+}
+
+/// Closed-loop force mode: the handle is held still while the loop pushes 9.1 N into it, then
+/// let go. The released-handle detector (the reference model asks for force, the load cell
+/// reads almost none, the handle runs) faults 33 ms and 0.5 cm after the release; the speed
+/// guard alone (0.5 m/s) took 61 ms and 2.0 cm (docs/closed-loop.md).
+#[test]
+fn a_released_handle_in_closed_loop_force_mode_is_caught_before_it_runs() {
+    let cfg = TwinConfig::thesis();
+    let mut twin = Twin::new(cfg.clone());
+    let mut ctl = Controller::new(
+        RobotModel::new(cfg.params.cast()),
+        SafetyConfig::default_1khz(),
+    );
+    let model = RobotModel::<f64>::new(cfg.params);
+    // held still (the force-step set-up: a hand that yields makes this loop ring on the arm's
+    // mass, and its guard trips — docs/closed-loop.md)
+    let grip = HandleCondition::Blocked;
+    let mut m = twin.step(1e-9, [4.0; 4], &grip);
+    ctl.arm().unwrap();
+    let k = step_test_stiffness(&model, [0.0; 2]);
+    ctl.set_mode(Mode::ForceClosedLoop {
+        force_n: [9.1, 0.0],
+        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+        feed_forward: false,
+        gain_scale: 1.0,
+    })
+    .unwrap();
+    const RELEASE: usize = 1500;
+    let mut faulted_at = None;
+    let mut x_at_fault = [0.0; 2];
+    let mut x_at_release = [0.0; 2];
+    let mut force_before_release = [0.0; 2];
+    for i in 0..3000 {
+        ctl.heartbeat();
+        let out = ctl.step(&Sensors {
+            alpha_rad: m.alpha_rad.map(|a| a as f32),
+            force_sensor_n: m.force_sensor_n.map(|f| f as f32),
+        });
+        if i == RELEASE - 1 {
+            force_before_release = out.force_user_n;
+        }
+        if out.state == State::Faulted && faulted_at.is_none() {
+            faulted_at = Some(i);
+            x_at_fault = model.kinematics.forward_user(m.alpha_rad);
+            assert!(
+                out.faults.contains(Faults::CONTROL_UNSTABLE),
+                "{:#x}",
+                out.faults.0
+            );
+            assert!(out.current_ma.iter().all(|&c| c == 4.0));
+        }
+        let hand = if i < RELEASE {
+            grip
+        } else {
+            HandleCondition::Free
+        };
+        if i == RELEASE {
+            x_at_release = model.kinematics.forward_user(m.alpha_rad);
+        }
+        m = twin.step(0.001, out.current_ma.map(|c| c as f64), &hand);
+    }
+    let at = faulted_at.expect("the guard latched");
+    let moved_cm = 100.0 * (x_at_fault[0] - x_at_release[0]).hypot(x_at_fault[1] - x_at_release[1]);
+    println!(
+        "force mode, released: {:.1} N before, fault {} ms after the release, handle {moved_cm:.2} cm from where the block held it",
+        force_before_release[0],
+        at as i64 - RELEASE as i64
+    );
+    assert!(
+        (force_before_release[0] - 9.1).abs() < 1.0,
+        "the loop pushed {force_before_release:?} N into the hand"
+    );
+    assert!(at >= RELEASE, "faulted while held ({at} ms)");
+    assert!(at < RELEASE + 45, "{} ms after the release", at - RELEASE);
+    assert!(moved_cm < 1.0, "{moved_cm:.2} cm");
 }
