@@ -96,52 +96,10 @@ fn main() {
         }
     }
     let (ideal, r2i) = fit(&pure);
-    {
-        // the loop's lag per axis: F[i + τ] ≈ g f_des[i]
-        let m32 = RobotModel::<f32>::new(model.params.cast());
-        let home = m32.kinematics.home_world_m;
-        let mut imp = pam_control::Impedance::new();
-        let x0u = [x0[0] as f32, x0[1] as f32];
-        let mut fdes = [vec![0.0f64; n], vec![0.0f64; n]];
-        for i in 0..n {
-            let w = m32
-                .kinematics
-                .forward_world([trial.alpha_rad[0][i] as f32, trial.alpha_rad[1][i] as f32]);
-            let xm = [w[0] - home[0], w[1] - home[1]];
-            imp.track(xm, dt as f32);
-            // the ideal force: no lead, the observer's (lag-free) velocity and acceleration
-            let (v, acc) = (imp.observed_velocity_m_s(), imp.acceleration_m_s2());
-            for a in 0..2 {
-                fdes[a][i] =
-                    (k as f32 * (x0u[a] - xm[a]) - b as f32 * v[a] - m as f32 * acc[a]) as f64;
-            }
-        }
-        let s0 = (4.0 / dt) as usize;
-        for a in 0..2 {
-            let mut best = (f64::INFINITY, 0usize, 0.0);
-            for tau in 0..80usize {
-                let (mut sxy, mut sxx) = (0.0, 0.0);
-                for i in s0..n - 80 {
-                    sxy += fdes[a][i] * trial.force_n[a][i + tau];
-                    sxx += fdes[a][i] * fdes[a][i];
-                }
-                let g = sxy / sxx;
-                let mut r = 0.0;
-                for i in s0..n - 80 {
-                    let e = trial.force_n[a][i + tau] - g * fdes[a][i];
-                    r += e * e;
-                }
-                if r < best.0 {
-                    best = (r, tau, g);
-                }
-            }
-            println!(
-                "axis {a}: lag {} ms, gain {:.3}, rms resid {:.3} N",
-                best.1,
-                best.2,
-                (best.0 / (n - 80 - s0) as f64).sqrt()
-            );
-        }
+    let desired = ideal_force(&model, &trial, x0, [k, b, m], dt);
+    for (a, (want, got)) in desired.iter().zip(&trial.force_n).enumerate() {
+        let (lag, gain, resid) = lag_of(want, got, (4.0 / dt) as usize);
+        println!("axis {a}: rendered {lag} ms late, gain {gain:.3}, RMS residual {resid:.3} N");
     }
     println!("commanded K {k} N/m, B {b} N·s/m, M {m} kg, point {point}, {seconds} s");
     println!("| | K_xx, K_yy | B_xx, B_yy | M_xx, M_yy | R² X, Y |");
@@ -152,4 +110,47 @@ fn main() {
             d[0][0], d[0][1], d[1][0], d[1][1], d[2][0], d[2][1], r[0], r[1]
         );
     }
+}
+
+/// The force the impedance asks for, without the loop's lead: K (x₀ − x) − B ẋ − M ẍ with the
+/// controller's own motion observer (lag-free velocity and acceleration) on the logged angles.
+fn ideal_force(
+    model: &RobotModel<f64>,
+    trial: &Trial,
+    x0: [f64; 2],
+    [k, b, m]: [f64; 3],
+    dt: f64,
+) -> [Vec<f64>; 2] {
+    let m32 = RobotModel::<f32>::new(model.params.cast());
+    let home = m32.kinematics.home_world_m;
+    let mut motion = pam_control::Impedance::new();
+    let mut f = [Vec::new(), Vec::new()];
+    for (a1, a2) in trial.alpha_rad[0].iter().zip(&trial.alpha_rad[1]) {
+        let w = m32.kinematics.forward_world([*a1 as f32, *a2 as f32]);
+        let x = [(w[0] - home[0]) as f64, (w[1] - home[1]) as f64];
+        motion.track([x[0] as f32, x[1] as f32], dt as f32);
+        let (v, acc) = (motion.observed_velocity_m_s(), motion.acceleration_m_s2());
+        for (a, fa) in f.iter_mut().enumerate() {
+            fa.push(k * (x0[a] - x[a]) - b * v[a] as f64 - m * acc[a] as f64);
+        }
+    }
+    f
+}
+
+/// The delay (ms, 0–79) and gain with which `got` follows `want` best (least squares), from
+/// sample `start`, and the RMS residual there.
+fn lag_of(want: &[f64], got: &[f64], start: usize) -> (usize, f64, f64) {
+    let end = want.len().saturating_sub(80);
+    let mut best = (f64::INFINITY, 0, 0.0);
+    for tau in 0..80 {
+        let pairs = || want[start..end].iter().zip(&got[start + tau..end + tau]);
+        let sxy: f64 = pairs().map(|(w, g)| w * g).sum();
+        let sxx: f64 = pairs().map(|(w, _)| w * w).sum();
+        let gain = sxy / sxx;
+        let r: f64 = pairs().map(|(w, g)| (g - gain * w).powi(2)).sum();
+        if r < best.0 {
+            best = (r, tau, gain);
+        }
+    }
+    (best.1, best.2, (best.0 / (end - start) as f64).sqrt())
 }
