@@ -88,7 +88,7 @@ fn identified_k_is_the_commanded_k_from_transparent_to_stiffer_than_open_loop() 
 /// least damping the loop renders within 10 % on both axes: B = 10 N·s/m up to K = 300 N/m,
 /// 15 at 1.5 × K_max (the loop leaves ≈ 1 N·s/m of damping error on X, 0.3–0.7 on Y; in
 /// transparent mode B = 5 on Y comes out within 10 %, on X as ≈ 4.1). Before the motion observer and the inertia feed-forward, B = 20 came out
-/// 16.2 on X at 1.5 × K_max and B = 5 as 1.6 (docs/closed-loop.md).
+/// 16.2 on X at 1.5 × K_max and B = 5 as 1.6 (docs/impedance.md).
 #[test]
 fn identified_b_is_the_commanded_b_on_both_axes_up_to_stiffer_than_open_loop() {
     let top = k_top();

@@ -105,7 +105,7 @@ fn bad_gains_are_caught_in_the_twin_before_the_force_runs_away() {
 #[test]
 /// The released-handle detector (`Impedance::released`: the spring asks for force, the load
 /// cell reads almost none, the handle runs) faults within 90 ms and 1 cm; the speed guard
-/// alone took 107 ms and 2.1 cm (docs/closed-loop.md).
+/// alone took 107 ms and 2.1 cm (docs/impedance.md).
 fn a_released_handle_in_impedance_mode_is_caught_before_it_runs() {
     let cfg = TwinConfig::thesis();
     let mut twin = Twin::new(cfg.clone());

@@ -143,7 +143,7 @@ pub fn mode_of(m: &SetMode) -> anyhow::Result<Mode> {
             target_user_m: values::<2>("--target-m", target_m)?,
             stiffness_n_per_m: values::<2>("--stiffness-n-per-m", stiffness_n_per_m)?,
             damping_n_s_per_m: values::<2>("--damping-n-s-per-m", damping_n_s_per_m)?,
-            // not on the wire (docs/closed-loop.md, "Virtual mass")
+            // not on the wire (docs/impedance.md, "Virtual mass")
             mass_kg: [0.0; 2],
         },
     })

@@ -63,7 +63,7 @@ pub struct SimulateArgs {
     #[arg(long, value_delimiter = ',', default_values_t = [5.0, 5.0], value_name = "BX,BY")]
     pub virtual_b_n_s_per_m: Vec<f64>,
     /// Impedance trial: virtual mass MX,MY, kg, 0–1 (the twin only: not rendered faithfully
-    /// enough to be on the wire, docs/closed-loop.md).
+    /// enough to be on the wire, docs/impedance.md).
     #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], value_name = "MX,MY")]
     pub virtual_m_kg: Vec<f64>,
     /// Simulate the rig as the thesis measured it (0.57 of the model's muscle force, Table 5.2,

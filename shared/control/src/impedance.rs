@@ -4,7 +4,7 @@
 //! [`crate::ForceLoop::step_direct`] makes the load cell read it. K = 0 with a small B is the
 //! transparent mode: the loop then cancels the muscles' own stiffness, which open loop cannot
 //! go below (K_min). How the rendering is made faithful (a motion observer, the spring led by
-//! the loop's residual lag, the arm's inertia fed forward) is in docs/closed-loop.md.
+//! the loop's residual lag, the arm's inertia fed forward) is in docs/impedance.md.
 
 use pam_model::kinematics::PoseTrig;
 use pam_model::{Mat2, RobotModel, Vec2};
@@ -15,8 +15,8 @@ pub const MAX_IMPEDANCE_STIFFNESS_N_PER_M: f32 = 5000.0;
 pub const MAX_IMPEDANCE_DAMPING_N_S_PER_M: f32 = 300.0;
 /// Largest virtual mass the controller accepts, kg. Negative masses (less inertia than the
 /// arm's) are refused: they are the unstable direction of impedance rendering; 2 kg already
-/// made the loop ring on a firm grip on the twin (guard tripped within 0.4–2.6 s). The mass is
-/// not on the wire (not rendered faithfully: docs/closed-loop.md, "Virtual mass"); the twin's
+/// made the loop ring on a firm grip on the twin (the guard tripped). The mass is
+/// not on the wire (not rendered faithfully: docs/impedance.md, "Virtual mass"); the twin's
 /// impedance trial can ask for it.
 pub const MAX_IMPEDANCE_MASS_KG: f32 = 1.0;
 /// Largest distance of the target from the neutral handle, m (the workspace's scale).
@@ -38,7 +38,7 @@ pub const MOTION_OBSERVER_RAD_S: f32 = 60.0;
 /// s: a spring force rendered T late is K (x₀ − x) + K T ẋ, a negative damping K T that eats
 /// the commanded B. With the arm's inertia fed forward and the integral at
 /// [`IMPEDANCE_INTEGRAL_SCALE`], the loop renders the force 10 ms late at the operator's
-/// frequencies (measured on the twin: docs/closed-loop.md; 20 ms with the designed integral
+/// frequencies (measured on the twin: docs/impedance.md; 20 ms with the designed integral
 /// and no inertia feed-forward).
 pub const IMPEDANCE_LEAD_S: f32 = 0.010;
 

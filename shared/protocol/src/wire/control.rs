@@ -157,7 +157,7 @@ impl From<Mode> for pam_control::Mode {
                 stiffness_n_per_m,
                 damping_n_s_per_m,
                 // the virtual mass is not on the wire: measured on the twin it is not rendered
-                // faithfully (docs/closed-loop.md, "Virtual mass")
+                // faithfully (docs/impedance.md, "Virtual mass")
                 mass_kg: [0.0; 2],
             },
         }
