@@ -154,6 +154,74 @@ fn bad_gains_are_caught_by_the_guard_over_the_link() {
     assert!(!stderr.is_empty());
 }
 
+/// The blocked handle gives way (the emulator's `handle_release`) while the closed loop pushes
+/// 9.1 N into it: the released-handle detector latches `CONTROL_UNSTABLE` and vents before
+/// the handle runs far (the twin's figures: 33 ms and 0.5 cm; the speed guard alone 61 ms and
+/// 2.0 cm, docs/closed-loop.md).
+#[test]
+fn a_released_handle_in_closed_loop_force_mode_faults_and_vents() {
+    let _serial = exclusive();
+    let target = Target::acquire(SIM);
+    target.prepare(1.0);
+    let c = target.client();
+    let (_, vent_ma) = pam_hil_tests::vent(&c);
+    c.command(RequestBody::Arm).expect("arm");
+    c.command(RequestBody::SetMode(
+        Mode::ForceClosedLoop {
+            force_n: [9.1, 0.0],
+            stiffness_nm_per_rad: [60.0, 27.0],
+            feed_forward: false,
+            gain_scale: 1.0,
+        }
+        .into(),
+    ))
+    .expect("closed loop");
+    c.start_telemetry();
+    let t0 = Instant::now();
+    let mut pushed = [0.0f32; 2];
+    while t0.elapsed() < Duration::from_millis(1500) {
+        c.heartbeat().expect("heartbeat");
+        std::thread::sleep(Duration::from_millis(20));
+        while let Ok(Some(t)) = c.next_telemetry(Duration::ZERO) {
+            assert_eq!(t.state, State::Armed, "no fault while blocked");
+            pushed = t.force_user_n;
+        }
+    }
+    assert!((pushed[0] - 9.1).abs() < 1.0, "pushing {pushed:?} N");
+    let Some(released_us) = target.inject("handle_release") else {
+        return; // a board: nothing to release from here
+    };
+    let t0 = Instant::now();
+    let mut fault_us = None;
+    let mut last = None;
+    while t0.elapsed() < Duration::from_secs(2) && fault_us.is_none() {
+        c.heartbeat().expect("heartbeat");
+        while let Ok(Some(t)) = c.next_telemetry(Duration::from_millis(10)) {
+            if t.state == State::Faulted && fault_us.is_none() {
+                fault_us = Some(t.time_us);
+            }
+            last = Some(t);
+        }
+    }
+    let fault_us = fault_us.expect("the detector latched a fault");
+    let after_ms = fault_us.wrapping_sub(released_us) as f64 / 1000.0;
+    eprintln!("closed loop, handle released: fault {after_ms:.0} ms after the release");
+    // the speed guard alone: about 61 ms
+    assert!(after_ms < 50.0, "{after_ms} ms");
+    let t = last.expect("telemetry");
+    assert!(
+        t.faults & Faults::CONTROL_UNSTABLE.0 != 0,
+        "{:#x}",
+        t.faults
+    );
+    assert!(
+        t.current_ma.iter().all(|&i| i <= vent_ma + 1e-3),
+        "vented: {:?}",
+        t.current_ma
+    );
+    c.command(RequestBody::Disarm).expect("disarm");
+}
+
 /// Least-squares slope and intercept of y against x.
 fn slope(x: &[f64], y: &[f64]) -> f64 {
     let n = x.len() as f64;

@@ -286,6 +286,7 @@ fn main() -> ! {
             target_user_m: [0.0, 0.0],
             stiffness_n_per_m: [300.0, 300.0],
             damping_n_s_per_m: [5.0, 5.0],
+            mass_kg: [0.0, 0.0],
         }
         .into(),
     )));

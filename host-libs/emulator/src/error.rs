@@ -59,7 +59,7 @@ impl EmulatorError {
             ConfigFlash { .. } => "give a file the emulator can read and write (it is created when missing), or leave --config-flash out for a flash in memory",
             ConfigStore(_) => "an emulator bug: the emulated flash's geometry should always fit the store",
             Injection { .. } | PlantFault { .. } => {
-                "write KIND@SECONDS with KIND one of estop, estop_release, overrun:periods=N or a plant \
+                "write KIND@SECONDS with KIND one of estop, estop_release, handle_release, overrun:periods=N or a plant \
                  fault (`pamctl sim --help` lists them), e.g. loadcell_frozen@5"
             }
         }

@@ -39,10 +39,13 @@ pub enum Injection {
     EStop,
     /// The emergency-stop button is released.
     EStopRelease,
+    /// Whatever held the handle (`--handle blocked|held|operator`) lets go of it: the patient
+    /// opens the hand, the block gives way. The handle is free from then on.
+    HandleRelease,
 }
 
 impl Injection {
-    /// `estop`, `estop_release`, `overrun[:periods=N]` or a plant fault
+    /// `estop`, `estop_release`, `handle_release`, `overrun[:periods=N]` or a plant fault
     /// (`pam_twin::faults::PlantFault::parse`).
     pub fn parse(text: &str) -> Result<Injection, EmulatorError> {
         let bad = |reason: &str| EmulatorError::Injection {
@@ -54,6 +57,7 @@ impl Injection {
         Ok(match kind {
             "estop" => Injection::EStop,
             "estop_release" => Injection::EStopRelease,
+            "handle_release" => Injection::HandleRelease,
             "overrun" => {
                 let periods = match params.strip_prefix("periods=") {
                     None if params.is_empty() => 5,
@@ -132,6 +136,8 @@ impl Board {
             Injection::Overrun { periods } => self.stall_periods_left = periods,
             Injection::EStop => self.estop = true,
             Injection::EStopRelease => self.estop = false,
+            // the plant's handle condition, not the board's (`EmulatedPlant::inject`)
+            Injection::HandleRelease => {}
         }
     }
 

@@ -128,6 +128,9 @@ impl Plant {
 
     /// Applies `injection` from the coming period on and reports it.
     pub(crate) fn inject(&mut self, injection: Injection, device_time_us: u64) {
+        if injection == Injection::HandleRelease {
+            self.handle_mode = HandleMode::Free;
+        }
         self.board
             .inject(injection, &self.last, self.last_currents_ma);
         let _ = self.reports.send(format!(

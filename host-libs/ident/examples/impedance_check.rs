@@ -46,6 +46,7 @@ fn main() {
         let imp = VirtualImpedance {
             stiffness_n_per_m: [k, k],
             damping_n_s_per_m: [5.0, 5.0],
+            mass_kg: [0.0, 0.0],
         };
         let log = match impedance_trial(&cfg, point, imp, seconds) {
             Ok(l) => l,

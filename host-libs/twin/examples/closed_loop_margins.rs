@@ -5,7 +5,7 @@
 //! half a period of zero-order hold, plus any transport delay).
 //!
 //! ```sh
-//! cargo run -p pam-twin --example closed_loop_margins
+//! cargo run -p pam-twin --example closed_loop_margins [KI_SCALE]
 //! ```
 
 use pam_control::ForceLoopConfig;
@@ -96,7 +96,12 @@ fn margins(
 
 fn main() {
     let p = RobotParams::<f64>::thesis();
-    let cfg = ForceLoopConfig::designed();
+    let mut cfg = ForceLoopConfig::designed();
+    // an optional multiplier of the integral gain: the impedance mode runs it at
+    // `IMPEDANCE_INTEGRAL_SCALE` (docs/impedance.md)
+    if let Some(scale) = std::env::args().nth(1) {
+        cfg.ki_per_s *= scale.parse::<f32>().expect("KI_SCALE, a number");
+    }
     let (wn, zeta) = (p.ip.natural_freq_rad_s, p.ip.damping_ratio);
     println!("converters: ωn = {wn} rad/s, ζ = {zeta}; gains kp {} ki {} 1/s kd {} s, derivative filter {} rad/s", cfg.kp, cfg.ki_per_s, cfg.kd_s, cfg.derivative_filter_rad_s);
     println!("| plant gain g | delay τ | gain margin | at | phase margin | crossover |");

@@ -10,11 +10,12 @@ use pam_control::Mode;
 use crate::experiments::{point_alpha, ExperimentConfig, ExperimentError, OperatorPath, Rig};
 use crate::plant::HandleCondition;
 
-/// The virtual spring-damper of an impedance trial (diagonal, user frame).
+/// The virtual spring-damper-mass of an impedance trial (diagonal, user frame).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VirtualImpedance {
     pub stiffness_n_per_m: Vec2<f64>,
     pub damping_n_s_per_m: Vec2<f64>,
+    pub mass_kg: Vec2<f64>,
 }
 
 /// Impedance mode about Table 4.1 point `point` (1–5) for `duration_s` of operator motion.
@@ -38,6 +39,7 @@ pub fn impedance_trial(
         target_user_m: f32v(centre),
         stiffness_n_per_m: f32v(imp.stiffness_n_per_m),
         damping_n_s_per_m: f32v(imp.damping_n_s_per_m),
+        mass_kg: f32v(imp.mass_kg),
     })?;
     let hold = HandleCondition::held_at(centre);
     for _ in 0..rig.periods(cfg.settle_s) {
@@ -67,6 +69,10 @@ pub fn impedance_trial(
             ("point", point.to_string()),
             ("virtual_k_n_per_m", format!("{} {}", k[0], k[1])),
             ("virtual_b_n_s_per_m", format!("{} {}", b[0], b[1])),
+            (
+                "virtual_m_kg",
+                format!("{} {}", imp.mass_kg[0], imp.mass_kg[1]),
+            ),
             ("x0_user_m", format!("{:.6} {:.6}", centre[0], centre[1])),
         ],
     ))

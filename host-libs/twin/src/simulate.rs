@@ -133,6 +133,7 @@ impl TrialSpec {
             impedance: VirtualImpedance {
                 stiffness_n_per_m: [0.0; 2],
                 damping_n_s_per_m: [5.0; 2],
+                mass_kg: [0.0; 2],
             },
             identified_rig: false,
         }

@@ -102,11 +102,25 @@ fn bad_gains_are_caught_in_the_twin_before_the_force_runs_away() {
     assert!(peak_n < 9.1 + 1.5 * bound, "peak {peak_n:.1} N");
 }
 
-#[test]
-/// The released-handle detector (`Impedance::released`: the spring asks for force, the load
-/// cell reads almost none, the handle runs) faults within 90 ms and 1 cm; the speed guard
-/// alone took 107 ms and 2.1 cm (docs/closed-loop.md).
-fn a_released_handle_in_impedance_mode_is_caught_before_it_runs() {
+/// What a released-handle run saw.
+struct Released {
+    /// Milliseconds from the release to the fault.
+    fault_after_ms: usize,
+    /// How far the handle ran from where it was let go, cm.
+    moved_cm: f64,
+    /// What the load cell read just before the release, user frame, N.
+    force_before_n: [f32; 2],
+}
+
+/// Arms `mode` with the handle held by `hold` for `release_ms`, then (after switching to
+/// `at_release`, if any) lets go of it, for 3 s in all. The fault must be `CONTROL_UNSTABLE`
+/// and vent at once, and must not come while the handle is held.
+fn release(
+    mode: Mode,
+    at_release: Option<Mode>,
+    hold: HandleCondition,
+    release_ms: usize,
+) -> Released {
     let cfg = TwinConfig::thesis();
     let mut twin = Twin::new(cfg.clone());
     let mut ctl = Controller::new(
@@ -114,27 +128,28 @@ fn a_released_handle_in_impedance_mode_is_caught_before_it_runs() {
         SafetyConfig::default_1khz(),
     );
     let model = RobotModel::<f64>::new(cfg.params);
-    let mut m = twin.step(1e-9, [4.0; 4], &HandleCondition::Free);
-    let spring = |target_user_m: [f32; 2]| Mode::Impedance {
-        target_user_m,
-        stiffness_n_per_m: [300.0; 2],
-        damping_n_s_per_m: [5.0; 2],
-    };
+    let mut m = twin.step(1e-9, [4.0; 4], &hold);
     ctl.arm().unwrap();
-    // held at the target while the pressures settle…
-    ctl.set_mode(spring([0.0; 2])).unwrap();
+    ctl.set_mode(mode).unwrap();
     let mut faulted_at = None;
     let mut x_at_fault = [0.0; 2];
+    let mut x_at_release = [0.0; 2];
+    let mut force_before_n = [0.0; 2];
     for i in 0..3000 {
-        if i == 1000 {
-            // …then the patient lets go as the target moves 3 cm away
-            ctl.set_mode(spring([0.03, 0.0])).unwrap();
+        if i == release_ms {
+            x_at_release = model.kinematics.forward_user(m.alpha_rad);
+            if let Some(mode) = at_release {
+                ctl.set_mode(mode).unwrap();
+            }
         }
         ctl.heartbeat();
         let out = ctl.step(&Sensors {
             alpha_rad: m.alpha_rad.map(|a| a as f32),
             force_sensor_n: m.force_sensor_n.map(|f| f as f32),
         });
+        if i + 1 == release_ms {
+            force_before_n = out.force_user_n;
+        }
         if out.state == State::Faulted && faulted_at.is_none() {
             faulted_at = Some(i);
             x_at_fault = model.kinematics.forward_user(m.alpha_rad);
@@ -145,20 +160,83 @@ fn a_released_handle_in_impedance_mode_is_caught_before_it_runs() {
             );
             assert!(out.current_ma.iter().all(|&c| c == 4.0));
         }
-        let hand = if i < 1000 {
-            HandleCondition::held_at([0.0, 0.0])
+        let hand = if i < release_ms {
+            hold
         } else {
             HandleCondition::Free
         };
         m = twin.step(0.001, out.current_ma.map(|c| c as f64), &hand);
     }
     let at = faulted_at.expect("the guard latched");
-    let moved_cm = 100.0 * x_at_fault[0].hypot(x_at_fault[1]);
-    println!(
-        "released: fault {} ms after the release, handle {moved_cm:.1} cm from neutral",
-        at as i64 - 1000
+    assert!(at >= release_ms, "faulted while held ({at} ms)");
+    Released {
+        fault_after_ms: at - release_ms,
+        moved_cm: 100.0 * (x_at_fault[0] - x_at_release[0]).hypot(x_at_fault[1] - x_at_release[1]),
+        force_before_n,
+    }
+}
+
+#[test]
+/// The released-handle detector (`Impedance::released`: the spring asks for force, the load
+/// cell reads almost none, the handle runs) faults within 90 ms and 1 cm; the speed guard
+/// alone took 107 ms and 2.1 cm (docs/impedance.md).
+fn a_released_handle_in_impedance_mode_is_caught_before_it_runs() {
+    let spring = |target_user_m: [f32; 2]| Mode::Impedance {
+        target_user_m,
+        stiffness_n_per_m: [300.0; 2],
+        damping_n_s_per_m: [5.0; 2],
+        mass_kg: [0.0; 2],
+    };
+    // held at the target while the pressures settle, then the patient lets go as the target
+    // moves 3 cm away
+    let r = release(
+        spring([0.0; 2]),
+        Some(spring([0.03, 0.0])),
+        HandleCondition::held_at([0.0, 0.0]),
+        1000,
     );
-    assert!(at >= 1000, "faulted while held ({at} ms)");
-    assert!(at < 1090, "{} ms after the release", at - 1000);
-    assert!(moved_cm < 1.0, "{moved_cm:.1} cm");
+    println!(
+        "released: fault {} ms after the release, handle {:.1} cm from where it was let go",
+        r.fault_after_ms, r.moved_cm
+    );
+    assert!(
+        r.fault_after_ms < 90,
+        "{} ms after the release",
+        r.fault_after_ms
+    );
+    assert!(r.moved_cm < 1.0, "{:.1} cm", r.moved_cm);
+}
+
+/// Closed-loop force mode: the handle is held still while the loop pushes 9.1 N into it, then
+/// let go. The released-handle detector (the reference model asks for force, the load cell
+/// reads almost none, the handle runs) faults 33 ms and 0.5 cm after the release; the speed
+/// guard alone (0.5 m/s) took 61 ms and 2.0 cm (docs/closed-loop.md).
+#[test]
+fn a_released_handle_in_closed_loop_force_mode_is_caught_before_it_runs() {
+    let model = RobotModel::<f64>::thesis();
+    let k = step_test_stiffness(&model, [0.0; 2]);
+    let push = Mode::ForceClosedLoop {
+        force_n: [9.1, 0.0],
+        stiffness_nm_per_rad: [k[0] as f32, k[1] as f32],
+        feed_forward: false,
+        gain_scale: 1.0,
+    };
+    // held still (the force-step set-up: a hand that yields makes this loop ring on the arm's
+    // mass, and its guard trips — docs/closed-loop.md)
+    let r = release(push, None, HandleCondition::Blocked, 1500);
+    println!(
+        "force mode, released: {:.1} N before, fault {} ms after the release, handle {:.2} cm from where the block held it",
+        r.force_before_n[0], r.fault_after_ms, r.moved_cm
+    );
+    assert!(
+        (r.force_before_n[0] - 9.1).abs() < 1.0,
+        "the loop pushed {:?} N into the block",
+        r.force_before_n
+    );
+    assert!(
+        r.fault_after_ms < 45,
+        "{} ms after the release",
+        r.fault_after_ms
+    );
+    assert!(r.moved_cm < 1.0, "{:.2} cm", r.moved_cm);
 }

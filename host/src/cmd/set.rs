@@ -143,6 +143,8 @@ pub fn mode_of(m: &SetMode) -> anyhow::Result<Mode> {
             target_user_m: values::<2>("--target-m", target_m)?,
             stiffness_n_per_m: values::<2>("--stiffness-n-per-m", stiffness_n_per_m)?,
             damping_n_s_per_m: values::<2>("--damping-n-s-per-m", damping_n_s_per_m)?,
+            // not on the wire (docs/impedance.md, "Virtual mass")
+            mass_kg: [0.0; 2],
         },
     })
 }
@@ -267,6 +269,7 @@ mod tests {
                 target_user_m: [0.02, -0.01],
                 stiffness_n_per_m: [300.0, 200.0],
                 damping_n_s_per_m: [5.0, 5.0],
+                mass_kg: [0.0; 2],
             }
         );
         assert!(mode(&["impedance", "--stiffness-n-per-m", "300"]).is_err());

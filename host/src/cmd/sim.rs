@@ -38,7 +38,8 @@ pub struct SimArgs {
     /// Inject a fault at a time of the emulated clock, `KIND@SECONDS` (repeatable): a plant
     /// fault (encoder_stuck:joint=1, encoder_unplugged:joint=2, encoder_jump:joint=1,counts=400,
     /// loadcell_saturated:channel=x, loadcell_frozen, converter_stuck:channel=1,
-    /// converter_open:channel=3) or a board one (estop, estop_release, overrun:periods=5).
+    /// converter_open:channel=3), a board one (estop, estop_release, overrun:periods=5), or
+    /// handle_release (whatever holds the handle lets go of it).
     /// Each is reported as `injected KIND at time_us=N`. Never possible over the link.
     #[arg(long = "inject", value_name = "KIND@SECONDS")]
     pub inject: Vec<String>,

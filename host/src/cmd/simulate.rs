@@ -62,6 +62,10 @@ pub struct SimulateArgs {
     /// Impedance trial: virtual damping BX,BY, N·s/m.
     #[arg(long, value_delimiter = ',', default_values_t = [5.0, 5.0], value_name = "BX,BY")]
     pub virtual_b_n_s_per_m: Vec<f64>,
+    /// Impedance trial: virtual mass MX,MY, kg, 0–1 (the twin only: not rendered faithfully
+    /// enough to be on the wire, docs/impedance.md).
+    #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], value_name = "MX,MY")]
+    pub virtual_m_kg: Vec<f64>,
     /// Simulate the rig as the thesis measured it (0.57 of the model's muscle force, Table 5.2,
     /// and a parallel joint stiffness, Fig. 4.3: docs/closed-loop.md) instead of its model.
     #[arg(long)]
@@ -122,6 +126,7 @@ pub fn run(args: SimulateArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         impedance: VirtualImpedance {
             stiffness_n_per_m: pair("--virtual-k-n-per-m", &args.virtual_k_n_per_m)?,
             damping_n_s_per_m: pair("--virtual-b-n-s-per-m", &args.virtual_b_n_s_per_m)?,
+            mass_kg: pair("--virtual-m-kg", &args.virtual_m_kg)?,
         },
         identified_rig: args.identified_rig,
     };

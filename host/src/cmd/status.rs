@@ -60,6 +60,7 @@ pub fn describe_mode(mode: &Mode) -> String {
             target_user_m,
             stiffness_n_per_m,
             damping_n_s_per_m,
+            ..
         } => format!(
             "impedance about ({:+.3}, {:+.3}) m, K {:.0}, {:.0} N/m, B {:.1}, {:.1} N·s/m",
             target_user_m[0],

@@ -196,14 +196,14 @@ impl ForceLoop {
         saturated: bool,
         dt_s: f32,
     ) -> ForceLoopOutput {
-        self.run(
-            cfg, ip, target_n, measured_n, gain_scale, saturated, dt_s, true,
-        )
+        let gains = [gain_scale, 1.0];
+        self.run(cfg, ip, target_n, measured_n, gains, saturated, dt_s, true)
     }
 
     /// [`ForceLoop::step`] without the reference model: the target is followed as it comes,
     /// only rate-limited (impedance mode, where the target is itself a function of the
-    /// measured motion and any lag would change the rendered impedance).
+    /// measured motion and any lag would change the rendered impedance). The designed gains,
+    /// the integral's × `integral_scale`.
     #[allow(clippy::too_many_arguments)]
     pub fn step_direct(
         &mut self,
@@ -211,13 +211,12 @@ impl ForceLoop {
         ip: &IpConverter<f32>,
         target_n: Vec2<f32>,
         measured_n: Vec2<f32>,
-        gain_scale: f32,
+        integral_scale: f32,
         saturated: bool,
         dt_s: f32,
     ) -> ForceLoopOutput {
-        self.run(
-            cfg, ip, target_n, measured_n, gain_scale, saturated, dt_s, false,
-        )
+        let gains = [1.0, integral_scale];
+        self.run(cfg, ip, target_n, measured_n, gains, saturated, dt_s, false)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -227,7 +226,7 @@ impl ForceLoop {
         ip: &IpConverter<f32>,
         target_n: Vec2<f32>,
         measured_n: Vec2<f32>,
-        gain_scale: f32,
+        [gain_scale, integral_scale]: [f32; 2],
         saturated: bool,
         dt_s: f32,
         shaped: bool,
@@ -245,7 +244,7 @@ impl ForceLoop {
         let max_df = cfg.force_rate_n_per_s * dt_s;
         let (kp, ki, kd) = (
             cfg.kp * gain_scale,
-            cfg.ki_per_s * gain_scale,
+            cfg.ki_per_s * gain_scale * integral_scale,
             cfg.kd_s * gain_scale,
         );
         let wf_dt = cfg.derivative_filter_rad_s * dt_s;

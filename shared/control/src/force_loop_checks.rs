@@ -3,7 +3,7 @@
 //! the direct model, F = J⁻ᵀ τ times a gain the controller does not know), one period of delay.
 
 use crate::force_loop::*;
-use crate::impedance::MAX_IMPEDANCE_STIFFNESS_N_PER_M;
+use crate::impedance::{MAX_IMPEDANCE_MASS_KG, MAX_IMPEDANCE_STIFFNESS_N_PER_M};
 use crate::supervisor::*;
 use pam_model::checks::holds_that as holds;
 use pam_model::{RobotModel, Vec2};
@@ -290,6 +290,7 @@ pub fn impedance_renders_the_spring_force_and_refuses_out_of_range() -> CheckRes
         target_user_m: target,
         stiffness_n_per_m: k,
         damping_n_s_per_m: [5.0, 5.0],
+        mass_kg: [0.0, 0.0],
     });
     let r = run(&mut c, &mut plant, 2000);
     holds("no fault", r.faulted_at.is_none())?;
@@ -297,20 +298,31 @@ pub fn impedance_renders_the_spring_force_and_refuses_out_of_range() -> CheckRes
         "spring force rendered",
         (r.mean_force_n[0] - 6.0).abs() < 0.1 && (r.mean_force_n[1] + 5.0).abs() < 0.1,
     )?;
+    let none = [0.0, 0.0];
     for bad in [
-        ([0.5, 0.0], [100.0, 100.0], [5.0, 5.0]),
-        ([0.0, 0.0], [-1.0, 100.0], [5.0, 5.0]),
+        ([0.5, 0.0], [100.0, 100.0], [5.0, 5.0], none),
+        ([0.0, 0.0], [-1.0, 100.0], [5.0, 5.0], none),
         (
             [0.0, 0.0],
             [100.0, MAX_IMPEDANCE_STIFFNESS_N_PER_M * 1.01],
             [5.0, 5.0],
+            none,
         ),
-        ([0.0, 0.0], [100.0, 100.0], [f32::NAN, 5.0]),
+        ([0.0, 0.0], [100.0, 100.0], [f32::NAN, 5.0], none),
+        ([0.0, 0.0], [100.0, 100.0], [5.0, 5.0], [-0.1, 0.0]),
+        (
+            [0.0, 0.0],
+            [100.0, 100.0],
+            [5.0, 5.0],
+            [0.0, MAX_IMPEDANCE_MASS_KG * 1.01],
+        ),
+        ([0.0, 0.0], [100.0, 100.0], [5.0, 5.0], [f32::INFINITY, 0.0]),
     ] {
         let m = Mode::Impedance {
             target_user_m: bad.0,
             stiffness_n_per_m: bad.1,
             damping_n_s_per_m: bad.2,
+            mass_kg: bad.3,
         };
         holds("refused", c.set_mode(m) == Err(Reject::OutOfRange))?;
     }

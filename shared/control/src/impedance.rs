@@ -1,21 +1,52 @@
-//! Impedance mode (issue 14): a Cartesian virtual spring-damper about a target point,
+//! Impedance mode (issue 14): a Cartesian virtual spring-damper-mass about a target point,
 //! rendered by the closed force loop. The force the robot should exert on the handle is
-//! F = K (x₀ − x) − B ẋ (user frame, diagonal K and B), and [`crate::ForceLoop::step_direct`]
-//! makes the load cell read it. K = 0 with a small B is the transparent mode: the loop then
-//! cancels the muscles' own stiffness, which open loop cannot go below (K_min).
+//! F = K (x₀ − x) − B ẋ − M ẍ (user frame, diagonal K, B, M), and
+//! [`crate::ForceLoop::step_direct`] makes the load cell read it. K = 0 with a small B is the
+//! transparent mode: the loop then cancels the muscles' own stiffness, which open loop cannot
+//! go below (K_min). How the rendering is made faithful (a motion observer, the spring led by
+//! the loop's residual lag, the arm's inertia fed forward) is in docs/impedance.md.
 
-use pam_model::Vec2;
+use pam_model::kinematics::PoseTrig;
+use pam_model::{Mat2, RobotModel, Vec2};
 
 /// Largest virtual stiffness a request may carry, N/m (above 1.5 × the open loop's K_max).
 pub const MAX_IMPEDANCE_STIFFNESS_N_PER_M: f32 = 5000.0;
 /// Largest virtual damping a request may carry, N·s/m.
 pub const MAX_IMPEDANCE_DAMPING_N_S_PER_M: f32 = 300.0;
+/// Largest virtual mass the controller accepts, kg. Negative masses (less inertia than the
+/// arm's) are refused: they are the unstable direction of impedance rendering; 2 kg already
+/// made the loop ring on a firm grip on the twin (the guard tripped). The mass is
+/// not on the wire (not rendered faithfully: docs/impedance.md, "Virtual mass"); the twin's
+/// impedance trial can ask for it.
+pub const MAX_IMPEDANCE_MASS_KG: f32 = 1.0;
 /// Largest distance of the target from the neutral handle, m (the workspace's scale).
 pub const MAX_IMPEDANCE_TARGET_M: f32 = 0.3;
 
-/// Bandwidth of the handle-velocity filter, rad/s (encoder steps differentiated at 1 kHz
-/// are noise; the operator moves below 2 Hz).
+/// Bandwidth of the first-order filter of the handle velocity that the damping acts on, and
+/// that the speed guards read, rad/s (encoder steps differentiated at 1 kHz are noise; the
+/// operator moves below 2 Hz). Its roll-off above the operator's band keeps the damping out of
+/// the ≈ 9 Hz resonance of the arm's mass on a firm grip: on the observer's velocity (no
+/// roll-off there) B = 20 N·s/m at K = 653 N/m made the loop ring at that resonance.
 const VELOCITY_FILTER_RAD_S: f32 = 60.0;
+
+/// Bandwidth of the handle-motion observer, rad/s: its three poles sit at 1/(1 + ω·dt)
+/// ≈ e^(−ω·dt). Its velocity lags 0.2–4.5 ms in the operator's band (the filter above:
+/// 17 ms), its acceleration feeds the arm's inertia and the virtual mass.
+pub const MOTION_OBSERVER_RAD_S: f32 = 60.0;
+
+/// Lag of the closed force loop at the operator's frequencies that the spring term is led by,
+/// s: a spring force rendered T late is K (x₀ − x) + K T ẋ, a negative damping K T that eats
+/// the commanded B. With the arm's inertia fed forward and the integral at
+/// [`IMPEDANCE_INTEGRAL_SCALE`], the loop renders the force 10 ms late at the operator's
+/// frequencies (measured on the twin: docs/impedance.md; 20 ms with the designed integral
+/// and no inertia feed-forward).
+pub const IMPEDANCE_LEAD_S: f32 = 0.010;
+
+/// The force loop's integral gain in impedance mode, × the design's: what the loop leaves of
+/// the arm's motion-induced forces (the muscles' compressibility, the inertia the model
+/// misses) is rendered as a damping error that differs between the axes (X −2, Y +1 N·s/m);
+/// ×1.5 halves the difference. ×2 rings at B = 20 N·s/m, K = 653 N/m on a firm grip.
+pub const IMPEDANCE_INTEGRAL_SCALE: f32 = 1.5;
 
 /// A released handle: the spring asks for at least this force (norm), N…
 pub const RELEASE_FORCE_MIN_N: f32 = 3.0;
@@ -28,13 +59,22 @@ pub const RELEASE_SPEED_M_S: f32 = 0.05;
 /// nearly nothing while the loop accelerates the arm.
 pub const RELEASE_TIME_S: f32 = 0.015;
 
-/// Handle velocity estimate (filtered difference of the position) and the released-handle
-/// detector's timer.
+/// The handle's motion estimated from the encoders, and the released-handle detector's timer.
+///
+/// Two estimates: a first-order filtered difference ([`Impedance::velocity_m_s`], 17 ms of
+/// lag, rolled off above the operator's band: the damping and the speed guards use it), and a
+/// critically damped tracking observer of a constant-acceleration model (a fading-memory g-h-k
+/// filter) that has no steady lag on a ramp or a parabola
+/// ([`Impedance::observed_velocity_m_s`], [`Impedance::acceleration_m_s2`]: the spring's lead,
+/// the inertia and the virtual mass use it).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Impedance {
     fresh: bool,
     last_x_m: Vec2<f32>,
     v_m_s: Vec2<f32>,
+    obs_x_m: Vec2<f32>,
+    obs_v_m_s: Vec2<f32>,
+    obs_a_m_s2: Vec2<f32>,
     released_s: f32,
 }
 
@@ -50,6 +90,9 @@ impl Impedance {
             fresh: true,
             last_x_m: [0.0; 2],
             v_m_s: [0.0; 2],
+            obs_x_m: [0.0; 2],
+            obs_v_m_s: [0.0; 2],
+            obs_a_m_s2: [0.0; 2],
             released_s: 0.0,
         }
     }
@@ -58,12 +101,23 @@ impl Impedance {
         *self = Self::new();
     }
 
+    /// Filtered velocity, m/s.
     pub fn velocity_m_s(&self) -> Vec2<f32> {
         self.v_m_s
     }
 
+    /// The observer's velocity, m/s.
+    pub fn observed_velocity_m_s(&self) -> Vec2<f32> {
+        self.obs_v_m_s
+    }
+
+    /// The observer's acceleration, m/s².
+    pub fn acceleration_m_s2(&self) -> Vec2<f32> {
+        self.obs_a_m_s2
+    }
+
     /// The released-handle detector, once per period after [`Impedance::track`]: true once
-    /// the spring has asked for at least [`RELEASE_FORCE_MIN_N`] while the load cell read
+    /// the loop has asked for at least [`RELEASE_FORCE_MIN_N`] while the load cell read
     /// less than [`RELEASE_FORCE_RATIO`] of it and the handle moved faster than
     /// [`RELEASE_SPEED_M_S`], for [`RELEASE_TIME_S`] in a row.
     pub fn released(&mut self, target_n: Vec2<f32>, measured_n: Vec2<f32>, dt_s: f32) -> bool {
@@ -82,47 +136,82 @@ impl Impedance {
         self.released_s >= RELEASE_TIME_S
     }
 
-    /// Updates the handle velocity estimate from handle position `x_m`; returns it, m/s.
+    /// Updates both motion estimates from the handle position `x_m` (any fixed origin);
+    /// returns the filtered velocity, m/s.
     pub fn track(&mut self, x_m: Vec2<f32>, dt_s: f32) -> Vec2<f32> {
         if self.fresh {
             self.last_x_m = x_m;
+            self.obs_x_m = x_m;
             self.fresh = false;
         }
         let wdt = VELOCITY_FILTER_RAD_S * dt_s;
         let alpha = wdt / (1.0 + wdt);
+        // three poles at θ = 1/(1 + ω·dt): the fading-memory gains
+        let th = 1.0 / (1.0 + MOTION_OBSERVER_RAD_S * dt_s);
+        let one = 1.0 - th;
+        let g = 1.0 - th * th * th;
+        let h = 1.5 * one * one * (1.0 + th) / dt_s;
+        let k = one * one * one / (dt_s * dt_s);
         for a in 0..2 {
             let raw = (x_m[a] - self.last_x_m[a]) / dt_s;
             self.v_m_s[a] += alpha * (raw - self.v_m_s[a]);
+            let xp = self.obs_x_m[a] + (self.obs_v_m_s[a] + 0.5 * self.obs_a_m_s2[a] * dt_s) * dt_s;
+            let e = x_m[a] - xp;
+            self.obs_x_m[a] = xp + g * e;
+            self.obs_v_m_s[a] += self.obs_a_m_s2[a] * dt_s + h * e;
+            self.obs_a_m_s2[a] += k * e;
         }
         self.last_x_m = x_m;
         self.v_m_s
     }
 }
 
-/// Lag of the closed force loop at the operator's frequencies that the spring term is led by,
-/// s. The loop renders the force it is asked for late (the converters' second order behind
-/// the PID: its phase delay is 13 ms at 6 rad/s and 29 ms at 10 rad/s for the designed gains,
-/// docs/closed-loop.md), and a spring force rendered T late is K (x₀ − x) + K T ẋ: a negative
-/// damping K T that ate the commanded B (identified 12 / 15 N·s/m for 20 at K = 300, 3.6 / 7.5
-/// at K = 653 before this lead: 17–27 ms). Leading the spring by T, K (x₀ − x − T ẋ), gives
-/// that damping back.
-pub const IMPEDANCE_LEAD_S: f32 = 0.02;
+/// The virtual impedance, diagonal in the user frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VirtualImpedance {
+    pub stiffness_n_per_m: Vec2<f32>,
+    pub damping_n_s_per_m: Vec2<f32>,
+    pub mass_kg: Vec2<f32>,
+}
 
-/// F = K (x₀ − x − T ẋ) − B ẋ per axis, N, with T = [`IMPEDANCE_LEAD_S`]: the spring-damper
-/// K, B rendered through a loop that lags by T.
-pub fn spring_damper_force_n(
+/// F = K (x₀ − x − T ẋ_obs) − B ẋ − M ẍ per axis, N, with T = [`IMPEDANCE_LEAD_S`]: the
+/// spring-damper-mass rendered through a loop that lags by T (ẋ the filtered velocity, ẋ_obs
+/// and ẍ the observer's).
+pub fn impedance_force_n(
     target_m: Vec2<f32>,
-    stiffness_n_per_m: Vec2<f32>,
-    damping_n_s_per_m: Vec2<f32>,
+    imp: &VirtualImpedance,
+    motion: &Impedance,
     x_m: Vec2<f32>,
-    v_m_s: Vec2<f32>,
 ) -> Vec2<f32> {
     let mut f = [0.0; 2];
     for a in 0..2 {
-        f[a] = stiffness_n_per_m[a] * (target_m[a] - x_m[a] - IMPEDANCE_LEAD_S * v_m_s[a])
-            - damping_n_s_per_m[a] * v_m_s[a];
+        let lead_m = IMPEDANCE_LEAD_S * motion.obs_v_m_s[a];
+        f[a] = imp.stiffness_n_per_m[a] * (target_m[a] - x_m[a] - lead_m)
+            - imp.damping_n_s_per_m[a] * motion.v_m_s[a]
+            - imp.mass_kg[a] * motion.obs_a_m_s2[a];
     }
     f
+}
+
+/// The force the muscles need beyond the handle's so that the arm's own inertia does not
+/// reach the load cell: M_C(α) ẍ, N (the Cartesian mass of eq. 4.11 at the pose, from the
+/// pose's sines and cosines; zero at a singular pose).
+pub fn arm_inertia_force_n(
+    model: &RobotModel<f32>,
+    trig: &PoseTrig<f32>,
+    acc_m_s2: Vec2<f32>,
+) -> Vec2<f32> {
+    // cos θ2 = cos((θ1 + θ2) − θ1), from the sines and cosines already computed
+    let cos_theta2 = trig.c12 * trig.c1 + trig.s12 * trig.s1;
+    let inertia = pam_model::cartesian::joint_inertia_cos(&model.params, cos_theta2);
+    let jac = model.kinematics.jacobian_at(trig);
+    match pam_model::cartesian::joint_to_cartesian(&jac, &inertia) {
+        Some(Mat2(m)) => [
+            m[0][0] * acc_m_s2[0] + m[0][1] * acc_m_s2[1],
+            m[1][0] * acc_m_s2[0] + m[1][1] * acc_m_s2[1],
+        ],
+        None => [0.0; 2],
+    }
 }
 
 #[cfg(test)]
@@ -160,18 +249,76 @@ mod tests {
         assert_eq!(runs(&mut imp, [9.0, 0.0], [0.0, 0.0]), None, "still");
     }
 
-    /// At rest the spring alone; moving, the damping is B plus the lead's K·T, and K = 0
-    /// leaves exactly B (transparent mode is not stiffened or damped by the lead).
+    /// The observer follows a parabola without lag (velocity and acceleration exact once
+    /// settled), where the filtered difference lags by its time constant.
     #[test]
-    fn the_spring_is_led_by_the_loops_lag() {
-        let (k, b) = ([300.0, 0.0], [5.0, 5.0]);
-        let f = spring_damper_force_n([0.02, 0.0], k, b, [0.0; 2], [0.0; 2]);
-        assert!((f[0] - 6.0).abs() < 1e-5 && f[1] == 0.0);
-        let f = spring_damper_force_n([0.0; 2], k, b, [0.0; 2], [0.1, 0.1]);
+    fn the_motion_observer_tracks_a_parabola_without_lag() {
+        let dt = 0.001;
+        let mut imp = Impedance::new();
+        let (v0, acc) = (0.05f32, 0.8f32);
+        for i in 0..1000 {
+            let t = i as f32 * dt;
+            imp.track([v0 * t + 0.5 * acc * t * t, -v0 * t], dt);
+        }
+        let t = 0.999f32;
+        let v = imp.observed_velocity_m_s();
+        let a = imp.acceleration_m_s2();
+        assert!((v[0] - (v0 + acc * t)).abs() < 1e-3, "{v:?}");
+        assert!((v[1] + v0).abs() < 1e-3, "{v:?}");
+        assert!((a[0] - acc).abs() < 0.05 && a[1].abs() < 0.05, "{a:?}");
+        let lag_s = (v0 + acc * t - imp.velocity_m_s()[0]) / acc;
         assert!(
-            (f[0] + (5.0 + 300.0 * IMPEDANCE_LEAD_S) * 0.1).abs() < 1e-5,
-            "{f:?}"
+            (lag_s - 1.0 / VELOCITY_FILTER_RAD_S).abs() < 2e-3,
+            "{lag_s}"
         );
-        assert!((f[1] + 0.5).abs() < 1e-6, "{f:?}");
+    }
+
+    /// At rest the spring alone; moving, the damping on the filtered velocity, the lead's K·T
+    /// on the observer's, and the mass on its acceleration.
+    #[test]
+    fn the_impedance_force() {
+        let imp = VirtualImpedance {
+            stiffness_n_per_m: [300.0, 0.0],
+            damping_n_s_per_m: [5.0, 5.0],
+            mass_kg: [0.0, 2.0],
+        };
+        let mut still = Impedance::new();
+        still.track([0.0; 2], 0.001);
+        let f = impedance_force_n([0.02, 0.0], &imp, &still, [0.0; 2]);
+        assert!((f[0] - 6.0).abs() < 1e-5 && f[1] == 0.0, "{f:?}");
+        let moving = Impedance {
+            fresh: false,
+            last_x_m: [0.0; 2],
+            v_m_s: [0.1, 0.1],
+            obs_x_m: [0.0; 2],
+            obs_v_m_s: [0.2, 0.2],
+            obs_a_m_s2: [1.0, 1.0],
+            released_s: 0.0,
+        };
+        let f = impedance_force_n([0.0; 2], &imp, &moving, [0.0; 2]);
+        let want_x = -300.0 * IMPEDANCE_LEAD_S * 0.2 - 5.0 * 0.1;
+        assert!((f[0] - want_x).abs() < 1e-5, "{f:?}");
+        assert!((f[1] + 0.5 + 2.0).abs() < 1e-5, "{f:?}");
+    }
+
+    /// The arm's inertia at the handle: the model's Cartesian mass times the acceleration.
+    #[test]
+    fn the_arm_inertia_is_the_models_cartesian_mass() {
+        let model = RobotModel::<f32>::thesis();
+        let alpha = [0.1, -0.2];
+        let trig = model.kinematics.trig(alpha);
+        let m = model.cartesian_mass(alpha).unwrap();
+        let f = arm_inertia_force_n(&model, &trig, [1.0, 0.5]);
+        for r in 0..2 {
+            let want = m.0[r][0] + 0.5 * m.0[r][1];
+            assert!(
+                (f[r] - want).abs() < 1e-4 * want.abs().max(1.0),
+                "{f:?} {m:?}"
+            );
+        }
+        assert!(
+            m.0[0][0] > 0.1,
+            "a mass of a few hundred grams at least: {m:?}"
+        );
     }
 }

@@ -37,7 +37,8 @@ pub mod force_loop_checks;
 
 pub use force_loop::{ForceLoop, ForceLoopConfig, GuardTrip, MAX_GAIN_SCALE};
 pub use impedance::{
-    spring_damper_force_n, Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M,
-    MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
+    arm_inertia_force_n, impedance_force_n, Impedance, VirtualImpedance,
+    MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_MASS_KG, MAX_IMPEDANCE_STIFFNESS_N_PER_M,
+    MAX_IMPEDANCE_TARGET_M,
 };
 pub use supervisor::*;

@@ -35,12 +35,14 @@ pub enum Mode {
         feed_forward: bool,
         gain_scale: f32,
     },
-    /// A Cartesian spring-damper about `target_user_m` (user frame, diagonal K and B),
-    /// rendered by the closed force loop (`impedance`); the muscles at their least stiffness.
+    /// A Cartesian spring-damper-mass about `target_user_m` (user frame, diagonal K, B and
+    /// M), rendered by the closed force loop (`impedance`); the muscles at their least
+    /// stiffness. `mass_kg` is the virtual mass added to what the operator feels (0: none).
     Impedance {
         target_user_m: Vec2<f32>,
         stiffness_n_per_m: Vec2<f32>,
         damping_n_s_per_m: Vec2<f32>,
+        mass_kg: Vec2<f32>,
     },
 }
 

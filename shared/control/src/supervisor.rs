@@ -10,8 +10,9 @@ pub use crate::safety::{Reject, SafetyConfig, LOADCELL_AMPLIFIER_FULL_SCALE_V};
 
 use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
 use crate::impedance::{
-    spring_damper_force_n, Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M,
-    MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
+    arm_inertia_force_n, impedance_force_n, Impedance, VirtualImpedance, IMPEDANCE_INTEGRAL_SCALE,
+    MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_MASS_KG, MAX_IMPEDANCE_STIFFNESS_N_PER_M,
+    MAX_IMPEDANCE_TARGET_M,
 };
 use crate::plausibility::BalanceMonitor;
 
@@ -205,6 +206,7 @@ impl Controller {
                 target_user_m,
                 stiffness_n_per_m,
                 damping_n_s_per_m,
+                mass_kg,
             } => (0..2).all(|a| {
                 finite_in(
                     target_user_m[a],
@@ -212,6 +214,7 @@ impl Controller {
                     MAX_IMPEDANCE_TARGET_M,
                 ) && finite_in(stiffness_n_per_m[a], 0.0, MAX_IMPEDANCE_STIFFNESS_N_PER_M)
                     && finite_in(damping_n_s_per_m[a], 0.0, MAX_IMPEDANCE_DAMPING_N_S_PER_M)
+                    && finite_in(mass_kg[a], 0.0, MAX_IMPEDANCE_MASS_KG)
             }),
         };
         if !ok {
@@ -416,7 +419,7 @@ impl Controller {
                         feed_forward,
                         gain_scale,
                     } => {
-                        // the handle is blocked: a loop that moves it lost its force
+                        // the handle is blocked or held: a loop that moves it lost its force
                         let w = self.model.kinematics.forward_world_at(&trig);
                         let too_fast =
                             handle_too_fast(&mut self.impedance, &self.force_loop_cfg, w, dt);
@@ -429,7 +432,10 @@ impl Controller {
                             self.last_saturated,
                             dt,
                         );
-                        if fl.trip.is_some() || too_fast {
+                        // the patient let go while the loop pushes: the reference model asks for
+                        // a force the load cell no longer reads, and the handle runs
+                        let released = self.impedance.released(fl.model_n, force_user_n, dt);
+                        if fl.trip.is_some() || too_fast || released {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
@@ -450,26 +456,26 @@ impl Controller {
                         target_user_m,
                         stiffness_n_per_m,
                         damping_n_s_per_m,
+                        mass_kg,
                     } => {
                         let w = self.model.kinematics.forward_world_at(&trig);
                         let home = self.model.kinematics.home_world_m;
                         let x_m = [w[0] - home[0], w[1] - home[1]];
                         let too_fast =
                             handle_too_fast(&mut self.impedance, &self.force_loop_cfg, x_m, dt);
-                        let f_ref = spring_damper_force_n(
-                            target_user_m,
+                        let imp = VirtualImpedance {
                             stiffness_n_per_m,
                             damping_n_s_per_m,
-                            x_m,
-                            self.impedance.velocity_m_s(),
-                        );
+                            mass_kg,
+                        };
+                        let f_ref = impedance_force_n(target_user_m, &imp, &self.impedance, x_m);
                         let released = self.impedance.released(f_ref, force_user_n, dt);
                         let fl = self.force_loop.step_direct(
                             &self.force_loop_cfg,
                             ip,
                             f_ref,
                             force_user_n,
-                            1.0,
+                            IMPEDANCE_INTEGRAL_SCALE,
                             self.last_saturated,
                             dt,
                         );
@@ -477,14 +483,18 @@ impl Controller {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
-                        // stiffness 0: the inverse model gives the least the muscles can
-                        let cmd = self.model.force_command_at(
-                            alpha,
+                        // the muscles also move the arm's own mass, behind the load cell
+                        let inertia = arm_inertia_force_n(
+                            &self.model,
                             &trig,
-                            fl.command_n,
-                            [0.0; 2],
-                            false,
+                            self.impedance.acceleration_m_s2(),
                         );
+                        let command_n =
+                            [fl.command_n[0] + inertia[0], fl.command_n[1] + inertia[1]];
+                        // stiffness 0: the inverse model gives the least the muscles can
+                        let cmd = self
+                            .model
+                            .force_command_at(alpha, &trig, command_n, [0.0; 2], false);
                         limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
                         self.model.channel_pressures_bar([
                             cmd.joints[0].pressure_bar,

@@ -24,12 +24,17 @@ pub fn cartesian_to_joint<R: Real>(jacobian: &Mat2<R>, cartesian_matrix: &Mat2<R
 /// I11 = I1 + m1·r1² + I2 + m2(l1² + r2² + 2 l1 r2 c), I12 = I2 + m2(r2² + l1 r2 c),
 /// I22 = I2 + m2·r2² (r_i the centre-of-mass distance, I_i about the centre of mass).
 pub fn joint_inertia<R: Real>(params: &RobotParams<R>, theta2_rad: R) -> Mat2<R> {
+    joint_inertia_cos(params, theta2_rad.cos())
+}
+
+/// [`joint_inertia`] from cos θ2 (when the pose's sines and cosines are already known).
+pub fn joint_inertia_cos<R: Real>(params: &RobotParams<R>, cos_theta2: R) -> Mat2<R> {
     let s1 = &params.joints[0].segment;
     let s2 = &params.joints[1].segment;
     let l1 = params.joints[0].segment_length_m;
     let (m1, r1, i1) = (s1.mass_kg, s1.com_distance_m, s1.inertia_com_kg_m2);
     let (m2, r2, i2) = (s2.mass_kg, s2.com_distance_m, s2.inertia_com_kg_m2);
-    let c = theta2_rad.cos();
+    let c = cos_theta2;
     let two = R::from_f64(2.0);
     let i22 = i2 + m2 * r2 * r2;
     let i12 = i22 + m2 * l1 * r2 * c;

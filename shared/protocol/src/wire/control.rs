@@ -103,6 +103,7 @@ impl From<pam_control::Mode> for Mode {
                 target_user_m,
                 stiffness_n_per_m,
                 damping_n_s_per_m,
+                ..
             } => Mode::Impedance {
                 target_user_m,
                 stiffness_n_per_m,
@@ -155,6 +156,9 @@ impl From<Mode> for pam_control::Mode {
                 target_user_m,
                 stiffness_n_per_m,
                 damping_n_s_per_m,
+                // the virtual mass is not on the wire: measured on the twin it is not rendered
+                // faithfully (docs/impedance.md, "Virtual mass")
+                mass_kg: [0.0; 2],
             },
         }
     }
