@@ -285,7 +285,10 @@ pub fn run(
     mut progress: impl FnMut(&SoakReport),
 ) -> Result<SoakReport, EmulatorError> {
     let sim = SimConfig {
-        handle: HandleMode::Operator,
+        // the set-up of the thesis's trials and of the fault-injection table: the handle
+        // blocked in the force modes, free otherwise (a hand held at a random joint target
+        // would pull the load cell into saturation at every new target)
+        handle: HandleMode::Blocked,
         seed: config.seed,
         command_timeout_s: safety().command_timeout_s,
         ..SimConfig::default()

@@ -31,6 +31,8 @@ pub struct SoakReport {
     pub episodes: u64,
     pub arms: u64,
     pub clears: u64,
+    /// Arms refused because a fault latched again between the clear and the arm.
+    pub relatched_before_arm: u64,
     /// Mode segments run, by mode name.
     pub modes: BTreeMap<&'static str, u64>,
     pub injected: BTreeMap<Kind, KindFigures>,
@@ -80,10 +82,11 @@ impl fmt::Display for SoakReport {
         )?;
         writeln!(
             f,
-            "episodes {}, arms {}, clears {}, bad targets refused {}, noise bursts {}, overrun count changes {}",
+            "episodes {}, arms {}, clears {}, re-latched before arming {}, bad targets refused {}, noise bursts {}, overrun count changes {}",
             self.episodes,
             self.arms,
             self.clears,
+            self.relatched_before_arm,
             self.bad_targets_refused,
             self.noise_bursts,
             self.overrun_count_changes

@@ -69,6 +69,11 @@ fn recover(host: &mut Host) {
     }
     match host.request(RequestBody::Arm) {
         Ok(_) => host.report.arms += 1,
+        // a fault latched again since the clear (a vented arm drifting past its range
+        // end): refusing is right; the next episode recovers again
+        Err(ErrorCode::WrongState) if !host.plant.device.controller().faults().is_none() => {
+            host.report.relatched_before_arm += 1
+        }
         Err(e) => host.problem(format!("arm refused after recovery: {e:?}")),
     }
 }
@@ -218,12 +223,13 @@ fn noise(host: &mut Host) {
             body: RequestBody::Disarm,
         };
         let n = encode_frame(&request, &mut buf).expect("fits");
+        // another value, never the delimiter
         let i = host.below(n as u64 - 1) as usize;
-        let flip = 1 + host.below(255) as u8;
-        buf[i] ^= flip;
-        if buf[i] == 0 {
-            buf[i] = flip;
+        let mut v = 1 + host.below(254) as u8;
+        if v >= buf[i] {
+            v += 1;
         }
+        buf[i] = v;
         bytes.extend_from_slice(&buf[..n]);
     } else {
         let n = MAX_FRAME + 1 + host.below(400) as usize;
