@@ -237,16 +237,20 @@ impl Host {
         t
     }
 
-    /// Disarmed, or faulted by anything but a lone timeout: 4 mA everywhere.
-    fn check_safe(&mut self, t: &Telemetry) {
-        let floor = self
-            .plant
+    /// The safe loop current (4 mA).
+    fn floor_ma(&self) -> f32 {
+        self.plant
             .device
             .controller()
             .model()
             .params
             .ip
-            .current_min_ma;
+            .current_min_ma
+    }
+
+    /// Disarmed, or faulted by anything but a lone timeout: 4 mA everywhere.
+    fn check_safe(&mut self, t: &Telemetry) {
+        let floor = self.floor_ma();
         let must_vent = match t.state {
             wire::State::Disarmed => true,
             wire::State::Faulted => t.faults != Faults::COMMAND_TIMEOUT.0,

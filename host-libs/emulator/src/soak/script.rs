@@ -259,14 +259,7 @@ fn inject_and_watch(host: &mut Host) {
         Some(i) => host.plant.inject(i, host.time_us),
         None => host.silent = true,
     }
-    let floor = host
-        .plant
-        .device
-        .controller()
-        .model()
-        .params
-        .ip
-        .current_min_ma;
+    let floor = host.floor_ma();
     let (mut to_fault, mut to_safe, mut preempted) = (None, None, false);
     for k in 0..kind.watch_periods() {
         let t = host.period();
