@@ -105,10 +105,12 @@ pub const LINK_PRIORITY: Priority = Priority::P6;
 pub const WATCHDOG_TIMEOUT_US: u32 = 50_000;
 
 /// Consecutive missed control periods (execution longer than the period, or a wake-up a
-/// whole period late) that latch `Faults::LOOP_OVERRUN`. One or two can be a debugger or a
+/// whole period late) that latch `Faults::LOOP_OVERRUN` until the first control step: from
+/// then on the device's safety configuration sets it (`SafetyConfig::overrun_fault_periods`,
+/// default 3, 1–100, kept in flash with the other limits). One or two can be a debugger or a
 /// long USB critical section; three in a row is a loop that no longer keeps its rate.
-pub const LOOP_OVERRUN_FAULT_PERIODS: u32 =
-    pam_firmware_logic::cycle_stats::DEFAULT_OVERRUN_FAULT_PERIODS;
+pub const LOOP_OVERRUN_FAULT_PERIODS_AT_BOOT: u32 =
+    pam_control::DEFAULT_OVERRUN_FAULT_PERIODS;
 
 /// Free stack below which `Faults::STACK_LOW` latches (the painted stack's high-water
 /// mark, checked once per second). The stack is the RAM above the statics (≈ 120 KiB); a

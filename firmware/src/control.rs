@@ -146,17 +146,25 @@ pub async fn control_task(mut hw: ControlHardware) {
                 vdda_v,
                 ..device.board_health()
             });
-            (device.step(raw, timing), device.period_us())
+            let result = device.step(raw, timing);
+            (
+                result,
+                device.period_us(),
+                device.controller().safety().overrun_fault_periods,
+            )
         });
 
         match &stepped {
             // a press during the step wins over its result (the handler has vented already)
             Some(_) if estop::tripped() => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
-            Some((result, _)) => hw.outputs.write_ma(result.current_ma),
+            Some((result, _, _)) => hw.outputs.write_ma(result.current_ma),
             // No device (cannot happen once main has run): hold the safe state.
             None => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
         };
         hw.watchdog.feed();
+        if let Some(&(_, _, overrun_fault_periods)) = stepped.as_ref() {
+            hw.meter.set_overrun_fault_periods(overrun_fault_periods);
+        }
         let loop_timing = hw.meter.cycle_end();
         last_exec_cycles = loop_timing.exec_last_cycles;
         if loop_timing.overrun_fault {
@@ -166,7 +174,7 @@ pub async fn control_task(mut hw: ControlHardware) {
             hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]);
         }
 
-        if let Some((result, wanted_period_us)) = stepped {
+        if let Some((result, wanted_period_us, _)) = stepped {
             if let Some(sample) = result.telemetry {
                 if TELEMETRY.try_send(sample).is_err() {
                     TELEMETRY_DROPPED.fetch_add(1, Ordering::Relaxed);

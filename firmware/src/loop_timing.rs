@@ -7,7 +7,8 @@
 //! * Jitter: |actual − nominal| of the interval between two consecutive wake-ups. The
 //!   ticker keeps the *average* period exact; this measures how late each wake-up is
 //!   relative to the previous one (interrupt latency, critical sections of other code).
-//! * Overrun: an execution time longer than the period. `board::LOOP_OVERRUN_FAULT_PERIODS`
+//! * Overrun: an execution time longer than the period. The safety configuration's
+//!   `overrun_fault_periods` (default 3, `pamctl config set limits.overrun_fault_periods=N`)
 //!   missed periods in a row (overruns or wake-ups a whole period late) set
 //!   `LoopTiming::overrun_fault`; the control task then latches `Faults::LOOP_OVERRUN`.
 //!
@@ -59,8 +60,14 @@ impl CycleMeter {
         dwt.enable_cycle_counter();
         Self {
             stats: CycleStats::new(period_cycles)
-                .with_overrun_fault_periods(board::LOOP_OVERRUN_FAULT_PERIODS),
+                .with_overrun_fault_periods(board::LOOP_OVERRUN_FAULT_PERIODS_AT_BOOT),
         }
+    }
+
+    /// The device's count of consecutive missed periods that latch the fault (its safety
+    /// configuration, validated there: 1–100).
+    pub fn set_overrun_fault_periods(&mut self, periods: u32) {
+        self.stats.set_overrun_fault_periods(periods);
     }
 
     /// A new period length (the host changed the loop rate).

@@ -29,6 +29,7 @@ fn config_line(status: &str) -> &str {
 // as they read in `pamctl config get` without its whitespace ([`get`])
 const TARE: &str = "offset_v=[0.125,-0.25,]";
 const SLEW: &str = "slew_bar_per_s=7.5";
+const OVERRUN: &str = "overrun_fault_periods=7";
 
 /// `pamctl config get [SECTION]` without whitespace (arrays are printed one value a line).
 fn get(t: &Target, section: &[&str]) -> String {
@@ -37,12 +38,13 @@ fn get(t: &Target, section: &[&str]) -> String {
     ok(&t.address, &args).split_whitespace().collect()
 }
 
-/// Sets a tare and a slew limit that are not the defaults, and persists them.
+/// Sets a tare, a slew limit and a count of missed periods that are not the defaults, and
+/// persists them.
 fn set_and_persist(t: &Target) {
     let a = &t.address;
     let defaults = get(t, &[]);
     assert!(
-        !defaults.contains(TARE) && !defaults.contains(SLEW),
+        !defaults.contains(TARE) && !defaults.contains(SLEW) && !defaults.contains(OVERRUN),
         "{defaults}"
     );
     ok(
@@ -52,6 +54,7 @@ fn set_and_persist(t: &Target) {
             "set",
             "calibration.load_cell.offset_v=[0.125, -0.25]",
             "limits.slew_bar_per_s=7.5",
+            "limits.overrun_fault_periods=7",
         ],
     );
     assert!(config_line(&status(t)).contains("changed since"));
@@ -77,7 +80,10 @@ fn a_persisted_configuration_is_back_after_a_restart() {
     }
     let t = emulator(&flash).expect("emulator");
     let got = get(&t, &[]);
-    assert!(got.contains(TARE) && got.contains(SLEW), "{got}");
+    assert!(
+        got.contains(TARE) && got.contains(SLEW) && got.contains(OVERRUN),
+        "{got}"
+    );
     let s = status(&t);
     assert_eq!(config_line(&s), "config: from flash");
     assert!(s.contains("faults: none"), "{s}");

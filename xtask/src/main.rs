@@ -6,10 +6,14 @@
 //!   and with micromath.
 //! - `bench`       criterion benchmarks on the host.
 //! - `firmware`    release build of the board firmware, with its flash and static-RAM size.
+//! - `fuzz`        the cargo-fuzz targets (`cargo +nightly fuzz run`, [`fuzz`]).
+//! - `soak`        `[--hours H] [--seed S]`: hours of emulated operation with random targets
+//!   and injected faults, fast-forwarded (`pam_emulator::soak`), in a release build.
 //!
 //! Works from any directory and with `CARGO_TARGET_DIR` set, absolute or relative to where
 //! `cargo xtask` runs ([`target_dir`]).
 
+mod fuzz;
 mod target_dir;
 
 use std::io::{BufRead, BufReader};
@@ -23,8 +27,10 @@ fn main() {
         Some("qemu-bench") => qemu_bench(),
         Some("firmware") => firmware().map(|_| 0).unwrap_or(1),
         Some("bench") => run_status(cargo_in(&root()).args(["bench", "-p", "pam-model"])),
+        Some("fuzz") => fuzz::fuzz(&args[1..]),
+        Some("soak") => soak(&args[1..]),
         _ => {
-            eprintln!("usage: cargo xtask <test | qemu-bench | bench | firmware>");
+            eprintln!("usage: cargo xtask <test | qemu-bench | bench | firmware | fuzz | soak>");
             2
         }
     };
@@ -45,7 +51,17 @@ fn cargo() -> String {
 /// A cargo command run in `dir`, with `CARGO_TARGET_DIR` (when set) made absolute against our
 /// working directory: cargo would take a relative one relative to `dir`.
 fn cargo_in(dir: &Path) -> Command {
-    let mut cmd = Command::new(cargo());
+    program_in(cargo(), dir)
+}
+
+/// The rustup proxy `cargo` from the PATH, set up as [`cargo_in`]: it takes `+nightly`, which
+/// the toolchain's own cargo (`$CARGO` under `cargo xtask`) does not.
+fn rustup_cargo_in(dir: &Path) -> Command {
+    program_in("cargo".into(), dir)
+}
+
+fn program_in(program: String, dir: &Path) -> Command {
+    let mut cmd = Command::new(program);
     cmd.current_dir(dir);
     let cwd = std::env::current_dir().unwrap_or_else(|_| root());
     let value = std::env::var_os("CARGO_TARGET_DIR");
@@ -209,6 +225,23 @@ fn test() -> i32 {
     } else {
         1
     }
+}
+
+/// The soak test's example in release, its arguments passed on (it checks them).
+fn soak(args: &[String]) -> i32 {
+    run_status(
+        cargo_in(&root())
+            .args([
+                "run",
+                "--release",
+                "-p",
+                "pam-emulator",
+                "--example",
+                "soak",
+                "--",
+            ])
+            .args(args),
+    )
 }
 
 fn qemu_bench() -> i32 {

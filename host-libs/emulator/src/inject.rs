@@ -163,6 +163,14 @@ impl Board {
         }
     }
 
+    /// Everything injected undone: the rig repaired, the button released, no stall left.
+    pub(crate) fn repair(&mut self) {
+        self.plant.repair();
+        self.estop = false;
+        self.stall_periods_left = 0;
+        self.open_loop = [Debounce::new(OUTPUT_ERROR_DEBOUNCE_PERIODS); 4];
+    }
+
     /// The injected stall of this period, if any (the caller sleeps it: a real overrun).
     pub fn stall_us(&mut self, period_us: u32) -> u32 {
         if self.stall_periods_left == 0 {
@@ -187,6 +195,8 @@ impl Board {
     ) -> [f32; 4] {
         let mut out = current_ma;
         self.meter.set_period_if_changed(period_us);
+        self.meter
+            .set_overrun_fault_periods(device.controller().safety().overrun_fault_periods);
         self.meter.start(period_start_us);
         let timing = self.meter.end(period_start_us.wrapping_add(exec_us));
         if timing.overrun_fault {
@@ -325,6 +335,32 @@ mod tests {
             assert_eq!(out, if k == 2 { [SAFE_MA; 4] } else { [9.0; 4] });
         }
         assert_eq!(board.stall_us(1000), 0);
+    }
+
+    #[test]
+    fn the_count_of_missed_periods_is_the_devices_safety_configuration() {
+        assert_eq!(
+            SafetyConfig::default_1khz().overrun_fault_periods,
+            pam_firmware_logic::cycle_stats::DEFAULT_OVERRUN_FAULT_PERIODS,
+            "the firmware's boot value and the configuration's default agree"
+        );
+        let (mut board, mut d) = (Board::new(1000), device());
+        let limits = SafetyConfig {
+            overrun_fault_periods: 6,
+            ..SafetyConfig::default_1khz()
+        };
+        let reply = d.handle(&pam_protocol::Request {
+            id: 1,
+            body: pam_protocol::RequestBody::SetConfig(pam_protocol::Config::Limits(limits.into())),
+        });
+        assert_eq!(reply.result, Ok(pam_protocol::ReplyData::Done));
+        board.inject(Injection::Overrun { periods: 6 }, &healthy(), [4.0; 4]);
+        for k in 0..6u32 {
+            let stall = board.stall_us(1000);
+            board.after_step(&mut d, k * 1000 * 3, stall + 20, 1000, [9.0; 4]);
+            let faulted = d.controller().faults().contains(Faults::LOOP_OVERRUN);
+            assert_eq!(faulted, k == 5, "period {k}");
+        }
     }
 
     #[cfg(target_os = "linux")]

@@ -24,6 +24,7 @@ pub mod flash;
 pub mod inject;
 mod plant;
 mod rt;
+pub mod soak;
 mod stats;
 
 pub use config::{emulator_version, HandleMode, SimConfig};

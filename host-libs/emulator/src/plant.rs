@@ -4,7 +4,7 @@ use crate::config::emulator_version;
 use crate::inject::{Board, Injection, Scheduled};
 use crate::{EmulatorError, HandleMode, SimConfig};
 use pam_control::{Mode, SafetyConfig, State};
-use pam_device::{Device, DeviceOptions, RawSensors};
+use pam_device::{Device, DeviceOptions, RawSensors, StepResult, StepTiming};
 use pam_model::{RobotModel, RobotParams, Vec2};
 use pam_protocol::{Calibration, Config, EncoderCalibration, Request, RequestBody};
 use pam_twin::experiments::OperatorPath;
@@ -124,6 +124,60 @@ impl Plant {
             Ok(request) => self.device.handle_with_store(&mut self.store, request),
             Err(_) => self.device.handle_frame(frame),
         }
+    }
+
+    /// One control period of `period_us` (the device's period when the period began) at
+    /// device time `device_time_us`: the injections due, the device's step inside the
+    /// emulated board, the plant over the same period. `stall` is handed
+    /// an injected overrun's extra µs (the real-time loop sleeps them; a fast-forward run
+    /// only counts them: the board's clock sees them either way).
+    pub(crate) fn period(
+        &mut self,
+        period_us: u32,
+        device_time_us: u64,
+        last_exec_us: u16,
+        jitter_us: u16,
+        stall: impl FnOnce(u32),
+    ) -> StepResult {
+        while self
+            .schedule
+            .last()
+            .is_some_and(|s| s.at_s <= self.t_s + 1e-9)
+        {
+            if let Some(s) = self.schedule.pop() {
+                self.inject(s.injection, device_time_us);
+            }
+        }
+        self.board.before_step(&mut self.device);
+        let raw = self.raw_sensors();
+        let step_clock = crate::inject::StepClock::start();
+        let result = self.device.step(
+            raw,
+            StepTiming {
+                time_us: device_time_us as u32,
+                loop_exec_us: last_exec_us,
+                loop_jitter_us: jitter_us,
+            },
+        );
+        let step_us = step_clock.elapsed_us();
+        let stall_us = self.board.stall_us(period_us);
+        if stall_us > 0 {
+            stall(stall_us);
+        }
+        let driven_ma = self.board.after_step(
+            &mut self.device,
+            device_time_us as u32,
+            step_us + stall_us,
+            period_us,
+            result.current_ma,
+        );
+        let handle = self.handle_condition();
+        let period_s = period_us as f64 * 1e-6;
+        self.last_currents_ma = driven_ma.map(|c| c as f64);
+        let at_converters = self.board.converter_currents(self.last_currents_ma);
+        self.last = self.twin.step(period_s, at_converters, &handle);
+        self.t_s += period_s;
+        result
     }
 
     /// Applies `injection` from the coming period on and reports it.

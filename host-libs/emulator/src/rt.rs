@@ -2,10 +2,8 @@
 //! replies and telemetry out, sleeping to absolute deadlines.
 
 use crate::conn::{push_frame, Connection, Event};
-use crate::inject;
 use crate::plant::Plant;
 use crate::LoopStats;
-use pam_device::StepTiming;
 use pam_protocol::{DeviceMessage, FrameDecoder};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, TrySendError};
@@ -88,48 +86,15 @@ pub(crate) fn real_time_loop(
             }
         }
 
-        while plant
-            .schedule
-            .last()
-            .is_some_and(|s| s.at_s <= plant.t_s + 1e-9)
-        {
-            if let Some(s) = plant.schedule.pop() {
-                plant.inject(s.injection, device_time_us);
-            }
-        }
-
         // 2. the device's control period (inside the emulated board), then the plant over
-        // the same period
-        plant.board.before_step(&mut plant.device);
-        let raw = plant.raw_sensors();
-        let step_clock = inject::StepClock::start();
-        let result = plant.device.step(
-            raw,
-            StepTiming {
-                time_us: device_time_us as u32,
-                loop_exec_us: last_exec_us,
-                loop_jitter_us: jitter_us,
-            },
-        );
-        let step_us = step_clock.elapsed_us();
-        let stall_us = plant.board.stall_us(period_us as u32);
-        if stall_us > 0 {
-            std::thread::sleep(Duration::from_micros(stall_us as u64));
-        }
-        let board_exec_us = step_us + stall_us;
-        let driven_ma = plant.board.after_step(
-            &mut plant.device,
-            device_time_us as u32,
-            board_exec_us,
+        // the same period; an injected stall is slept: a real overrun
+        let result = plant.period(
             period_us as u32,
-            result.current_ma,
+            device_time_us,
+            last_exec_us,
+            jitter_us,
+            |stall_us| std::thread::sleep(Duration::from_micros(stall_us as u64)),
         );
-        let handle = plant.handle_condition();
-        let period_s = period_us as f64 * 1e-6;
-        plant.last_currents_ma = driven_ma.map(|c| c as f64);
-        let at_converters = plant.board.converter_currents(plant.last_currents_ma);
-        plant.last = plant.twin.step(period_s, at_converters, &handle);
-        plant.t_s += period_s;
         device_time_us += period_us;
 
         // 3. output

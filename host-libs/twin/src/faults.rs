@@ -149,6 +149,11 @@ impl FaultState {
         }
     }
 
+    /// Every failure mended (the rig repaired: the soak test's next episode starts healthy).
+    pub fn repair(&mut self) {
+        *self = Self::default();
+    }
+
     /// The currents that reach the converters when the device drives `commanded_ma`. A
     /// stuck converter is modelled by holding its input, which holds its set point.
     pub fn currents_ma(&self, commanded_ma: [f64; 4]) -> [f64; 4] {

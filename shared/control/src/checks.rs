@@ -472,6 +472,44 @@ pub fn hardware_faults_latch() -> CheckResult {
     )
 }
 
+/// The count of consecutive missed periods that latches `LOOP_OVERRUN` (issue 12): 3 by
+/// default, a limit like any other, refused outside 1–100 with nothing changed.
+pub fn overrun_count_is_a_validated_limit() -> CheckResult {
+    let mut c = controller();
+    holds(
+        "default 3",
+        c.safety().overrun_fault_periods == DEFAULT_OVERRUN_FAULT_PERIODS
+            && DEFAULT_OVERRUN_FAULT_PERIODS == 3,
+    )?;
+    for bad in [0, 101, u32::MAX] {
+        let s = SafetyConfig {
+            overrun_fault_periods: bad,
+            ..SafetyConfig::default_1khz()
+        };
+        holds(
+            "out of range refused",
+            s.validate() == Err(Reject::OutOfRange),
+        )?;
+        holds("set refused", c.set_safety(s) == Err(Reject::OutOfRange))?;
+        holds(
+            "nothing changed",
+            *c.safety() == SafetyConfig::default_1khz(),
+        )?;
+    }
+    for good in [1, 7, 100] {
+        let s = SafetyConfig {
+            overrun_fault_periods: good,
+            ..SafetyConfig::default_1khz()
+        };
+        holds("in range accepted", c.set_safety(s).is_ok())?;
+        holds("in force", c.safety().overrun_fault_periods == good)?;
+    }
+    holds(
+        "the range is 1–100",
+        OVERRUN_FAULT_PERIODS_RANGE == (1..=100),
+    )
+}
+
 pam_model::register_checks!(
     boots_disarmed_and_vented,
     pressures_mode_slews_to_target,
@@ -487,4 +525,5 @@ pam_model::register_checks!(
     unattainable_joint_request_is_clamped_and_flagged,
     force_mode_commands_pressures,
     hardware_faults_latch,
+    overrun_count_is_a_validated_limit,
 );

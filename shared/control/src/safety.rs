@@ -9,6 +9,16 @@ use serde::{Deserialize, Serialize};
 /// calibration, so the limit holds whatever the gain, offset or tare.
 pub const LOADCELL_AMPLIFIER_FULL_SCALE_V: f32 = 10.0;
 
+/// Consecutive missed control periods that latch `Faults::LOOP_OVERRUN` by default (issue
+/// 12): one or two can be a debugger or a long USB critical section; three in a row is a
+/// loop that no longer keeps its rate.
+pub const DEFAULT_OVERRUN_FAULT_PERIODS: u32 = 3;
+
+/// The range [`SafetyConfig::overrun_fault_periods`] must be in: at least one (the check
+/// cannot be switched off), at most 100 (0.1 s at 1 kHz, 1 s at 100 Hz, of a loop running
+/// missed periods back to back before it vents).
+pub const OVERRUN_FAULT_PERIODS_RANGE: core::ops::RangeInclusive<u32> = 1..=100;
+
 /// Limits the firmware enforces whatever the host says.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
@@ -31,6 +41,16 @@ pub struct SafetyConfig {
     pub max_request_torque_nm: f32,
     pub max_request_stiffness_nm_per_rad: f32,
     pub max_request_force_n: f32,
+    /// This many consecutive missed periods (an overrun, or a wake-up a whole period late)
+    /// is a latched `LOOP_OVERRUN` fault; within [`OVERRUN_FAULT_PERIODS_RANGE`]. A
+    /// configuration file without it gets the default.
+    #[cfg_attr(feature = "serde", serde(default = "default_overrun_fault_periods"))]
+    pub overrun_fault_periods: u32,
+}
+
+#[cfg(feature = "serde")]
+fn default_overrun_fault_periods() -> u32 {
+    DEFAULT_OVERRUN_FAULT_PERIODS
 }
 
 impl SafetyConfig {
@@ -47,6 +67,7 @@ impl SafetyConfig {
             max_request_torque_nm: 200.0,
             max_request_stiffness_nm_per_rad: 500.0,
             max_request_force_n: 100.0,
+            overrun_fault_periods: DEFAULT_OVERRUN_FAULT_PERIODS,
         }
     }
 
@@ -68,6 +89,7 @@ impl SafetyConfig {
         if positive.iter().any(|v| !(v.is_finite() && *v > 0.0))
             || !(self.angle_margin_rad >= 0.0)
             || self.loadcell_stuck_samples < 2
+            || !OVERRUN_FAULT_PERIODS_RANGE.contains(&self.overrun_fault_periods)
         {
             return Err(Reject::OutOfRange);
         }

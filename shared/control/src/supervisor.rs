@@ -6,7 +6,10 @@ use pam_model::{Limited, Real, RobotModel, Vec2};
 
 pub use crate::faults::Faults;
 pub use crate::mode::{Mode, Sensors, State, StepOutput};
-pub use crate::safety::{Reject, SafetyConfig, LOADCELL_AMPLIFIER_FULL_SCALE_V};
+pub use crate::safety::{
+    Reject, SafetyConfig, DEFAULT_OVERRUN_FAULT_PERIODS, LOADCELL_AMPLIFIER_FULL_SCALE_V,
+    OVERRUN_FAULT_PERIODS_RANGE,
+};
 
 use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
 use crate::impedance::{

@@ -37,6 +37,8 @@ mod validate;
 
 #[cfg(any(test, feature = "checks"))]
 pub mod checks;
+#[cfg(test)]
+mod fuzz_seeds;
 
 use frontend::Encoders;
 use pam_control::{Controller, Faults, Mode, Reject, SafetyConfig, Sensors, State};

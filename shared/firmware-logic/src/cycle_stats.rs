@@ -9,7 +9,9 @@
 //!   [`DEFAULT_OVERRUN_FAULT_PERIODS`]) is a loop overrun fault: the firmware latches
 //!   `Faults::LOOP_OVERRUN`, which vents.
 
-/// Consecutive missed periods that make a loop overrun fault, unless configured otherwise.
+/// Consecutive missed periods that make a loop overrun fault until the device's safety
+/// configuration says otherwise (`pam_control::SafetyConfig::overrun_fault_periods`, whose
+/// default is the same 3: checked by pam-emulator's tests).
 pub const DEFAULT_OVERRUN_FAULT_PERIODS: u32 = 3;
 
 /// Summary since start.
@@ -73,8 +75,14 @@ impl CycleStats {
     /// Consecutive missed periods that make a loop overrun fault (at least 1: the check
     /// cannot be switched off).
     pub const fn with_overrun_fault_periods(mut self, periods: u32) -> Self {
-        self.overrun_fault_periods = if periods == 0 { 1 } else { periods };
+        self.set_overrun_fault_periods(periods);
         self
+    }
+
+    /// A new count of consecutive missed periods that make the fault (at least 1), from the
+    /// next [`CycleStats::end`] on; the run counted so far is kept.
+    pub const fn set_overrun_fault_periods(&mut self, periods: u32) {
+        self.overrun_fault_periods = if periods == 0 { 1 } else { periods };
     }
 
     /// A new period: the next wake-up has no reference, jitter restarts from there.
@@ -217,6 +225,29 @@ mod tests {
         let mut s = CycleStats::new(PERIOD).with_overrun_fault_periods(0);
         s.start(0);
         assert!(s.end(PERIOD + 1).overrun_fault);
+    }
+
+    #[test]
+    fn the_limit_changes_at_run_time_and_keeps_the_run_counted() {
+        let mut s = CycleStats::new(PERIOD);
+        s.set_overrun_fault_periods(5);
+        let mut now = 0;
+        let mut miss = |s: &mut CycleStats| {
+            s.start(now);
+            let t = s.end(now + PERIOD + 1);
+            now += PERIOD + 1;
+            t
+        };
+        for _ in 0..4 {
+            assert!(!miss(&mut s).overrun_fault, "5 allowed");
+        }
+        assert!(miss(&mut s).overrun_fault, "the fifth");
+        // lowered mid-run: the next miss is past it at once
+        s.set_overrun_fault_periods(2);
+        assert!(miss(&mut s).overrun_fault);
+        s.set_overrun_fault_periods(100);
+        let t = miss(&mut s);
+        assert_eq!((t.consecutive_missed, t.overrun_fault), (7, false));
     }
 
     #[test]

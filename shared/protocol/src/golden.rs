@@ -112,6 +112,7 @@ fn safety() -> wire::SafetyConfig {
         max_request_torque_nm: 9.0,
         max_request_stiffness_nm_per_rad: 10.0,
         max_request_force_n: 11.0,
+        overrun_fault_periods: 12,
     }
 }
 
@@ -309,7 +310,7 @@ fn golden_requests() -> Vec<(Request, &'static str)> {
         (
             r(RequestBody::SetConfig(Config::Limits(safety()))),
             "ac 02 0a 02 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 a0 40 \
-            00 00 c0 40 00 00 e0 40 ac 02 00 00 10 41 00 00 20 41 00 00 30 41",
+            00 00 c0 40 00 00 e0 40 ac 02 00 00 10 41 00 00 20 41 00 00 30 41 0c",
         ),
         (
             r(RequestBody::SetTelemetry { divider: 300 }),
@@ -397,7 +398,7 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
         (
             reply(Ok(ReplyData::Config(Config::Limits(safety())))),
             "00 ac 02 00 03 02 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 \
-            a0 40 00 00 c0 40 00 00 e0 40 ac 02 00 00 10 41 00 00 20 41 00 00 30 41",
+            a0 40 00 00 c0 40 00 00 e0 40 ac 02 00 00 10 41 00 00 20 41 00 00 30 41 0c",
         ),
         // 01 Telemetry: ac 02 seq 300, c0 84 3d time_us 10⁶, α and force (4 × f32), 00 no
         // force reference, currents and pressures (8 × f32), 04 ForceFeedForward, 01 Armed,
@@ -511,7 +512,7 @@ fn the_schema_fingerprint_is_pinned() {
     // the same commit as the golden bytes above.
     println!("SCHEMA_FINGERPRINT = {SCHEMA_FINGERPRINT:#010x}");
     assert_eq!(
-        SCHEMA_FINGERPRINT, 0x29db_e41e,
+        SCHEMA_FINGERPRINT, 0xb73d_f5e0,
         "{SCHEMA_FINGERPRINT:#010x}"
     );
 }

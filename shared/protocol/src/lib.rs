@@ -50,6 +50,8 @@ pub fn params_hash(params: &pam_model::RobotParams<f32>) -> u32 {
 }
 
 #[cfg(test)]
+mod fuzz_seeds;
+#[cfg(test)]
 mod golden;
 #[cfg(test)]
 mod tests;

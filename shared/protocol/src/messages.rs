@@ -20,7 +20,9 @@ use serde::{Deserialize, Serialize};
 /// 4: the configuration in flash (`PersistConfig`, `RestoreConfig`, `EraseConfig`, two
 /// error codes) and the board's health in `Status` (configuration origin, stack, last CPU
 /// fault, VDDA, board checks).
-pub const PROTOCOL_VERSION: u16 = 4;
+/// 5: `SafetyConfig::overrun_fault_periods` (issue 12: the configurable count of missed
+/// periods that latches `LOOP_OVERRUN`).
+pub const PROTOCOL_VERSION: u16 = 5;
 
 /// Fingerprint of the wire format: FNV-1a over [`PROTOCOL_VERSION`] and the shape of
 /// [`Request`] and [`DeviceMessage`] (every type they contain, see [`crate::wire::schema`]),

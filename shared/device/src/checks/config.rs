@@ -111,6 +111,19 @@ pub fn limits_are_validated_and_the_period_is_fixed_while_armed() -> CheckResult
         RequestBody::SetConfig(Config::Limits(no_timeout.into())),
         ErrorCode::OutOfRange,
     )?;
+    for bad in [0, 101] {
+        let mut overrun = SafetyConfig::default_1khz();
+        overrun.overrun_fault_periods = bad;
+        refused(
+            &mut d,
+            RequestBody::SetConfig(Config::Limits(overrun.into())),
+            ErrorCode::OutOfRange,
+        )?;
+    }
+    holds(
+        "overrun count unchanged",
+        d.controller().safety().overrun_fault_periods == 3,
+    )?;
     holds("period unchanged", d.period_us() == 1000)?;
     let mut two_ms = SafetyConfig::default_1khz();
     two_ms.period_s = 0.002;

@@ -21,7 +21,9 @@ mod serde_like {
     impl<T: serde::Serialize> Ser for T {
         fn bytes(&self) -> ([u8; pam_protocol::MAX_PAYLOAD], usize) {
             let mut b = [0u8; pam_protocol::MAX_PAYLOAD];
-            let n = postcard::to_slice(self, &mut b).map(|s| s.len()).unwrap_or(usize::MAX);
+            let n = postcard::to_slice(self, &mut b)
+                .map(|s| s.len())
+                .unwrap_or(usize::MAX);
             (b, n)
         }
     }
@@ -53,7 +55,11 @@ fuzz_target!(|data: &[u8]| {
         RobotParams::thesis(),
         SafetyConfig::default_1khz(),
         DeviceOptions {
-            firmware_version: Version { major: 0, minor: 0, patch: 0 },
+            firmware_version: Version {
+                major: 0,
+                minor: 0,
+                patch: 0,
+            },
             encoder_counter_bits: 16,
         },
     );
@@ -61,7 +67,10 @@ fuzz_target!(|data: &[u8]| {
     for &b in data {
         if let Some(frame) = requests.push(b) {
             if let Ok(r) = &frame {
-                assert!(round_trips(r), "accepted request does not round-trip: {r:?}");
+                assert!(
+                    round_trips(r),
+                    "accepted request does not round-trip: {r:?}"
+                );
             }
             let reply = device.handle_frame(frame);
             assert!(round_trips(&DeviceMessage::Reply(reply)));
@@ -72,18 +81,28 @@ fuzz_target!(|data: &[u8]| {
                     encoder_counts: [b as u32 * 3, k & 0xFF],
                     loadcell_volts: [b as f32 * 0.01, -0.02],
                 },
-                StepTiming { time_us: k, loop_exec_us: 0, loop_jitter_us: 0 },
+                StepTiming {
+                    time_us: k,
+                    loop_exec_us: 0,
+                    loop_jitter_us: 0,
+                },
             );
             let ip = &device.controller().model().params.ip;
             for c in out.current_ma {
-                assert!(c >= ip.current_min_ma && c <= ip.current_max_ma, "current {c} out of range");
+                assert!(
+                    c >= ip.current_min_ma && c <= ip.current_max_ma,
+                    "current {c} out of range"
+                );
             }
             if let Some(t) = out.telemetry {
                 assert!(round_trips(&DeviceMessage::Telemetry(t)));
             }
         }
         if let Some(Ok(m)) = device_msgs.push(b) {
-            assert!(round_trips(&m), "accepted device message does not round-trip: {m:?}");
+            assert!(
+                round_trips(&m),
+                "accepted device message does not round-trip: {m:?}"
+            );
         }
     }
 });

@@ -61,6 +61,8 @@ wire_struct! {
         pub max_request_torque_nm: f32,
         pub max_request_stiffness_nm_per_rad: f32,
         pub max_request_force_n: f32,
+        /// Appended in protocol 5 (issue 12).
+        pub overrun_fault_periods: u32,
     }
 }
 
@@ -212,9 +214,11 @@ same_fields!(pam_control::SafetyConfig => SafetyConfig {
     period_s, command_timeout_s, slew_bar_per_s, timeout_ramp_bar_per_s,
     max_joint_speed_rad_s, angle_margin_rad, loadcell_limit_n, loadcell_stuck_samples,
     max_request_torque_nm, max_request_stiffness_nm_per_rad, max_request_force_n,
+    overrun_fault_periods,
 });
 same_fields!(SafetyConfig => pam_control::SafetyConfig {
     period_s, command_timeout_s, slew_bar_per_s, timeout_ramp_bar_per_s,
     max_joint_speed_rad_s, angle_margin_rad, loadcell_limit_n, loadcell_stuck_samples,
     max_request_torque_nm, max_request_stiffness_nm_per_rad, max_request_force_n,
+    overrun_fault_periods,
 });
