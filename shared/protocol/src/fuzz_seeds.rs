@@ -9,11 +9,7 @@
 use super::*;
 use std::path::PathBuf;
 
-fn frame<T: serde::Serialize>(msg: &T) -> Vec<u8> {
-    let mut buf = [0u8; MAX_FRAME];
-    let n = encode_frame(msg, &mut buf).expect("a seed fits a frame");
-    buf[..n].to_vec()
-}
+use super::tests::{device_info, frame_of as frame};
 
 fn request(id: u16, body: RequestBody) -> Request {
     Request { id, body }
@@ -100,17 +96,7 @@ fn device_messages() -> Vec<DeviceMessage> {
     vec![
         DeviceMessage::Reply(Reply {
             id: 1,
-            result: Ok(ReplyData::Hello(DeviceInfo {
-                protocol_version: PROTOCOL_VERSION,
-                schema_fingerprint: SCHEMA_FINGERPRINT,
-                firmware_version: Version {
-                    major: 0,
-                    minor: 1,
-                    patch: 0,
-                },
-                period_us: 1000,
-                params_hash: params_hash(&pam_model::RobotParams::thesis()),
-            })),
+            result: Ok(ReplyData::Hello(device_info())),
         }),
         DeviceMessage::Reply(Reply {
             id: 5,

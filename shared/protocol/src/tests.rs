@@ -3,7 +3,7 @@ use pam_control::{Mode, SafetyConfig, State};
 use pam_model::RobotParams;
 use proptest::prelude::*;
 
-fn frame_of<T: serde::Serialize>(msg: &T) -> Vec<u8> {
+pub(crate) fn frame_of<T: serde::Serialize>(msg: &T) -> Vec<u8> {
     let mut out = [0u8; MAX_FRAME];
     let n = encode_frame(msg, &mut out).expect("message fits");
     out[..n].to_vec()
@@ -107,6 +107,21 @@ fn telemetry(seq: u32) -> Telemetry {
     }
 }
 
+/// The `Hello` reply of a thesis-parameter device of this build at 1 kHz.
+pub(crate) fn device_info() -> DeviceInfo {
+    DeviceInfo {
+        protocol_version: PROTOCOL_VERSION,
+        schema_fingerprint: SCHEMA_FINGERPRINT,
+        firmware_version: Version {
+            major: 0,
+            minor: 1,
+            patch: 0,
+        },
+        period_us: 1000,
+        params_hash: params_hash(&RobotParams::thesis()),
+    }
+}
+
 fn every_device_message() -> Vec<DeviceMessage> {
     let status = Status {
         state: State::Faulted.into(),
@@ -129,17 +144,7 @@ fn every_device_message() -> Vec<DeviceMessage> {
             address: 0x4000_0000,
         }),
     };
-    let info = DeviceInfo {
-        protocol_version: PROTOCOL_VERSION,
-        schema_fingerprint: SCHEMA_FINGERPRINT,
-        firmware_version: Version {
-            major: 0,
-            minor: 1,
-            patch: 0,
-        },
-        period_us: 1000,
-        params_hash: params_hash(&RobotParams::thesis()),
-    };
+    let info = device_info();
     let mut v: Vec<DeviceMessage> = [
         Ok(ReplyData::Done),
         Ok(ReplyData::Hello(info)),

@@ -233,9 +233,10 @@ impl Drive {
         self.axis_force(i, axis, &self.channel_forces(i, x))
     }
 
-    /// Each channel's force at sample `i` with the channels at `x` (F_k of [`Drive::coeff`]).
+    /// Each channel's force at sample `i` with the channels at `x` (F_k of [`Drive::coeff`]);
+    /// `K` the drive's channel count (or more, the rest unused).
     #[inline]
-    pub(super) fn channel_forces(&self, i: usize, x: &[f64; 4]) -> [f64; 4] {
+    pub(super) fn channel_forces<const K: usize>(&self, i: usize, x: &[f64; K]) -> [f64; K] {
         match &self.force_law {
             Some(law) => {
                 let l = &law[i];
@@ -245,11 +246,17 @@ impl Drive {
         }
     }
 
-    /// Axis `axis`'s handle force from the channels' forces at sample `i`.
+    /// Axis `axis`'s handle force from the channels' forces at sample `i`. Force channels
+    /// are the axes themselves (their coefficients are the identity).
     #[inline]
-    pub(super) fn axis_force(&self, i: usize, axis: usize, f: &[f64; 4]) -> f64 {
-        let c = &self.coeff[i][axis];
-        (0..self.channels()).map(|k| c[k] * f[k]).sum()
+    pub(super) fn axis_force<const K: usize>(&self, i: usize, axis: usize, f: &[f64; K]) -> f64 {
+        match self.units {
+            Units::Force => f[axis],
+            Units::Pressure => {
+                let c = &self.coeff[i][axis];
+                (0..self.channels().min(K)).map(|k| c[k] * f[k]).sum()
+            }
+        }
     }
 
     /// The handle force the set-points command (the response's steady state at gain 1).

@@ -114,24 +114,12 @@ fn simulate_channels<const K: usize>(
     );
     let mut slewed: [Option<f64>; 2] = [None; 2];
     for i in 0..n {
-        let forces: [f64; K] = match &d.force_law {
-            Some(law) => {
-                let l = &law[i];
-                std::array::from_fn(|c| (l[c][0] * x[c] + l[c][1]).max(0.0))
-            }
-            None => x,
-        };
+        let forces = d.channel_forces(i, &x);
         for a in 0..2 {
             let g = r.gain[a]
                 + r.gain_slope_per_rad[a][0] * alpha[0][i]
                 + r.gain_slope_per_rad[a][1] * alpha[1][i];
-            // force channels are the axes themselves (their coefficients are the identity)
-            let f = if force_channels {
-                forces[a]
-            } else {
-                let c = &d.coeff[i][a];
-                (0..K).map(|k| c[k] * forces[k]).sum()
-            };
+            let f = d.axis_force(i, a, &forces);
             let g = if force_channels {
                 // x already carries the gain; only its pose dependence is left
                 if r.gain[a].abs() > 1e-12 {
