@@ -196,7 +196,13 @@ fn a_released_handle_in_closed_loop_force_mode_faults_and_vents() {
     let mut last = None;
     while t0.elapsed() < Duration::from_secs(2) && fault_us.is_none() {
         c.heartbeat().expect("heartbeat");
-        while let Ok(Some(t)) = c.next_telemetry(Duration::from_millis(10)) {
+        // drain for one heartbeat period only: at 1 kHz on an idle host the telemetry never
+        // pauses for 10 ms, so draining until it does never returned (and beat no heart)
+        let beat = Instant::now();
+        while beat.elapsed() < Duration::from_millis(20) {
+            let Ok(Some(t)) = c.next_telemetry(Duration::from_millis(10)) else {
+                break;
+            };
             if t.state == State::Faulted && fault_us.is_none() {
                 fault_us = Some(t.time_us);
             }
