@@ -425,14 +425,11 @@ fn a_flood_of_malformed_frames_changes_nothing() {
     c.command(RequestBody::Arm).expect("arm");
     c.command(RequestBody::SetMode(joint([5.0, -5.0]).into()))
         .expect("joint");
-    // a deterministic byte soup (xorshift): delimiters, partial frames, bad CRCs
-    let mut x: u32 = 0x9E37_79B9;
+    // a deterministic byte soup (seeded ChaCha8): delimiters, partial frames, bad CRCs
     let mut soup = vec![0u8; 256 * 1024];
-    for b in soup.iter_mut() {
-        x ^= x << 13;
-        x ^= x >> 17;
-        x ^= x << 5;
-        *b = (x >> 24) as u8;
+    {
+        use rand_chacha::rand_core::{RngCore, SeedableRng};
+        rand_chacha::ChaCha8Rng::seed_from_u64(0x9E37_79B9).fill_bytes(&mut soup);
     }
     let bytes = soup.len();
     let mut chunks = soup.chunks(4096);

@@ -472,22 +472,28 @@ fn twin_steps_away_from_the_centre() {
 /// and 4: at point 2 (50 ms, this seed) pose_dependence edges it out (scores 0.209 vs
 /// 0.206) — the two are close there once the base carries the force law's curvature (see
 /// docs/model-loop.md, known limitations).
+/// Away from the centre the cable cubic about the neutral pretension also shifts the
+/// equilibrium and adds an even (quadratic) term. At cubic_n = 1 it preloads the arm by
+/// hundreds of newtons at point 3: the base no longer holds and the fitted cubic_n came out
+/// negative (−0.5 to −1.0) in every seed that named the family (seeds 60–75 at 1 ms). At
+/// 0.3 the parameter is recovered within a few per cent, and it is checked.
 #[test]
 fn twin_nonlinear_stiffness_away_from_the_centre() {
     for (k, r) in REGIMES.iter().enumerate() {
         for point in [3, 4] {
             let label = format!("point {point}, {} s", r.period_s);
-            found(
+            let p = found(
                 &run_at(
                     point,
                     Experiment::Dynamic,
-                    "nonlinear_stiffness:cubic_n=1",
+                    "nonlinear_stiffness:cubic_n=0.3",
                     *r,
                     70 + k as u64,
                 ),
                 "nonlinear_stiffness",
                 &label,
             );
+            near(&p, "cubic_n", 0.3, 0.15, &label);
         }
     }
 }

@@ -260,7 +260,7 @@ pub fn diagnose_observed(
     families.sort();
     families.dedup();
     let folds_count = base_folds.sse.len();
-    // the level of each family's test (split in half between the t-test and the sign test);
+    // the level of each family's test (split in half between the t-test and the signed-rank test);
     // with `bonferroni`, the level is split over the families as well
     let split = if settings.bonferroni {
         families.len().max(1)

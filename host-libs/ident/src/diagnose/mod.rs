@@ -56,7 +56,7 @@ pub struct Settings {
     /// Slow wander of the residual: share of its variance in 20 time-bin means.
     pub structure_min_share: f64,
     /// Level of the fold test that accepts a family (half for the t-test, half for the
-    /// sign test). Calibrated on the controls of two generators (docs/model-loop.md).
+    /// signed-rank test). Calibrated on the controls of two generators (docs/model-loop.md).
     pub alpha: f64,
     /// Split `alpha` over the families tested (Bonferroni) as well.
     pub bonferroni: bool,

@@ -9,22 +9,8 @@ use pam_ident::Trial;
 use pam_model::RobotModel;
 use std::f64::consts::PI;
 
-pub struct Rng(u64);
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Rng(seed.wrapping_mul(0x9E3779B97F4A7C15) | 1)
-    }
-    pub fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
-    }
-}
+/// The project's one seeded generator (ChaCha8), as the twin uses it.
+pub use pam_twin::rng::Rng;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Hidden {

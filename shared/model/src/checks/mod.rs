@@ -98,19 +98,18 @@ fn num_tol<R: Real>() -> f64 {
     }
 }
 
-/// xorshift64*: deterministic, tiny, good enough for test sweeps.
-pub struct Rng(u64);
+/// The sweeps' seeded generator: ChaCha8 (`rand_chacha`, no_std), the project's one
+/// generator (the twin and the model-loop tests use it too), so a sweep draws the same
+/// points on the host and on the Cortex-M4F.
+pub struct Rng(rand_chacha::ChaCha8Rng);
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Rng(seed.max(1))
+        use rand_chacha::rand_core::SeedableRng;
+        Rng(rand_chacha::ChaCha8Rng::seed_from_u64(seed))
     }
     pub fn next_u64(&mut self) -> u64 {
-        let mut x = self.0;
-        x ^= x >> 12;
-        x ^= x << 25;
-        x ^= x >> 27;
-        self.0 = x;
-        x.wrapping_mul(0x2545_F491_4F6C_DD1D)
+        use rand_chacha::rand_core::RngCore;
+        self.0.next_u64()
     }
     /// Uniform in [lo, hi).
     pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
