@@ -47,7 +47,14 @@ impl<'a> Loop<'a> {
         }
         let mut cols = base_cols.to_vec();
         cols.extend(extra);
-        Some((cols, ranges, positive, self.delay_samples(delay), nb))
+        let (shift, fraction) = self.delay_split(delay);
+        if fraction > 0.0 {
+            // the regressors at a fraction of a sample later: their Gram block differs from
+            // the cached base's, so none is reused (nb = 0)
+            let cols = cols.iter().map(|c| later_by(c, fraction)).collect();
+            return Some((cols, ranges, positive, shift, 0));
+        }
+        Some((cols, ranges, positive, shift, nb))
     }
 
     /// A dynamic fit's least squares: the stiffness form's parameters ≥ 0 and the mass
@@ -61,15 +68,23 @@ impl<'a> Loop<'a> {
         lsq::solve_bounded(ne, positive, &[(0, fx), (2, fy)])
     }
 
-    /// A delay in whole samples. A delay shifts the measured force, not the regressors:
-    /// every fit then shares the base's cached Gram matrix (only X'y is new), and an
-    /// interpolated (fractional) shift would average the force's noise and favour itself.
-    pub(super) fn delay_samples(&self, delay_s: f64) -> usize {
-        if delay_s > 0.0 {
-            (delay_s / self.p.dt_s).round() as usize
-        } else {
-            0
+    /// A delay as whole samples of the measured force's shift and the fraction of a sample
+    /// the regressors move later. A whole-sample delay shifts the measured force, not the
+    /// regressors: every fit then shares the base's cached Gram matrix (only X'y is new).
+    /// A fractional one shifts the force by the next whole sample and interpolates the
+    /// regressors (filtered motion, smooth) back by the rest — not the force: interpolating
+    /// the force would average its noise and favour itself.
+    pub(super) fn delay_split(&self, delay_s: f64) -> (usize, f64) {
+        if delay_s <= 0.0 {
+            return (0, 0.0);
         }
+        let samples = delay_s / self.p.dt_s;
+        let whole = samples.round();
+        if (samples - whole).abs() < 1e-6 {
+            return (whole as usize, 0.0);
+        }
+        let shift = samples.ceil();
+        (shift as usize, shift - samples)
     }
 
     /// The fit's target (−f, [`msd::target`]) `shift` samples later — the force a model
@@ -319,5 +334,22 @@ impl<'a> Loop<'a> {
             split: p.split,
             warnings,
         }
+    }
+}
+
+/// `c` at `fraction` (0–1) of a sample later, by linear interpolation: row i takes the
+/// value at t_i + fraction·dt (the last row holds).
+fn later_by(c: &Column, fraction: f64) -> Column {
+    let shift = |v: &std::sync::Arc<Vec<f64>>| {
+        let n = v.len();
+        std::sync::Arc::new(
+            (0..n)
+                .map(|i| (1.0 - fraction) * v[i] + fraction * v[(i + 1).min(n - 1)])
+                .collect::<Vec<f64>>(),
+        )
+    };
+    Column {
+        name: c.name.clone(),
+        axis: [c.axis[0].as_ref().map(shift), c.axis[1].as_ref().map(shift)],
     }
 }

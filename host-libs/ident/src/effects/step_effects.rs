@@ -29,12 +29,18 @@ impl ModelEffect for TransportDelay {
         true
     }
     fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
-        // whole samples (a delay shifts the measured force), every 2 ms or every sample
-        // when sampling is slower, up to 150 ms
+        // up to 150 ms: whole samples every 2 ms, or every sample when sampling is slower;
+        // from 10 ms sampling on (the thesis's 50 ms, a rig's 40 ms), fifths of a sample
+        // as well — a 30 ms lag sampled every 50 ms is neither 0 nor 50 ms, and the
+        // regressors are smooth enough to interpolate (`Loop::delay_split`)
         let dt = ctx.p.dt_s;
-        let every = (0.002 / dt).round().max(1.0);
+        let step = if dt >= 0.01 - 1e-9 {
+            dt / 5.0
+        } else {
+            (0.002 / dt).round().max(1.0) * dt
+        };
         (1..)
-            .map(|k| k as f64 * every * dt)
+            .map(|k| k as f64 * step)
             .take_while(|d| *d <= 0.15 + 1e-9)
             .map(|d| Shape(vec![(ShapeParam::DelayS, d)]))
             .collect()
