@@ -58,6 +58,10 @@ pub struct ForceLoopConfig {
     /// cannot find its force (the patient let go of the handle, the block gave way) drives
     /// the arm away; this stops it within a few centimetres.
     pub guard_speed_m_s: f32,
+    /// Least muscle force the closed loop's inverse model may ask for, as a fraction of the
+    /// joint's anti-slack force (`pam_model::taut`): a cable cannot push, and a muscle asked
+    /// for less than nothing leaves the loop with half its gain.
+    pub taut_force_fraction: f32,
 }
 
 /// Largest multiplier of the designed feedback gains a mode may request: enough to
@@ -81,6 +85,7 @@ impl ForceLoopConfig {
             guard_band_n: 2.0,
             guard_flips: 6.0,
             guard_speed_m_s: 0.5,
+            taut_force_fraction: 0.2,
         }
     }
 
@@ -104,6 +109,8 @@ impl ForceLoopConfig {
             && self.ki_per_s >= 0.0
             && self.kd_s.is_finite()
             && self.kd_s >= 0.0
+            && self.taut_force_fraction >= 0.0
+            && self.taut_force_fraction < 1.0
     }
 }
 

@@ -442,12 +442,14 @@ impl Controller {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
-                        let cmd = self.model.force_command_at(
+                        // no cable asked to push: the loop's gain stays the model's
+                        let cmd = self.model.force_command_taut_at(
                             alpha,
                             &trig,
                             fl.command_n,
                             stiffness_nm_per_rad,
                             feed_forward,
+                            self.force_loop_cfg.taut_force_fraction,
                         );
                         limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
                         self.model.channel_pressures_bar([
