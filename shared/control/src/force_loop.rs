@@ -62,7 +62,21 @@ pub struct ForceLoopConfig {
     /// joint's anti-slack force (`pam_model::taut`): a cable cannot push, and a muscle asked
     /// for less than nothing leaves the loop with half its gain.
     pub taut_force_fraction: f32,
+    /// Compliance of what holds the handle (handle travel per newton) at which the loop's
+    /// proportional and derivative gains are halfway to [`ForceLoopConfig::compliant_pd_scale`],
+    /// m/N: 20 000 N/m puts the arm's resonance on it (≈ 1.4 kg) at 120 rad/s, three times the
+    /// loop's crossover; a hand (1000–5000 N/m) puts it at 20–60 rad/s, on the crossover.
+    pub compliance_ref_m_per_n: f32,
+    /// The proportional and derivative gains' factor against a very compliant handle.
+    pub compliant_pd_scale: f32,
+    /// Handle travel since the loop started that is not yet compliance (encoder counts, the
+    /// block's own give), m.
+    pub handle_deadband_m: f32,
 }
+
+/// Least force change over which [`ForceLoop::observe_handle`] divides the handle's travel, N
+/// (the load cell's noise is 0.15 N).
+pub const COMPLIANCE_FORCE_MIN_N: f32 = 2.0;
 
 /// Largest multiplier of the designed feedback gains a mode may request: enough to
 /// demonstrate the guard, bounded so a typo cannot ask for more.
@@ -85,7 +99,10 @@ impl ForceLoopConfig {
             guard_band_n: 2.0,
             guard_flips: 6.0,
             guard_speed_m_s: 0.5,
-            taut_force_fraction: 0.2,
+            taut_force_fraction: 0.1,
+            compliance_ref_m_per_n: 5e-5,
+            compliant_pd_scale: 0.5,
+            handle_deadband_m: 5e-4,
         }
     }
 
@@ -111,6 +128,13 @@ impl ForceLoopConfig {
             && self.kd_s >= 0.0
             && self.taut_force_fraction >= 0.0
             && self.taut_force_fraction < 1.0
+            && self.compliance_ref_m_per_n.is_finite()
+            && self.compliance_ref_m_per_n > 0.0
+            && self.compliant_pd_scale.is_finite()
+            && self.compliant_pd_scale > 0.0
+            && self.compliant_pd_scale <= 1.0
+            && self.handle_deadband_m.is_finite()
+            && self.handle_deadband_m >= 0.0
     }
 }
 
@@ -145,6 +169,10 @@ pub struct ForceLoop {
     large_error_s: f32,
     sign: [i8; 2],
     flips: [f32; 2],
+    handle_seen: bool,
+    handle0_m: Vec2<f32>,
+    force0_n: Vec2<f32>,
+    compliance_m_per_n: f32,
 }
 
 impl Default for ForceLoop {
@@ -177,6 +205,10 @@ impl ForceLoop {
             large_error_s: 0.0,
             sign: [0; 2],
             flips: [0.0; 2],
+            handle_seen: false,
+            handle0_m: [0.0; 2],
+            force0_n: [0.0; 2],
+            compliance_m_per_n: 0.0,
         }
     }
 
@@ -187,6 +219,56 @@ impl ForceLoop {
 
     pub fn integral_n(&self) -> Vec2<f32> {
         self.integral_n
+    }
+
+    /// The compliance of what holds the handle, as [`ForceLoop::observe_handle`] last saw it,
+    /// m/N (0 until it is called: a blocked handle).
+    pub fn compliance_m_per_n(&self) -> f32 {
+        self.compliance_m_per_n
+    }
+
+    /// What holds the handle, once per period before [`ForceLoop::step`] (force mode; any
+    /// frame origin, `handle_m` is only differenced). The handle's travel beyond
+    /// `handle_deadband_m` per newton of force change since the loop started, held at its
+    /// peak and forgotten over about a second. A blocked handle (§5.2) does not move and the
+    /// gains stay the design's; a hand gives way, and the arm's mass on it makes a resonance
+    /// at 20–60 rad/s, on the loop's crossover, where the converters' lag leaves no phase to
+    /// damp it with: there the proportional and derivative gains fall toward
+    /// `compliant_pd_scale` (docs/closed-loop.md, "A held handle").
+    pub fn observe_handle(
+        &mut self,
+        cfg: &ForceLoopConfig,
+        handle_m: Vec2<f32>,
+        measured_n: Vec2<f32>,
+        dt_s: f32,
+    ) {
+        if !self.handle_seen {
+            self.handle0_m = handle_m;
+            self.force0_n = measured_n;
+            self.handle_seen = true;
+        }
+        let dx = [
+            handle_m[0] - self.handle0_m[0],
+            handle_m[1] - self.handle0_m[1],
+        ];
+        let df = [
+            measured_n[0] - self.force0_n[0],
+            measured_n[1] - self.force0_n[1],
+        ];
+        let travel_m = ((dx[0] * dx[0] + dx[1] * dx[1]).sqrt() - cfg.handle_deadband_m).max(0.0);
+        let force_n = (df[0] * df[0] + df[1] * df[1])
+            .sqrt()
+            .max(COMPLIANCE_FORCE_MIN_N);
+        let c = travel_m / force_n;
+        let decayed = self.compliance_m_per_n * (1.0 - dt_s).max(0.0);
+        // NaN: keeps the decayed value (the guard trips on a non-finite force anyway)
+        self.compliance_m_per_n = if c > decayed { c } else { decayed };
+    }
+
+    /// The proportional and derivative gains' factor for the compliance seen.
+    fn pd_scale(&self, cfg: &ForceLoopConfig) -> f32 {
+        let s = cfg.compliant_pd_scale;
+        s + (1.0 - s) / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n)
     }
 
     /// One period. `saturated`: the previous command was clamped by a capability limit on
@@ -249,10 +331,11 @@ impl ForceLoop {
         let wn = ip.natural_freq_rad_s;
         let zeta = ip.damping_ratio;
         let max_df = cfg.force_rate_n_per_s * dt_s;
+        let pd = self.pd_scale(cfg);
         let (kp, ki, kd) = (
-            cfg.kp * gain_scale,
+            cfg.kp * gain_scale * pd,
             cfg.ki_per_s * gain_scale * integral_scale,
-            cfg.kd_s * gain_scale,
+            cfg.kd_s * gain_scale * pd,
         );
         let wf_dt = cfg.derivative_filter_rad_s * dt_s;
         let alpha = wf_dt / (1.0 + wf_dt);

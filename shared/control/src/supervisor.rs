@@ -426,6 +426,9 @@ impl Controller {
                         let w = self.model.kinematics.forward_world_at(&trig);
                         let too_fast =
                             handle_too_fast(&mut self.impedance, &self.force_loop_cfg, w, dt);
+                        // a hand gives way where a block does not: gentler gains
+                        self.force_loop
+                            .observe_handle(&self.force_loop_cfg, w, force_user_n, dt);
                         let fl = self.force_loop.step(
                             &self.force_loop_cfg,
                             ip,
