@@ -77,7 +77,7 @@ fn main() {
         };
         ctl.heartbeat();
         let out = ctl.step(&s);
-        if i >= n_pre - 5 && (i - n_pre) % 10 == 0 || i == n_pre - 1 {
+        if (i >= n_pre && (i - n_pre).is_multiple_of(10)) || i + 1 == n_pre {
             let fl = ctl.force_loop();
             println!("{:4} F {:7.2} {:7.2} I {:6.2} {:6.2} p {:5.2} {:5.2} {:5.2} {:5.2} | true {:5.2} {:5.2} {:5.2} {:5.2} mf {:?} lim {:?} ol {} st {:?} {:?}",
                 i as i64 - n_pre as i64, m.force_user_n[0], m.force_user_n[1], fl.integral_n()[0], fl.integral_n()[1],
