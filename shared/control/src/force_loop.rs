@@ -14,6 +14,9 @@
 //!   (torque quadrilateral, pressure range, converter range; not the slew limit, which
 //!   catches up by itself) in the direction that would grow it, and is bounded by
 //!   `integral_limit_n`.
+//! - **What holds the handle** ([`ForceLoop::observe_handle`], force mode): the proportional
+//!   and derivative gains fall with the handle's measured compliance (a block does not move,
+//!   a hand does, and the arm's mass on it resonates on the loop's crossover).
 //! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
 //!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second

@@ -15,9 +15,10 @@
 //! inverse model would unload below it is held at the floor and the other carries the whole
 //! torque, τ = R (F2 − F1) (eq. 3.2). The torque is the one requested; the stiffness is then
 //! higher than requested (flagged [`Limited::STIFFNESS`]), as it must be: the requested one is
-//! not attainable with taut cables. If the loaded muscle would leave the pressure range the
-//! pressures are clamped and [`Limited::PRESSURE`] says so (the closed loop's anti-windup
-//! reads it). The open-loop force mode keeps the thesis's inverse model unchanged.
+//! not attainable with taut cables. If the loaded muscle would leave the pressure range it is
+//! put at the top of the range and the other gives up its margin, down to zero force, before
+//! the torque is cut; a torque beyond that is flagged [`Limited::PRESSURE`] (the closed loop's
+//! anti-windup reads it). The open-loop force mode keeps the thesis's inverse model unchanged.
 
 use crate::joint::{InverseSolution, JointConsts, Limited};
 use crate::kinematics::PoseTrig;
@@ -182,6 +183,32 @@ mod tests {
             some_pushed,
             "the thesis's inverse model no longer asks a cable to push"
         );
+    }
+
+    /// Beyond what taut cables can give: the loaded muscle at the top of the range, the other
+    /// at zero force (not at the floor), the torque cut and flagged.
+    #[test]
+    fn at_the_torque_limit_the_margin_goes_before_the_torque() {
+        let model = RobotModel::<f64>::thesis();
+        let m = &model.params.muscle;
+        let c = &model.joints[0];
+        let pose = model.pose(0, 0.0);
+        let hi = c.pressure_max_bar;
+        let f_hi = pose.muscles[1].force_n(hi);
+        let floor = 0.1 * c.anti_slack_force_n;
+        // a torque the loaded muscle can just give with the other at half the floor
+        let t = c.pulley_radius_m * (f_hi - 0.5 * floor);
+        let s = c.inverse_taut(m, 0.0, t, 0.0, floor);
+        let f = pose.forces_n(s.pressure_bar);
+        assert!((s.pressure_bar[1] - hi).abs() < 1e-9, "{s:?}");
+        assert!((f[0] - 0.5 * floor).abs() < 1e-6, "{f:?}");
+        assert!((s.torque_nm - t).abs() < 1e-6, "{s:?}");
+        assert!(!s.limited.contains(Limited::PRESSURE), "{s:?}");
+        // more than that: the other muscle at zero force, the torque cut, flagged
+        let s = c.inverse_taut(m, 0.0, 2.0 * t, 0.0, floor);
+        let f = pose.forces_n(s.pressure_bar);
+        assert!(f[0].abs() < 1e-6 && s.torque_nm < 2.0 * t, "{s:?} {f:?}");
+        assert!(s.limited.contains(Limited::PRESSURE), "{s:?}");
     }
 
     #[test]
