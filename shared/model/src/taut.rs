@@ -31,6 +31,9 @@ impl<R: Real> JointConsts<R> {
     /// [`JointConsts::inverse`] with no muscle force below `min_force_n` (see the module
     /// documentation). A solution whose forces are both at or above the floor is returned
     /// unchanged; so is an invalid-input or singular one (the safe pretension).
+    // not inlined: inlined, it changed how the rest of the control step was compiled and cost
+    // the open-loop and impedance steps about 200 instructions each (QEMU, measured)
+    #[inline(never)]
     pub fn inverse_taut(
         &self,
         muscle: &MuscleCoeffs<R>,
