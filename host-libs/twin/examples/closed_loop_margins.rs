@@ -5,7 +5,7 @@
 //! half a period of zero-order hold, plus any transport delay).
 //!
 //! ```sh
-//! cargo run -p pam-twin --example closed_loop_margins [KI_SCALE [PD_SCALE]]
+//! cargo run -p pam-twin --example closed_loop_margins [KI_SCALE [GAIN_SCALE]]
 //! ```
 
 use pam_control::ForceLoopConfig;
@@ -102,11 +102,12 @@ fn main() {
     if let Some(scale) = std::env::args().nth(1) {
         cfg.ki_per_s *= scale.parse::<f32>().expect("KI_SCALE, a number");
     }
-    // and of the proportional and derivative gains: the force mode's against a compliant
-    // handle falls to `compliant_pd_scale` (docs/closed-loop.md, "A held handle")
+    // and of all three: the force mode's against a compliant handle fall toward
+    // `compliant_gain_scale` (docs/closed-loop.md, "A held handle")
     if let Some(scale) = std::env::args().nth(2) {
-        let s = scale.parse::<f32>().expect("PD_SCALE, a number");
+        let s = scale.parse::<f32>().expect("GAIN_SCALE, a number");
         cfg.kp *= s;
+        cfg.ki_per_s *= s;
         cfg.kd_s *= s;
     }
     let (wn, zeta) = (p.ip.natural_freq_rad_s, p.ip.damping_ratio);

@@ -27,6 +27,7 @@ struct Held {
 /// arm left it, 2 s to settle, then `force_n` (user frame) for 3 s.
 fn held_step(
     rig: bool,
+    feed_forward: bool,
     pose: Option<usize>,
     hand: (f64, f64),
     force_n: [f32; 2],
@@ -56,7 +57,7 @@ fn held_step(
         force_n: f,
         // pamctl set force's default joint stiffness
         stiffness_nm_per_rad: [60.0, 27.0],
-        feed_forward: false,
+        feed_forward,
         gain_scale: s,
     };
     let mut m = twin.step(1e-9, [4.0; 4], &held);
@@ -126,21 +127,25 @@ const RELAXED: (f64, f64) = (1000.0, 50.0);
 
 /// The doc's example (9.1, −4 N) into a firm and a relaxed grip, at the neutral pose and at
 /// the two §5.2 poses where it faulted (4 and 7: there the vented arm is off its muscles'
-/// equilibrium and arming alone pushes 7 N into the hand), on both twins, two noise seeds:
-/// no fault, the force reached, no oscillation beyond the load cell's noise (0.15 N).
+/// equilibrium and arming alone pushes 7 N into the hand), on both twins with and without the
+/// gain plane (plant gains 1, 0.57, 1.75 and ≈ 1: the range the loop is designed for), two
+/// noise seeds: no fault, the force reached, no oscillation beyond the load cell's noise
+/// (0.15 N).
 #[test]
 fn force_steps_into_a_held_handle_settle_without_ringing() {
-    for rig in [false, true] {
+    for (rig, ff) in [(false, false), (true, false), (false, true), (true, true)] {
         for pose in [None, Some(4), Some(7)] {
             for hand in [FIRM, RELAXED] {
                 for seed in [0, 1] {
-                    let h = held_step(rig, pose, hand, [9.1, -4.0], 1.0, seed);
+                    let h = held_step(rig, ff, pose, hand, [9.1, -4.0], 1.0, seed);
                     println!(
-                        "rig {rig} pose {pose:?} hand {hand:?} seed {seed}: settling {:.3} s, \
-                         X {:.2} ± {:.3} N (peak {:.2}), Y {:.2} N, fault {:?}",
+                        "rig {rig} plane {ff} pose {pose:?} hand {hand:?} seed {seed}: settling \
+                         {:.3} s, X {:.2} ± {:.3} N (peak {:.2}), Y {:.2} N, fault {:?}",
                         h.settling_s, h.mean_x_n, h.ripple_x_n, h.peak_x_n, h.mean_y_n, h.fault_ms
                     );
-                    let what = format!("rig {rig} pose {pose:?} hand {hand:?} seed {seed}: {h:?}");
+                    let what = format!(
+                        "rig {rig} plane {ff} pose {pose:?} hand {hand:?} seed {seed}: {h:?}"
+                    );
                     assert_eq!(h.fault_ms, None, "{what}");
                     assert!((h.mean_x_n - 9.1).abs() < 0.1, "{what}");
                     assert!((h.mean_y_n + 4.0).abs() < 0.1, "{what}");
@@ -157,7 +162,7 @@ fn force_steps_into_a_held_handle_settle_without_ringing() {
 #[test]
 fn bad_gains_against_a_held_handle_are_still_caught() {
     for hand in [FIRM, RELAXED] {
-        let h = held_step(false, Some(4), hand, [9.1, 0.0], 20.0, 0);
+        let h = held_step(false, false, Some(4), hand, [9.1, 0.0], 20.0, 0);
         println!(
             "×20 against {hand:?}: fault {:?} ms after the step",
             h.fault_ms

@@ -14,9 +14,9 @@
 //!   (torque quadrilateral, pressure range, converter range; not the slew limit, which
 //!   catches up by itself) in the direction that would grow it, and is bounded by
 //!   `integral_limit_n`.
-//! - **What holds the handle** ([`ForceLoop::observe_handle`], force mode): the proportional
-//!   and derivative gains fall with the handle's measured compliance (a block does not move,
-//!   a hand does, and the arm's mass on it resonates on the loop's crossover).
+//! - **What holds the handle** ([`ForceLoop::observe_handle`], force mode): the feedback gains
+//!   fall with the handle's measured compliance (a block does not move, a hand does, and the
+//!   arm's mass on it resonates on the loop's crossover).
 //! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
 //!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
@@ -66,14 +66,17 @@ pub struct ForceLoopConfig {
     /// for less than nothing leaves the loop with half its gain.
     pub taut_force_fraction: f32,
     /// Compliance of what holds the handle (handle travel per newton) at which the loop's
-    /// proportional and derivative gains are halfway to [`ForceLoopConfig::compliant_pd_scale`],
-    /// m/N: 20 000 N/m puts the arm's resonance on it (≈ 1.4 kg) at 120 rad/s, three times the
-    /// loop's crossover; a hand (1000–5000 N/m) puts it at 20–60 rad/s, on the crossover.
+    /// gains are halfway to [`ForceLoopConfig::compliant_gain_scale`], m/N: 20 000 N/m puts
+    /// the arm's resonance on it (≈ 1.4 kg) at 120 rad/s, three times the loop's crossover; a
+    /// hand (1000–5000 N/m) puts it at 20–60 rad/s, on the crossover.
     pub compliance_ref_m_per_n: f32,
-    /// The proportional and derivative gains' factor against a very compliant handle.
-    pub compliant_pd_scale: f32,
-    /// Handle travel since the loop started that is not yet compliance (encoder counts, the
-    /// block's own give), m.
+    /// The feedback gains' factor (kp, ki, kd) against a very compliant handle: 0.3 keeps the
+    /// loop stable against the twin's hands up to the top of the plant-gain range the loop is
+    /// designed for (g = 1.75, the gain plane on a plant without the 0.57).
+    pub compliant_gain_scale: f32,
+    /// Handle travel since the loop started that is not yet compliance, m: about one encoder
+    /// count at the handle (10 000 counts per revolution, 0.45 m), so that a block's count
+    /// flicker is not mistaken for a hand.
     pub handle_deadband_m: f32,
 }
 
@@ -104,8 +107,8 @@ impl ForceLoopConfig {
             guard_speed_m_s: 0.5,
             taut_force_fraction: 0.1,
             compliance_ref_m_per_n: 5e-5,
-            compliant_pd_scale: 0.5,
-            handle_deadband_m: 5e-4,
+            compliant_gain_scale: 0.3,
+            handle_deadband_m: 3e-4,
         }
     }
 
@@ -133,9 +136,9 @@ impl ForceLoopConfig {
             && self.taut_force_fraction < 1.0
             && self.compliance_ref_m_per_n.is_finite()
             && self.compliance_ref_m_per_n > 0.0
-            && self.compliant_pd_scale.is_finite()
-            && self.compliant_pd_scale > 0.0
-            && self.compliant_pd_scale <= 1.0
+            && self.compliant_gain_scale.is_finite()
+            && self.compliant_gain_scale > 0.0
+            && self.compliant_gain_scale <= 1.0
             && self.handle_deadband_m.is_finite()
             && self.handle_deadband_m >= 0.0
     }
@@ -236,8 +239,8 @@ impl ForceLoop {
     /// peak and forgotten over about a second. A blocked handle (§5.2) does not move and the
     /// gains stay the design's; a hand gives way, and the arm's mass on it makes a resonance
     /// at 20–60 rad/s, on the loop's crossover, where the converters' lag leaves no phase to
-    /// damp it with: there the proportional and derivative gains fall toward
-    /// `compliant_pd_scale` (docs/closed-loop.md, "A held handle").
+    /// damp it with: there the feedback gains fall toward `compliant_gain_scale`
+    /// (docs/closed-loop.md, "A held handle").
     pub fn observe_handle(
         &mut self,
         cfg: &ForceLoopConfig,
@@ -268,9 +271,9 @@ impl ForceLoop {
         self.compliance_m_per_n = if c > decayed { c } else { decayed };
     }
 
-    /// The proportional and derivative gains' factor for the compliance seen.
-    fn pd_scale(&self, cfg: &ForceLoopConfig) -> f32 {
-        let s = cfg.compliant_pd_scale;
+    /// The feedback gains' factor for the compliance seen.
+    fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
+        let s = cfg.compliant_gain_scale;
         s + (1.0 - s) / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n)
     }
 
@@ -334,11 +337,11 @@ impl ForceLoop {
         let wn = ip.natural_freq_rad_s;
         let zeta = ip.damping_ratio;
         let max_df = cfg.force_rate_n_per_s * dt_s;
-        let pd = self.pd_scale(cfg);
+        let c = self.compliance_scale(cfg);
         let (kp, ki, kd) = (
-            cfg.kp * gain_scale * pd,
-            cfg.ki_per_s * gain_scale * integral_scale,
-            cfg.kd_s * gain_scale * pd,
+            cfg.kp * gain_scale * c,
+            cfg.ki_per_s * gain_scale * integral_scale * c,
+            cfg.kd_s * gain_scale * c,
         );
         let wf_dt = cfg.derivative_filter_rad_s * dt_s;
         let alpha = wf_dt / (1.0 + wf_dt);
