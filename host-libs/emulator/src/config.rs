@@ -18,6 +18,10 @@ pub enum HandleMode {
     /// A hand holds the handle still where it is each time the device arms or the mode
     /// changes (at the joint target in joint mode).
     Held,
+    /// As `held`, with a relaxed hand: 1000 N/m, 50 N·s/m instead of the firm grip's 5000 N/m,
+    /// 100 N·s/m (a patient who does not co-contract: the softest hand the closed force loop
+    /// is tested against, docs/closed-loop.md).
+    HeldRelaxed,
     /// A scripted operator: armed in joint mode, the hand holds the handle at the joint
     /// target for 3 s, then moves it along the twin's smooth random path (±4 cm,
     /// 0.1–2 Hz) around it, restarting at each new target; armed in force mode it blocks

@@ -39,7 +39,7 @@ pub enum Injection {
     EStop,
     /// The emergency-stop button is released.
     EStopRelease,
-    /// Whatever held the handle (`--handle blocked|held|operator`) lets go of it: the patient
+    /// Whatever held the handle (`--handle blocked|held|held-relaxed|operator`) lets go of it: the patient
     /// opens the hand, the block gives way. The handle is free from then on.
     HandleRelease,
 }

@@ -8,7 +8,11 @@ use pam_device::{Device, DeviceOptions, RawSensors, StepResult, StepTiming};
 use pam_model::{RobotModel, RobotParams, Vec2};
 use pam_protocol::{Calibration, Config, EncoderCalibration, Request, RequestBody};
 use pam_twin::experiments::OperatorPath;
-use pam_twin::{HandleCondition, Measurement, Twin, TwinConfig};
+use pam_twin::{HandSpring, HandleCondition, Measurement, Twin, TwinConfig};
+
+/// The relaxed hand of `--handle held-relaxed`: stiffness, N/m, and damping, N·s/m.
+const RELAXED_HAND_N_PER_M: f64 = 1000.0;
+const RELAXED_HAND_N_S_PER_M: f64 = 50.0;
 use std::sync::mpsc::Sender;
 
 /// Width of the emulated encoder timers (the board's TIM3/TIM4 are 16-bit).
@@ -232,6 +236,13 @@ impl Plant {
             HandleMode::Blocked => HandleCondition::Free,
             HandleMode::Held if armed => HandleCondition::held_at(self.hold_point),
             HandleMode::Held => HandleCondition::Free,
+            HandleMode::HeldRelaxed if armed => HandleCondition::Hand(HandSpring {
+                target_user_m: self.hold_point,
+                target_velocity_user_m_s: [0.0; 2],
+                stiffness_n_per_m: RELAXED_HAND_N_PER_M,
+                damping_n_s_per_m: RELAXED_HAND_N_S_PER_M,
+            }),
+            HandleMode::HeldRelaxed => HandleCondition::Free,
             HandleMode::Operator if armed && force => HandleCondition::Blocked,
             HandleMode::Operator if armed && joint => {
                 let t = self.t_s - self.since_s - OPERATOR_HOLD_S;

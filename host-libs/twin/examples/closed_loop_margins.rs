@@ -5,7 +5,7 @@
 //! half a period of zero-order hold, plus any transport delay).
 //!
 //! ```sh
-//! cargo run -p pam-twin --example closed_loop_margins [KI_SCALE]
+//! cargo run -p pam-twin --example closed_loop_margins [KI_SCALE [GAIN_SCALE]]
 //! ```
 
 use pam_control::ForceLoopConfig;
@@ -101,6 +101,14 @@ fn main() {
     // `IMPEDANCE_INTEGRAL_SCALE` (docs/impedance.md)
     if let Some(scale) = std::env::args().nth(1) {
         cfg.ki_per_s *= scale.parse::<f32>().expect("KI_SCALE, a number");
+    }
+    // and of all three: the force mode's against a compliant handle fall toward
+    // `compliant_gain_scale` (docs/closed-loop.md, "A held handle")
+    if let Some(scale) = std::env::args().nth(2) {
+        let s = scale.parse::<f32>().expect("GAIN_SCALE, a number");
+        cfg.kp *= s;
+        cfg.ki_per_s *= s;
+        cfg.kd_s *= s;
     }
     let (wn, zeta) = (p.ip.natural_freq_rad_s, p.ip.damping_ratio);
     println!("converters: ωn = {wn} rad/s, ζ = {zeta}; gains kp {} ki {} 1/s kd {} s, derivative filter {} rad/s", cfg.kp, cfg.ki_per_s, cfg.kd_s, cfg.derivative_filter_rad_s);

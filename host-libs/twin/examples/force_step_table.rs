@@ -4,12 +4,13 @@
 //! ```sh
 //! cargo run --release -p pam-twin --example force_step_table -- [--closed-loop] \
 //!     [--feed-forward] [--identified-rig] [--gain-scale S] [--with EFFECT]... [--per-pose]
-//!     [--per-step] [--period SECONDS] [--within N]
+//!     [--per-step] [--period SECONDS] [--within N] [--seed N]
 //! ```
 //! Prints one markdown row: worst / mean 5 % settling, worst overshoot, mean |gain − 1|,
 //! gain range, and how many poses faulted. `--within N` keeps only the steps between levels
 //! of at most N newtons (e.g. 19: leave out the ±27.3 N levels the identified rig's weaker
-//! muscles cannot reach at every pose).
+//! muscles cannot reach at every pose). `--seed N` changes the twin's noise realisation
+//! (default 0): check a result on a few.
 
 use pam_twin::simulate::{run_trial, Experiment, TrialSpec};
 use pam_twin::step_metrics::{force_steps, summarize, StepFigures};
@@ -40,6 +41,7 @@ fn main() {
                     .and_then(|v| v.parse().ok())
                     .expect("--period SECONDS")
             }
+            "--seed" => spec.seed = args.next().and_then(|v| v.parse().ok()).expect("--seed N"),
             "--within" => {
                 within_n = args
                     .next()

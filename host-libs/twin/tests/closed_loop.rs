@@ -30,9 +30,10 @@ fn closed_loop_steps_meet_the_goals_where_the_open_loop_does_not() {
         );
         assert!(closed.gain_error_mean <= 0.02, "pose {pose}: {closed:?}");
         assert!(closed.settling_mean_s <= 0.3, "pose {pose}: {closed:?}");
-        // the worst step (the largest, where the muscles' model is least right): 0.34 s
-        // measured at pose 7 (docs/closed-loop.md), the goal 0.3 s
-        assert!(closed.settling_worst_s <= 0.4, "pose {pose}: {closed:?}");
+        // the worst step, the goal 0.3 s: 0.336 s at pose 7 (18.2 → 27.3 N) while the
+        // inverse model asked a slack cable to push (half the loop gain there); 0.2 s with the
+        // taut-cable inverse (docs/closed-loop.md)
+        assert!(closed.settling_worst_s <= 0.3, "pose {pose}: {closed:?}");
         // the same measurement sees the open loop's converter overshoot
         assert!(open.overshoot_worst_pct > 20.0, "pose {pose}: {open:?}");
     }

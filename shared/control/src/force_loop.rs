@@ -14,6 +14,9 @@
 //!   (torque quadrilateral, pressure range, converter range; not the slew limit, which
 //!   catches up by itself) in the direction that would grow it, and is bounded by
 //!   `integral_limit_n`.
+//! - **What holds the handle** ([`ForceLoop::observe_handle`], force mode): the feedback gains
+//!   fall with the handle's measured compliance (a block does not move, a hand does, and the
+//!   arm's mass on it resonates on the loop's crossover).
 //! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
 //!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
@@ -58,7 +61,28 @@ pub struct ForceLoopConfig {
     /// cannot find its force (the patient let go of the handle, the block gave way) drives
     /// the arm away; this stops it within a few centimetres.
     pub guard_speed_m_s: f32,
+    /// Least muscle force the closed loop's inverse model may ask for, as a fraction of the
+    /// joint's anti-slack force (`pam_model::taut`): a cable cannot push, and a muscle asked
+    /// for less than nothing leaves the loop with half its gain.
+    pub taut_force_fraction: f32,
+    /// Compliance of what holds the handle (handle travel per newton) at which the loop's
+    /// gains are halfway to [`ForceLoopConfig::compliant_gain_scale`], m/N: 20 000 N/m puts
+    /// the arm's resonance on it (≈ 1.4 kg) at 120 rad/s, three times the loop's crossover; a
+    /// hand (1000–5000 N/m) puts it at 20–60 rad/s, on the crossover.
+    pub compliance_ref_m_per_n: f32,
+    /// The feedback gains' factor (kp, ki, kd) against a very compliant handle: 0.3 keeps the
+    /// loop stable against the twin's hands up to the top of the plant-gain range the loop is
+    /// designed for (g = 1.75, the gain plane on a plant without the 0.57).
+    pub compliant_gain_scale: f32,
+    /// Handle travel since the loop started that is not yet compliance, m: about one encoder
+    /// count at the handle (10 000 counts per revolution, 0.45 m), so that a block's count
+    /// flicker is not mistaken for a hand.
+    pub handle_deadband_m: f32,
 }
+
+/// Least force change over which [`ForceLoop::observe_handle`] divides the handle's travel, N
+/// (the load cell's noise is 0.15 N).
+pub const COMPLIANCE_FORCE_MIN_N: f32 = 2.0;
 
 /// Largest multiplier of the designed feedback gains a mode may request: enough to
 /// demonstrate the guard, bounded so a typo cannot ask for more.
@@ -81,6 +105,10 @@ impl ForceLoopConfig {
             guard_band_n: 2.0,
             guard_flips: 6.0,
             guard_speed_m_s: 0.5,
+            taut_force_fraction: 0.1,
+            compliance_ref_m_per_n: 5e-5,
+            compliant_gain_scale: 0.3,
+            handle_deadband_m: 3e-4,
         }
     }
 
@@ -104,6 +132,15 @@ impl ForceLoopConfig {
             && self.ki_per_s >= 0.0
             && self.kd_s.is_finite()
             && self.kd_s >= 0.0
+            && self.taut_force_fraction >= 0.0
+            && self.taut_force_fraction < 1.0
+            && self.compliance_ref_m_per_n.is_finite()
+            && self.compliance_ref_m_per_n > 0.0
+            && self.compliant_gain_scale.is_finite()
+            && self.compliant_gain_scale > 0.0
+            && self.compliant_gain_scale <= 1.0
+            && self.handle_deadband_m.is_finite()
+            && self.handle_deadband_m >= 0.0
     }
 }
 
@@ -138,6 +175,10 @@ pub struct ForceLoop {
     large_error_s: f32,
     sign: [i8; 2],
     flips: [f32; 2],
+    handle_seen: bool,
+    handle0_m: Vec2<f32>,
+    force0_n: Vec2<f32>,
+    compliance_m_per_n: f32,
 }
 
 impl Default for ForceLoop {
@@ -170,6 +211,10 @@ impl ForceLoop {
             large_error_s: 0.0,
             sign: [0; 2],
             flips: [0.0; 2],
+            handle_seen: false,
+            handle0_m: [0.0; 2],
+            force0_n: [0.0; 2],
+            compliance_m_per_n: 0.0,
         }
     }
 
@@ -180,6 +225,56 @@ impl ForceLoop {
 
     pub fn integral_n(&self) -> Vec2<f32> {
         self.integral_n
+    }
+
+    /// The compliance of what holds the handle, as [`ForceLoop::observe_handle`] last saw it,
+    /// m/N (0 until it is called: a blocked handle).
+    pub fn compliance_m_per_n(&self) -> f32 {
+        self.compliance_m_per_n
+    }
+
+    /// What holds the handle, once per period before [`ForceLoop::step`] (force mode; any
+    /// frame origin, `handle_m` is only differenced). The handle's travel beyond
+    /// `handle_deadband_m` per newton of force change since the loop started, held at its
+    /// peak and forgotten over about a second. A blocked handle (§5.2) does not move and the
+    /// gains stay the design's; a hand gives way, and the arm's mass on it makes a resonance
+    /// at 20–60 rad/s, on the loop's crossover, where the converters' lag leaves no phase to
+    /// damp it with: there the feedback gains fall toward `compliant_gain_scale`
+    /// (docs/closed-loop.md, "A held handle").
+    pub fn observe_handle(
+        &mut self,
+        cfg: &ForceLoopConfig,
+        handle_m: Vec2<f32>,
+        measured_n: Vec2<f32>,
+        dt_s: f32,
+    ) {
+        if !self.handle_seen {
+            self.handle0_m = handle_m;
+            self.force0_n = measured_n;
+            self.handle_seen = true;
+        }
+        let dx = [
+            handle_m[0] - self.handle0_m[0],
+            handle_m[1] - self.handle0_m[1],
+        ];
+        let df = [
+            measured_n[0] - self.force0_n[0],
+            measured_n[1] - self.force0_n[1],
+        ];
+        let travel_m = ((dx[0] * dx[0] + dx[1] * dx[1]).sqrt() - cfg.handle_deadband_m).max(0.0);
+        let force_n = (df[0] * df[0] + df[1] * df[1])
+            .sqrt()
+            .max(COMPLIANCE_FORCE_MIN_N);
+        let c = travel_m / force_n;
+        let decayed = self.compliance_m_per_n * (1.0 - dt_s).max(0.0);
+        // NaN: keeps the decayed value (the guard trips on a non-finite force anyway)
+        self.compliance_m_per_n = if c > decayed { c } else { decayed };
+    }
+
+    /// The feedback gains' factor for the compliance seen.
+    fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
+        let s = cfg.compliant_gain_scale;
+        s + (1.0 - s) / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n)
     }
 
     /// One period. `saturated`: the previous command was clamped by a capability limit on
@@ -242,10 +337,11 @@ impl ForceLoop {
         let wn = ip.natural_freq_rad_s;
         let zeta = ip.damping_ratio;
         let max_df = cfg.force_rate_n_per_s * dt_s;
+        let c = self.compliance_scale(cfg);
         let (kp, ki, kd) = (
-            cfg.kp * gain_scale,
-            cfg.ki_per_s * gain_scale * integral_scale,
-            cfg.kd_s * gain_scale,
+            cfg.kp * gain_scale * c,
+            cfg.ki_per_s * gain_scale * integral_scale * c,
+            cfg.kd_s * gain_scale * c,
         );
         let wf_dt = cfg.derivative_filter_rad_s * dt_s;
         let alpha = wf_dt / (1.0 + wf_dt);

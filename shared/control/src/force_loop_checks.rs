@@ -278,6 +278,46 @@ pub fn reference_rate_limit_anti_windup_and_bumpless_entry() -> CheckResult {
     )
 }
 
+/// A handle that does not move (blocked, within the encoder's dead band) leaves the design's
+/// gains; one that gives way 1 mm per newton (a relaxed hand) lowers the proportional and
+/// derivative action, and the integral, toward `compliant_gain_scale`.
+pub fn a_compliant_handle_gets_gentler_gains() -> CheckResult {
+    let cfg = ForceLoopConfig::designed();
+    let ip = RobotModel::<f32>::thesis().params.ip;
+    let dt = 0.001;
+    // the first command after entry with a 1 N error is kp·e (+ the integral's first period)
+    let first = |handle_m: Vec2<f32>| {
+        let mut fl = ForceLoop::new();
+        fl.observe_handle(&cfg, [0.1, 0.2], [0.0; 2], dt);
+        fl.observe_handle(&cfg, handle_m, [-10.0, 0.0], dt);
+        let o = fl.step(&cfg, &ip, [-10.0, 0.0], [-10.0, 0.0], 1.0, false, dt);
+        let o2 = fl.step(&cfg, &ip, [-10.0, 0.0], [-11.0, 0.0], 1.0, false, dt);
+        (fl.compliance_m_per_n(), o2.command_n[0] - o.command_n[0])
+    };
+    let (c_blocked, d_blocked) = first([0.1 + 0.25e-3, 0.2]);
+    holds("blocked: no compliance", c_blocked == 0.0)?;
+    let (c_hand, d_hand) = first([0.1 + 10.3e-3, 0.2]);
+    holds("relaxed hand: 1 mm/N", (c_hand - 1e-3).abs() < 1e-5)?;
+    let s = cfg.compliant_gain_scale;
+    let expect = s + (1.0 - s) / (1.0 + c_hand / cfg.compliance_ref_m_per_n);
+    // the P, I and D parts of a 1 N error step scale with it
+    holds(
+        "gains scaled",
+        d_blocked > 0.0 && ((d_hand / d_blocked) - expect).abs() < 0.02,
+    )?;
+    // forgotten over about a second once the handle is back where it started
+    let mut fl = ForceLoop::new();
+    fl.observe_handle(&cfg, [0.0; 2], [0.0; 2], dt);
+    fl.observe_handle(&cfg, [10.5e-3, 0.0], [10.0, 0.0], dt);
+    for _ in 0..1000 {
+        fl.observe_handle(&cfg, [0.0; 2], [10.0, 0.0], dt);
+    }
+    holds(
+        "decays",
+        fl.compliance_m_per_n() < 0.4e-3 && fl.compliance_m_per_n() > 0.3e-3,
+    )
+}
+
 pub fn impedance_renders_the_spring_force_and_refuses_out_of_range() -> CheckResult {
     // the blocked plant holds the handle 2 cm left of the target: the virtual spring pulls
     // with K·2 cm, and the load cell must read it
@@ -335,5 +375,6 @@ pam_model::register_checks!(
     a_force_the_plant_cannot_give_is_a_persistent_error,
     gain_scale_outside_its_range_is_refused,
     reference_rate_limit_anti_windup_and_bumpless_entry,
+    a_compliant_handle_gets_gentler_gains,
     impedance_renders_the_spring_force_and_refuses_out_of_range,
 );

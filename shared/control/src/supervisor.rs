@@ -426,6 +426,9 @@ impl Controller {
                         let w = self.model.kinematics.forward_world_at(&trig);
                         let too_fast =
                             handle_too_fast(&mut self.impedance, &self.force_loop_cfg, w, dt);
+                        // a hand gives way where a block does not: gentler gains
+                        self.force_loop
+                            .observe_handle(&self.force_loop_cfg, w, force_user_n, dt);
                         let fl = self.force_loop.step(
                             &self.force_loop_cfg,
                             ip,
@@ -442,12 +445,14 @@ impl Controller {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
-                        let cmd = self.model.force_command_at(
+                        // no cable asked to push: the loop's gain stays the model's
+                        let cmd = self.model.force_command_taut_at(
                             alpha,
                             &trig,
                             fl.command_n,
                             stiffness_nm_per_rad,
                             feed_forward,
+                            self.force_loop_cfg.taut_force_fraction,
                         );
                         limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
                         self.model.channel_pressures_bar([

@@ -12,6 +12,7 @@
 //! - [`cartesian`], [`ellipse`]: joint ↔ Cartesian matrices and their ellipses.
 //! - [`io`], [`gain_plane`]: I/P law, load-cell law, feed-forward correction.
 //! - [`robot::RobotModel`]: all of it with the derived constants computed once.
+//! - [`taut`]: the inverse model with cables that cannot push (the closed loops).
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 // `!(x >= lo)` is deliberate throughout: it is true for NaN, so a NaN never passes a limit.
@@ -31,6 +32,7 @@ pub mod params;
 pub mod protocols;
 pub mod real;
 pub mod robot;
+pub mod taut;
 pub mod thesis;
 
 #[cfg(any(test, feature = "checks"))]
