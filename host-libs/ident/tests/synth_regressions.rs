@@ -113,8 +113,12 @@ fn quadratic_drag_is_found_although_the_last_velocity_sample_jumps() {
 #[test]
 fn a_delay_between_two_samples_is_a_delay_at_its_length() {
     use pam_synth::case::{CaseSpec, MAX_SAMPLES};
-    let mut spec = CaseSpec::random(820, Some(pam_synth::Experiment::Dynamic), Some(Family::Delay))
-        .expect("the case");
+    let mut spec = CaseSpec::random(
+        820,
+        Some(pam_synth::Experiment::Dynamic),
+        Some(Family::Delay),
+    )
+    .expect("the case");
     assert_eq!(spec.shape, Shape::SensorSync, "the draw changed");
     spec.dt_s = 0.05;
     spec.duration_s = f64::min(spec.duration_s, MAX_SAMPLES as f64 * spec.dt_s);

@@ -2,6 +2,9 @@
 
 use super::*;
 
+/// The longest dynamic delay tried, s.
+pub const MAX_DYNAMIC_DELAY_S: f64 = 0.15;
+
 /// Pure delay: the force follows the motion late (dynamic trials) / the reference late
 /// (step trials).
 pub struct TransportDelay;
@@ -41,7 +44,7 @@ impl ModelEffect for TransportDelay {
         };
         (1..)
             .map(|k| k as f64 * step)
-            .take_while(|d| *d <= 0.15 + 1e-9)
+            .take_while(|d| *d <= MAX_DYNAMIC_DELAY_S + 1e-9)
             .map(|d| Shape(vec![(ShapeParam::DelayS, d)]))
             .collect()
     }
