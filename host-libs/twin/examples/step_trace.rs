@@ -5,10 +5,11 @@
 //! each, as the test does.
 //!
 //! ```sh
-//! cargo run --release -p pam-twin --example step_trace -- POSE AXIS FROM TO [rig] [ff] [ol]
+//! cargo run --release -p pam-twin --example step_trace -- POSE AXIS FROM TO [rig] [ff] [ol] [with:EFFECT]
 //! # e.g. 7 0 18.2 27.3: the worst step before the taut-cable inverse
 //! ```
-//! `rig`: the identified rig; `ff`: the gain plane; `ol`: open loop instead of closed.
+//! `rig`: the identified rig; `ff`: the gain plane; `ol`: open loop instead of closed;
+//! `with:EFFECT`: a twin effect (`pamctl sim --list-effects`), e.g. `with:asymmetric_ip_rates`.
 use pam_control::{Controller, Mode, SafetyConfig, Sensors};
 use pam_model::protocols::step_test_stiffness;
 use pam_model::RobotModel;
@@ -28,6 +29,8 @@ fn main() {
     } else {
         TwinConfig::thesis()
     };
+    let effects: Vec<&str> = a.iter().filter_map(|s| s.strip_prefix("with:")).collect();
+    tc.effects = pam_twin::EffectSet::parse_list(&effects).expect("an effect");
     let p = STEP_POSES_DEG[pose];
     let alpha = [p[0].to_radians(), p[1].to_radians()];
     tc.initial_alpha_rad = alpha;

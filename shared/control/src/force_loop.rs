@@ -16,7 +16,12 @@
 //!   `integral_limit_n`.
 //! - **What holds the handle** ([`ForceLoop::observe_handle`], force mode): the feedback gains
 //!   fall with the handle's measured compliance (a block does not move, a hand does, and the
-//!   arm's mass on it resonates on the loop's crossover).
+//!   arm's mass on it resonates on the loop's crossover); the reference slows by the same
+//!   factor (a hand's force K·x + B·ẋ overshoots when the handle is moved faster than its
+//!   B/K), and the feed-forward gives up the gain plane's correction
+//!   ([`ForceLoop::through_plane`]): the plane is a bet on the plant's static gain that only
+//!   a fast feedback can take back, and against a hand the feedback is slow, so the bet
+//!   would go into the patient's hand.
 //! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
 //!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
@@ -24,7 +29,7 @@
 //!
 //! The design, its margins and the measured tables are in docs/closed-loop.md. f32, no heap.
 
-use pam_model::params::IpConverter;
+use pam_model::params::{GainPlane, IpConverter};
 use pam_model::{Real, Vec2};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
@@ -192,6 +197,8 @@ impl Default for ForceLoop {
 pub struct ForceLoopOutput {
     /// The force command before the gain plane, user frame, N.
     pub command_n: Vec2<f32>,
+    /// The feed-forward's share of `command_n`, N.
+    pub feed_forward_n: Vec2<f32>,
     /// The reference model's force (what the load cell should read now), N.
     pub model_n: Vec2<f32>,
     pub trip: Option<GuardTrip>,
@@ -277,6 +284,38 @@ impl ForceLoop {
         s + (1.0 - s) / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n)
     }
 
+    /// How much of the gain plane's correction the feed-forward gets, 0–1: all of it at a
+    /// block, (1 + c / `compliance_ref_m_per_n`)⁻² against a compliance c (0.04 at the twin's
+    /// firm grip, 0.002 at a relaxed hand). The plane (eq. 5.2) was identified at a blocked
+    /// handle and multiplies the feed-forward by up to 1/0.57; where the plant lacks that
+    /// deficit (the default twin) the feed-forward over-delivers by 75 %, which the design's
+    /// feedback takes back within the step (§5.2 tables) but the gentle feedback against a
+    /// hand does not: without the plane the feed-forward can only fall short of the force.
+    pub fn plane_weight(&self, cfg: &ForceLoopConfig) -> f32 {
+        let w = 1.0 / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n);
+        w * w
+    }
+
+    /// The loop's command through the gain plane `plane` at the pose `alpha_rad` (the
+    /// feed-forward with [`ForceLoop::plane_weight`] of the plane's correction, the feedback
+    /// with all of it), N, and whether the plane's gain was limited.
+    pub fn through_plane(
+        &self,
+        cfg: &ForceLoopConfig,
+        out: &ForceLoopOutput,
+        plane: &GainPlane<f32>,
+        alpha_rad: Vec2<f32>,
+    ) -> (Vec2<f32>, bool) {
+        let keep = 1.0 - self.plane_weight(cfg);
+        let ff = out.feed_forward_n;
+        let rest = [
+            out.command_n[0] - keep * ff[0],
+            out.command_n[1] - keep * ff[1],
+        ];
+        let (c, limited) = plane.correct(rest, alpha_rad);
+        ([c[0] + keep * ff[0], c[1] + keep * ff[1]], limited)
+    }
+
     /// One period. `saturated`: the previous command was clamped by a capability limit on
     /// its way to the converters (torque, pressure or current range; anti-windup).
     /// `gain_scale` multiplies kp, ki and kd (1 = the design).
@@ -333,11 +372,13 @@ impl ForceLoop {
             self.last_measured_n = measured_n;
             self.fresh = false;
         }
-        let wm = cfg.reference_bandwidth_rad_s;
+        // a hand: gentler gains, and a reference that moves the handle slowly enough that
+        // the hand's damping force (B·ẋ) does not add to the force asked for
+        let c = self.compliance_scale(cfg);
+        let wm = cfg.reference_bandwidth_rad_s * c;
         let wn = ip.natural_freq_rad_s;
         let zeta = ip.damping_ratio;
-        let max_df = cfg.force_rate_n_per_s * dt_s;
-        let c = self.compliance_scale(cfg);
+        let max_df = cfg.force_rate_n_per_s * c * dt_s;
         let (kp, ki, kd) = (
             cfg.kp * gain_scale * c,
             cfg.ki_per_s * gain_scale * integral_scale * c,
@@ -346,6 +387,7 @@ impl ForceLoop {
         let wf_dt = cfg.derivative_filter_rad_s * dt_s;
         let alpha = wf_dt / (1.0 + wf_dt);
         let mut command_n = [0.0; 2];
+        let mut feed_forward_n = [0.0; 2];
         let mut err_sq = 0.0;
         for a in 0..2 {
             let r =
@@ -355,6 +397,13 @@ impl ForceLoop {
                 // critically damped model, semi-implicit Euler
                 let acc = wm * wm * (r - self.model_n[a]) - 2.0 * wm * self.model_rate_n_s[a];
                 self.model_rate_n_s[a] += acc * dt_s;
+                // no faster toward r than wm·|r − m|: a critically damped model started
+                // within that bound does not overshoot r, also after wm fell mid-step
+                let bound = wm * (r - self.model_n[a]);
+                let v = self.model_rate_n_s[a];
+                if v * bound > 0.0 && v.abs() > bound.abs() {
+                    self.model_rate_n_s[a] = bound;
+                }
                 self.model_n[a] += self.model_rate_n_s[a] * dt_s;
                 acc
             } else {
@@ -378,11 +427,13 @@ impl ForceLoop {
                 self.integral_n[a] = (self.integral_n[a] + ki * e * dt_s)
                     .clamp_to(-cfg.integral_limit_n, cfg.integral_limit_n);
             }
+            feed_forward_n[a] = ff;
             command_n[a] = ff + kp * e + kd * e_rate + self.integral_n[a];
         }
         let trip = self.guard(cfg, err_sq, dt_s);
         ForceLoopOutput {
             command_n,
+            feed_forward_n,
             model_n: self.model_n,
             trip,
         }

@@ -318,6 +318,60 @@ pub fn a_compliant_handle_gets_gentler_gains() -> CheckResult {
     )
 }
 
+/// Against a relaxed hand (1 mm/N) the reference is slower and does not overshoot, also when
+/// the hand is recognised only mid-step, and the feed-forward keeps (almost) none of the gain
+/// plane's correction, which the feedback still gets; at a block both are the design's.
+pub fn a_compliant_handle_gets_a_gentler_reference_and_feed_forward() -> CheckResult {
+    let cfg = ForceLoopConfig::designed();
+    let model = RobotModel::<f32>::thesis();
+    let ip = model.params.ip;
+    let dt = 0.001;
+    // model force after `n` periods of a 10 N step; the hand is seen after `seen_at`
+    let reference = |seen_at: u32, n: u32| {
+        let mut fl = ForceLoop::new();
+        fl.observe_handle(&cfg, [0.0; 2], [0.0; 2], dt);
+        let (mut peak, mut o) = (
+            0.0f32,
+            fl.step(&cfg, &ip, [0.0; 2], [0.0; 2], 1.0, false, dt),
+        );
+        for i in 0..n {
+            let handle_m = if i >= seen_at { 10.3e-3 } else { 0.0 };
+            fl.observe_handle(&cfg, [handle_m, 0.0], [10.0, 0.0], dt);
+            o = fl.step(&cfg, &ip, [10.0, 0.0], o.model_n, 1.0, false, dt);
+            peak = peak.max(o.model_n[0]);
+        }
+        (o.model_n[0], peak, fl, o)
+    };
+    let (blocked, _, fl_blocked, o_blocked) = reference(u32::MAX, 100);
+    let (held, _, fl_held, o_held) = reference(0, 100);
+    holds(
+        "slower against a hand",
+        held < 0.5 * blocked && blocked > 8.0,
+    )?;
+    let (_, peak, _, _) = reference(40, 1000);
+    holds("recognised mid-step: no overshoot", peak <= 10.0 + 1e-3)?;
+    holds(
+        "the plane's share",
+        fl_blocked.plane_weight(&cfg) == 1.0 && fl_held.plane_weight(&cfg) < 0.01,
+    )?;
+    let plane = &model.params.gain_plane;
+    let alpha = POSE_RAD;
+    let g = plane.gain(0, alpha);
+    // at a block all of the command is divided by G; against the hand the feed-forward is not
+    let (c_blocked, _) = fl_blocked.through_plane(&cfg, &o_blocked, plane, alpha);
+    holds(
+        "block: through the plane",
+        (c_blocked[0] - o_blocked.command_n[0] / g).abs() < 1e-3,
+    )?;
+    let (c_held, _) = fl_held.through_plane(&cfg, &o_held, plane, alpha);
+    let ff = o_held.feed_forward_n[0];
+    let feedback = o_held.command_n[0] - ff;
+    holds(
+        "hand: feed-forward as it is, feedback through the plane",
+        (c_held[0] - (ff + feedback / g)).abs() < 0.01 * ff.abs() + 1e-3 && g < 0.9,
+    )
+}
+
 pub fn impedance_renders_the_spring_force_and_refuses_out_of_range() -> CheckResult {
     // the blocked plant holds the handle 2 cm left of the target: the virtual spring pulls
     // with K·2 cm, and the load cell must read it
@@ -376,5 +430,6 @@ pam_model::register_checks!(
     gain_scale_outside_its_range_is_refused,
     reference_rate_limit_anti_windup_and_bumpless_entry,
     a_compliant_handle_gets_gentler_gains,
+    a_compliant_handle_gets_a_gentler_reference_and_feed_forward,
     impedance_renders_the_spring_force_and_refuses_out_of_range,
 );

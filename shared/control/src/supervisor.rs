@@ -445,13 +445,22 @@ impl Controller {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
+                        // the gain plane: all of it on the feedback, on the feed-forward only
+                        // at a block (a bet the gentle loop against a hand cannot take back)
+                        let command_n = if feed_forward {
+                            let plane = &self.model.params.gain_plane;
+                            let cfg = &self.force_loop_cfg;
+                            self.force_loop.through_plane(cfg, &fl, plane, alpha).0
+                        } else {
+                            fl.command_n
+                        };
                         // no cable asked to push: the loop's gain stays the model's
                         let cmd = self.model.force_command_taut_at(
                             alpha,
                             &trig,
-                            fl.command_n,
+                            command_n,
                             stiffness_nm_per_rad,
-                            feed_forward,
+                            false,
                             self.force_loop_cfg.taut_force_fraction,
                         );
                         limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
