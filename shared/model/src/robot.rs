@@ -154,6 +154,27 @@ impl<R: Real> RobotModel<R> {
         stiffness_nm_per_rad: Vec2<R>,
         feed_forward: bool,
     ) -> ForceCommand<R> {
+        let (force_cmd_n, gain_limited, joint_torque_nm) =
+            self.joint_torque_for(alpha_rad, trig, force_ref_n, feed_forward);
+        let joints = self.inverse(alpha_rad, joint_torque_nm, stiffness_nm_per_rad);
+        ForceCommand {
+            force_cmd_n,
+            gain_limited,
+            joint_torque_nm,
+            joints,
+        }
+    }
+
+    /// The force mode's first half: the optional gain-plane correction of the requested
+    /// force, and the joint torques τ = Jᵀ F of the corrected force (with whether the plane
+    /// was limited).
+    pub(crate) fn joint_torque_for(
+        &self,
+        alpha_rad: Vec2<R>,
+        trig: &PoseTrig<R>,
+        force_ref_n: Vec2<R>,
+        feed_forward: bool,
+    ) -> (Vec2<R>, bool, Vec2<R>) {
         let (force_cmd_n, gain_limited) = if feed_forward {
             self.params.gain_plane.correct(force_ref_n, alpha_rad)
         } else {
@@ -164,13 +185,7 @@ impl<R: Real> RobotModel<R> {
             .jacobian_at(trig)
             .transpose()
             .mul_vec(force_cmd_n);
-        let joints = self.inverse(alpha_rad, joint_torque_nm, stiffness_nm_per_rad);
-        ForceCommand {
-            force_cmd_n,
-            gain_limited,
-            joint_torque_nm,
-            joints,
-        }
+        (force_cmd_n, gain_limited, joint_torque_nm)
     }
 
     /// The four channel pressures (I/P outputs 0..=3) from per-joint `[P1, P2]`, through

@@ -109,16 +109,8 @@ impl<R: Real> RobotModel<R> {
         feed_forward: bool,
         min_force_fraction: R,
     ) -> ForceCommand<R> {
-        let (force_cmd_n, gain_limited) = if feed_forward {
-            self.params.gain_plane.correct(force_ref_n, alpha_rad)
-        } else {
-            (force_ref_n, false)
-        };
-        let joint_torque_nm = self
-            .kinematics
-            .jacobian_at(trig)
-            .transpose()
-            .mul_vec(force_cmd_n);
+        let (force_cmd_n, gain_limited, joint_torque_nm) =
+            self.joint_torque_for(alpha_rad, trig, force_ref_n, feed_forward);
         let m = &self.params.muscle;
         let one = |j: usize| {
             let c = &self.joints[j];
