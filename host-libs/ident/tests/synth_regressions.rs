@@ -14,6 +14,9 @@
 //! - 820 of `confusion --family delay --period-s 0.05 --seed0 800`: a sensor-sync delay
 //!   sampled every 50 ms, named backlash while the delay family had whole samples only
 //!   (0 or 50 ms for a lag between them).
+//! - 70040 of `confusion --logs 320 --seed0 70000`: a 19 ms sensor-sync delay at 5 ms
+//!   sampling, "none" while the folds scored the trial's last rows, where a delayed fit's
+//!   target is the last sample standing in: its last fold lost 8.6 %, every other won.
 
 use pam_ident::diagnose::{diagnose, Settings};
 use pam_ident::effects::Experiment as LoopExperiment;
@@ -145,4 +148,42 @@ fn a_delay_between_two_samples_is_a_delay_at_its_length() {
     // the estimates over 30 such logs ran 0–17 ms long (docs/model-loop.md); this one 40 ms
     let got = top["params"]["delay_s"].as_f64().unwrap();
     assert!((got - delay).abs() < 0.02, "{got} against {delay}");
+}
+
+/// The dynamic folds leave out the trial's last rows for every model: a delay's target
+/// there (the force `shift` samples later) is not in the log.
+#[test]
+fn a_delay_is_not_judged_on_rows_past_the_end_of_the_log() {
+    let spec = plan(41, 70000, None)[40].clone();
+    assert_eq!(
+        (spec.family, spec.shape),
+        (Family::Delay, Shape::SensorSync),
+        "the plan changed"
+    );
+    let g = generate(&spec).expect("generating");
+    let truth = serde_json::to_value(&g.truth.params).unwrap();
+    let log = pam_log::read_str(&g.log_text, None).expect("the generated log");
+    let trial = Trial::from_log(&log).unwrap();
+    let (d, _) = diagnose(
+        &trial,
+        &RobotModel::thesis(),
+        LoopExperiment::Dynamic,
+        Settings::default(),
+    )
+    .unwrap();
+    let d = serde_json::to_value(&d).unwrap();
+    assert_eq!(d["verdict"], "effect", "{d:#}");
+    let top = &d["effects"][0];
+    assert_eq!(top["family"], "delay", "{d:#}");
+    let gains = top["folds"]["gains"].as_array().unwrap();
+    assert!(
+        gains.last().unwrap().as_f64().unwrap() > 0.0,
+        "the last fold: {gains:?}"
+    );
+    near(
+        &top["params"]["delay_s"],
+        &truth["delay_s"],
+        0.15,
+        "the delay",
+    );
 }
