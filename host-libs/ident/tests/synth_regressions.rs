@@ -45,7 +45,12 @@ fn diagnosis_as(
         (family, shape),
         "the plan changed"
     );
-    let g = generate(&spec).expect("generating");
+    diagnosis_of_spec(&spec, experiment)
+}
+
+/// `spec`'s log generated and diagnosed: the diagnosis and the truth's parameters as JSON.
+fn diagnosis_of_spec(spec: &pam_synth::CaseSpec, experiment: LoopExperiment) -> (Value, Value) {
+    let g = generate(spec).expect("generating");
     let log = pam_log::read_str(&g.log_text, None).expect("the generated log");
     let trial = Trial::from_log(&log).unwrap();
     let (d, _) = diagnose(
@@ -125,18 +130,7 @@ fn a_delay_between_two_samples_is_a_delay_at_its_length() {
     assert_eq!(spec.shape, Shape::SensorSync, "the draw changed");
     spec.dt_s = 0.05;
     spec.duration_s = f64::min(spec.duration_s, MAX_SAMPLES as f64 * spec.dt_s);
-    let g = generate(&spec).expect("generating");
-    let truth = serde_json::to_value(&g.truth.params).unwrap();
-    let log = pam_log::read_str(&g.log_text, None).expect("the generated log");
-    let trial = Trial::from_log(&log).unwrap();
-    let (d, _) = diagnose(
-        &trial,
-        &RobotModel::thesis(),
-        LoopExperiment::Dynamic,
-        Settings::default(),
-    )
-    .unwrap();
-    let d = serde_json::to_value(&d).unwrap();
+    let (d, truth) = diagnosis_of_spec(&spec, LoopExperiment::Dynamic);
     let delay = truth["delay_s"].as_f64().unwrap();
     let off_grid = (delay / 0.05 - (delay / 0.05).round()).abs();
     assert!(off_grid > 0.2, "the lag {delay} s is near a whole sample");
@@ -160,18 +154,7 @@ fn a_delay_is_not_judged_on_rows_past_the_end_of_the_log() {
         (Family::Delay, Shape::SensorSync),
         "the plan changed"
     );
-    let g = generate(&spec).expect("generating");
-    let truth = serde_json::to_value(&g.truth.params).unwrap();
-    let log = pam_log::read_str(&g.log_text, None).expect("the generated log");
-    let trial = Trial::from_log(&log).unwrap();
-    let (d, _) = diagnose(
-        &trial,
-        &RobotModel::thesis(),
-        LoopExperiment::Dynamic,
-        Settings::default(),
-    )
-    .unwrap();
-    let d = serde_json::to_value(&d).unwrap();
+    let (d, truth) = diagnosis_of_spec(&spec, LoopExperiment::Dynamic);
     assert_eq!(d["verdict"], "effect", "{d:#}");
     let top = &d["effects"][0];
     assert_eq!(top["family"], "delay", "{d:#}");
