@@ -356,15 +356,19 @@ impl<R: Real> JointConsts<R> {
         torque_nm: R,
         stiffness_nm_per_rad: R,
     ) -> InverseSolution<R> {
-        let alpha_ok = alpha_rad.is_finite()
-            && alpha_rad >= self.alpha_min_rad
-            && alpha_rad <= self.alpha_max_rad;
-        if !alpha_ok {
+        if !self.alpha_in_range(alpha_rad) {
             return self.safe_pretension(muscle, Limited::INVALID_INPUT);
         }
         let pose = self.pose(muscle, alpha_rad);
         let cap = pose.capability(self);
         self.solve_within(&pose, &cap, torque_nm, stiffness_nm_per_rad)
+    }
+
+    /// The joint angle is a number inside the joint's range: the inverse model's and the
+    /// evaluation's precondition.
+    #[inline]
+    pub fn alpha_in_range(&self, alpha_rad: R) -> bool {
+        alpha_rad.is_finite() && alpha_rad >= self.alpha_min_rad && alpha_rad <= self.alpha_max_rad
     }
 
     /// The inverse model on an already evaluated pose and its capability (lets a caller
@@ -418,7 +422,11 @@ impl<R: Real> JointConsts<R> {
     }
 
     /// The pretension pressures at the neutral pose: the state the rig is calibrated in.
-    fn safe_pretension(&self, muscle: &MuscleCoeffs<R>, limited: Limited) -> InverseSolution<R> {
+    pub(crate) fn safe_pretension(
+        &self,
+        muscle: &MuscleCoeffs<R>,
+        limited: Limited,
+    ) -> InverseSolution<R> {
         let pose = self.pose(muscle, R::ZERO);
         self.safe_pretension_at(&pose, limited)
     }

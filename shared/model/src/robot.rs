@@ -97,7 +97,7 @@ impl<R: Real> RobotModel<R> {
         let one = |j: usize| {
             let consts = &self.joints[j];
             let a = alpha_rad[j];
-            if !(a.is_finite() && a >= consts.alpha_min_rad && a <= consts.alpha_max_rad) {
+            if !consts.alpha_in_range(a) {
                 // capability at the nearest valid angle, answer the safe pretension
                 let a_valid = if a.is_finite() {
                     a.clamp_to(consts.alpha_min_rad, consts.alpha_max_rad)

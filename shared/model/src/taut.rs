@@ -42,11 +42,8 @@ impl<R: Real> JointConsts<R> {
         stiffness_nm_per_rad: R,
         min_force_n: R,
     ) -> InverseSolution<R> {
-        let alpha_ok = alpha_rad.is_finite()
-            && alpha_rad >= self.alpha_min_rad
-            && alpha_rad <= self.alpha_max_rad;
-        if !alpha_ok {
-            return self.inverse(muscle, alpha_rad, torque_nm, stiffness_nm_per_rad);
+        if !self.alpha_in_range(alpha_rad) {
+            return self.safe_pretension(muscle, Limited::INVALID_INPUT);
         }
         let pose = self.pose(muscle, alpha_rad);
         let cap = pose.capability(self);
