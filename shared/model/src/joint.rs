@@ -422,11 +422,7 @@ impl<R: Real> JointConsts<R> {
     }
 
     /// The pretension pressures at the neutral pose: the state the rig is calibrated in.
-    pub(crate) fn safe_pretension(
-        &self,
-        muscle: &MuscleCoeffs<R>,
-        limited: Limited,
-    ) -> InverseSolution<R> {
+    fn safe_pretension(&self, muscle: &MuscleCoeffs<R>, limited: Limited) -> InverseSolution<R> {
         let pose = self.pose(muscle, R::ZERO);
         self.safe_pretension_at(&pose, limited)
     }

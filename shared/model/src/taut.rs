@@ -43,7 +43,8 @@ impl<R: Real> JointConsts<R> {
         min_force_n: R,
     ) -> InverseSolution<R> {
         if !self.alpha_in_range(alpha_rad) {
-            return self.safe_pretension(muscle, Limited::INVALID_INPUT);
+            // the inverse's own answer to invalid input (the safe pretension)
+            return self.inverse(muscle, alpha_rad, torque_nm, stiffness_nm_per_rad);
         }
         let pose = self.pose(muscle, alpha_rad);
         let cap = pose.capability(self);
