@@ -3,7 +3,7 @@
 //! accuracy, false alarms and timings.
 //!
 //! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
-//!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE]`
+//!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE]`
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -29,6 +29,10 @@ struct Args {
     period_s: Option<f64>,
     out: Option<PathBuf>,
     json: Option<PathBuf>,
+    /// Only these seeds of the plan (e.g. a run's misses), keeping the plan's draw.
+    only: Option<Vec<u64>>,
+    /// The loop's settings; `--set NAME=VALUE` changes one (to measure a trade-off).
+    settings: Settings,
 }
 
 fn parse() -> Result<Args, String> {
@@ -41,6 +45,8 @@ fn parse() -> Result<Args, String> {
         period_s: None,
         out: None,
         json: None,
+        only: None,
+        settings: Settings::default(),
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
@@ -59,6 +65,30 @@ fn parse() -> Result<Args, String> {
             }
             "--out" => a.out = Some(PathBuf::from(v()?)),
             "--json" => a.json = Some(PathBuf::from(v()?)),
+            "--set" => {
+                let kv = v()?;
+                let (k, x) = kv
+                    .split_once('=')
+                    .ok_or(format!("--set NAME=VALUE, got `{kv}`"))?;
+                let x: f64 = x.parse().map_err(|e| format!("--set {k}: {e}"))?;
+                let s = &mut a.settings;
+                match k {
+                    "alpha" => s.alpha = x,
+                    "min_improvement" => s.min_improvement = x,
+                    "min_significant_improvement" => s.min_significant_improvement = x,
+                    "penalty_per_param" => s.penalty_per_param = x,
+                    "min_effect_size" => s.min_effect_size = x,
+                    other => return Err(format!("--set: no setting `{other}`")),
+                }
+            }
+            "--only" => {
+                let seeds = v()?
+                    .split(',')
+                    .map(|s| s.trim().parse::<u64>())
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|e| format!("--only: a comma-separated list of seeds: {e}"))?;
+                a.only = Some(seeds);
+            }
             other => return Err(format!("unknown argument `{other}`")),
         }
     }
@@ -67,7 +97,7 @@ fn parse() -> Result<Args, String> {
 
 /// Generates, diagnoses (as `pamctl model diagnose` would: log text → pam-log → Trial) and
 /// judges one case.
-pub fn run_case(spec: &CaseSpec, out: Option<&PathBuf>) -> CaseResult {
+pub fn run_case(spec: &CaseSpec, out: Option<&PathBuf>, settings: Settings) -> CaseResult {
     let model = RobotModel::<f64>::thesis();
     let g = match generate(spec) {
         Ok(g) => g,
@@ -85,9 +115,7 @@ pub fn run_case(spec: &CaseSpec, out: Option<&PathBuf>) -> CaseResult {
     let said = pam_log::read_str(&g.log_text, None)
         .map_err(|e| e.to_string())
         .and_then(|log| Trial::from_log(&log).map_err(|e| e.to_string()))
-        .and_then(|trial| {
-            diagnose(&trial, &model, exp, Settings::default()).map_err(|e| e.to_string())
-        })
+        .and_then(|trial| diagnose(&trial, &model, exp, settings).map_err(|e| e.to_string()))
         .and_then(|(d, _)| serde_json::to_value(&d).map_err(|e| e.to_string()));
     let seconds = start.elapsed().as_secs_f64();
     match said {
@@ -118,7 +146,7 @@ fn main() {
     let a = match parse() {
         Ok(a) => a,
         Err(e) => {
-            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE]");
+            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE]");
             std::process::exit(2);
         }
     };
@@ -131,6 +159,13 @@ fn main() {
             .map(|i| CaseSpec::random(a.seed0 + i, a.experiment, Some(f)))
             .collect::<Result<Vec<_>, _>>()
             .unwrap_or_else(|e| panic!("--family {}: {e}", f.name())),
+    };
+    let specs: Vec<CaseSpec> = match &a.only {
+        None => specs,
+        Some(seeds) => specs
+            .into_iter()
+            .filter(|s| seeds.contains(&s.seed))
+            .collect(),
     };
     let specs: Vec<CaseSpec> = match a.period_s {
         None => specs,
@@ -156,7 +191,7 @@ fn main() {
                 if i >= specs.len() {
                     break;
                 }
-                let r = run_case(&specs[i], a.out.as_ref());
+                let r = run_case(&specs[i], a.out.as_ref(), a.settings);
                 let k = done.fetch_add(1, Ordering::SeqCst) + 1;
                 eprintln!("[{k}/{}] {}", specs.len(), judge::case_line(&r));
                 results.lock().unwrap()[i] = Some(r);

@@ -1,8 +1,8 @@
 //! The model loop on logs from an independent generator (`pam-synth`, not built with the
 //! loop): 80 short logs at mixed sampling periods, both experiments, about a quarter
 //! controls. The targets are ≥ 95 % right and false alarms ≤ 5 % over the controls;
-//! on these short logs the loop reached 82.5 % and 3 of 20 (2026-11-23) and 95.0 % and 0 of
-//! 20 (2026-11-24); this test holds the level as a floor ([`FLOOR_ACCURACY`],
+//! on these short logs the loop reached 82.5 % and 3 of 20 (2026-11-23), 95.0 % and 0 of
+//! 20 (2026-11-24) and 97.5 % and 0 of 20 (seventh session); this test holds the level as a floor ([`FLOOR_ACCURACY`],
 //! [`CEILING_FALSE_ALARMS`]). The matrix is printed so a failing run shows what the loop
 //! confused. The full run (longer logs, as a rig records them):
 //! `cargo run -p pam-ident --release --example confusion -- --logs 300`.
@@ -19,10 +19,10 @@ use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
 use pam_synth::{generate, CaseSpec, Experiment};
 
 const CASES: usize = 80;
-/// Measured 95.0 % right and 0/20 false alarms (fourth session: multirate analysis, the
-/// force saturation screened in measured newtons, `force_slew`; 86.2 % and 2/20 before,
+/// Measured 97.5 % right and 0/20 false alarms (seventh session: the fold test's level
+/// calibrated, the wander's variance ratio; 95.0 % in the fourth, 86.2 % and 2/20 before,
 /// 82.5 % and 3/20 earlier): the floor the loop must not fall below, two logs under today.
-const FLOOR_ACCURACY: f64 = 0.925;
+const FLOOR_ACCURACY: f64 = 0.95;
 const CEILING_FALSE_ALARMS: f64 = 0.05;
 /// The targets, printed next to the result.
 const TARGET_ACCURACY: f64 = 0.95;
