@@ -29,6 +29,7 @@
 //!
 //! The design, its margins and the measured tables are in docs/closed-loop.md. f32, no heap.
 
+use crate::plant_gain::PlantGain;
 use pam_model::params::{GainPlane, IpConverter};
 use pam_model::{Real, Vec2};
 #[cfg(feature = "serde")]
@@ -184,6 +185,7 @@ pub struct ForceLoop {
     handle0_m: Vec2<f32>,
     force0_n: Vec2<f32>,
     compliance_m_per_n: f32,
+    plant_gain: PlantGain,
 }
 
 impl Default for ForceLoop {
@@ -222,6 +224,7 @@ impl ForceLoop {
             handle0_m: [0.0; 2],
             force0_n: [0.0; 2],
             compliance_m_per_n: 0.0,
+            plant_gain: PlantGain::new(),
         }
     }
 
@@ -232,6 +235,17 @@ impl ForceLoop {
 
     pub fn integral_n(&self) -> Vec2<f32> {
         self.integral_n
+    }
+
+    /// The plant's static gain the loop measured at steady levels and divides its command by
+    /// (1 until measured; `crate::plant_gain`).
+    pub fn plant_gain(&self) -> f32 {
+        self.plant_gain.gain()
+    }
+
+    /// Forget the measured plant gain (the plant changed: the gain plane was switched).
+    pub fn forget_plant_gain(&mut self) {
+        self.plant_gain = PlantGain::new();
     }
 
     /// The compliance of what holds the handle, as [`ForceLoop::observe_handle`] last saw it,
@@ -428,7 +442,30 @@ impl ForceLoop {
                     .clamp_to(-cfg.integral_limit_n, cfg.integral_limit_n);
             }
             feed_forward_n[a] = ff;
-            command_n[a] = ff + kp * e + kd * e_rate + self.integral_n[a];
+            command_n[a] = ff + kp * e + kd * e_rate;
+        }
+        // the plant's static gain, measured at steady levels at a block (a hand's force is
+        // not the muscles' alone); the integral keeps the command where it was
+        let settled = shaped
+            && !saturated
+            && self.compliance_m_per_n == 0.0
+            && (target_n[0] - self.reference_n[0]).abs() < 1e-3
+            && (target_n[1] - self.reference_n[1]).abs() < 1e-3;
+        let (m, i) = (self.model_n, self.integral_n);
+        if let Some(k) =
+            self.plant_gain
+                .observe(m, self.reference_n, i, self.error_n, settled, dt_s)
+        {
+            for a in 0..2 {
+                self.integral_n[a] = ((m[a] + i[a]) * k - m[a])
+                    .clamp_to(-cfg.integral_limit_n, cfg.integral_limit_n);
+            }
+        }
+        // divided by the measured gain, as the gain plane divides: the design's loop gain
+        let g = self.plant_gain.gain();
+        for a in 0..2 {
+            feed_forward_n[a] /= g;
+            command_n[a] = (command_n[a] + self.integral_n[a]) / g;
         }
         let trip = self.guard(cfg, err_sq, dt_s);
         ForceLoopOutput {
