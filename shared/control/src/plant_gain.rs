@@ -30,6 +30,16 @@ pub const STEADY_ERROR_N: f32 = 0.2;
 /// about 0.01 N).
 pub const STEADY_FILTER_RAD_S: f32 = 10.0;
 
+/// Within a step: how long the ratio of the measured force's change to the nominal plant's
+/// (H of the loop's own command) must hold still before it is taken as the gain, s.
+pub const RATIO_HOLD_S: f32 = 0.06;
+/// How still: the ratio's spread over that time, relative. A plant that is g·H keeps the
+/// ratio at g from the first newton; one that is not (flow-limited converters, a delay, a
+/// hand) moves it, and is left to the steady levels.
+pub const RATIO_SPREAD: f32 = 0.1;
+/// Bandwidth of the ratio's filter, rad/s.
+pub const RATIO_FILTER_RAD_S: f32 = 20.0;
+
 /// The estimate and the last steady level it is measured from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlantGain {
@@ -38,6 +48,17 @@ pub struct PlantGain {
     steady_s: f32,
     measured: bool,
     level: Option<(Vec2<f32>, Vec2<f32>)>,
+    /// the nominal plant's response H·u to the command sent, and its rate
+    nominal_n: Vec2<f32>,
+    nominal_rate_n_s: Vec2<f32>,
+    nominal_started: bool,
+    /// the nominal response at the last level
+    nominal_level_n: Vec2<f32>,
+    ratio: f32,
+    ratio_min: f32,
+    ratio_max: f32,
+    ratio_s: f32,
+    ratio_done: bool,
 }
 
 impl Default for PlantGain {
@@ -54,6 +75,15 @@ impl PlantGain {
             steady_s: 0.0,
             measured: false,
             level: None,
+            nominal_n: [0.0; 2],
+            nominal_rate_n_s: [0.0; 2],
+            nominal_started: false,
+            nominal_level_n: [0.0; 2],
+            ratio: 0.0,
+            ratio_min: 0.0,
+            ratio_max: 0.0,
+            ratio_s: 0.0,
+            ratio_done: false,
         }
     }
 
@@ -90,6 +120,8 @@ impl PlantGain {
             return None;
         }
         self.steady_s += dt_s;
+        self.ratio_s = 0.0;
+        self.ratio_done = false;
         if self.measured || self.steady_s < STEADY_S {
             return None;
         }
@@ -102,6 +134,7 @@ impl PlantGain {
         ];
         let Some((f0, u0)) = self.level else {
             self.level = Some((f, u));
+            self.nominal_level_n = self.nominal_n;
             return None;
         };
         let df = [f[0] - f0[0], f[1] - f0[1]];
@@ -110,6 +143,7 @@ impl PlantGain {
             return None;
         }
         self.level = Some((f, u));
+        self.nominal_level_n = self.nominal_n;
         let g = (df[0] * du[0] + df[1] * du[1]) / (du[0] * du[0] + du[1] * du[1]);
         // NaN (no command change) keeps the estimate
         if !(g > 0.0) {
@@ -119,5 +153,94 @@ impl PlantGain {
         let k = g / self.gain;
         self.gain = g;
         Some(k)
+    }
+
+    /// Within a step, at a block: the measured force's change since the last level against
+    /// the nominal plant's (H of the commands sent, [`PlantGain::drive`]). Where their ratio
+    /// holds still for [`RATIO_HOLD_S`] it is the gain (a plant g·H). `[m, i]`: the model's
+    /// force and the integral. Returns the new integral if the gain changed by more than
+    /// half the spread: a weaker plant keeps the command, (m + I)/g, where it was (the
+    /// higher loop gain raises it); a stronger one gets at once the command that holds the
+    /// force, u₀ + (m − F₀)/g, the integral g·u₀ − F₀ — the command never jumps up.
+    pub fn track(
+        &mut self,
+        measured_n: Vec2<f32>,
+        [m, i]: [Vec2<f32>; 2],
+        blocked: bool,
+        dt_s: f32,
+    ) -> Option<Vec2<f32>> {
+        let Some((f0, _)) = self.level else {
+            return None;
+        };
+        if !blocked {
+            // clamped or held: not the plant g·H, this step
+            self.ratio_done = true;
+        }
+        if self.ratio_done || self.steady_s > 0.0 {
+            return None;
+        }
+        let dy = [
+            self.nominal_n[0] - self.nominal_level_n[0],
+            self.nominal_n[1] - self.nominal_level_n[1],
+        ];
+        let dy_sq = dy[0] * dy[0] + dy[1] * dy[1];
+        if dy_sq < GAIN_LEVER_MIN_N * GAIN_LEVER_MIN_N {
+            self.ratio_s = 0.0;
+            return None;
+        }
+        let df = [measured_n[0] - f0[0], measured_n[1] - f0[1]];
+        let r = (df[0] * dy[0] + df[1] * dy[1]) / dy_sq;
+        if self.ratio_s == 0.0 {
+            self.ratio = r;
+        }
+        let wf = RATIO_FILTER_RAD_S * dt_s;
+        self.ratio += wf / (1.0 + wf) * (r - self.ratio);
+        self.ratio_s += dt_s;
+        // the filter's own transient is not spread
+        if self.ratio_s < 1.0 / RATIO_FILTER_RAD_S {
+            self.ratio_min = self.ratio;
+            self.ratio_max = self.ratio;
+            return None;
+        }
+        self.ratio_min = self.ratio_min.min(self.ratio);
+        self.ratio_max = self.ratio_max.max(self.ratio);
+        if self.ratio_max - self.ratio_min > RATIO_SPREAD * self.ratio_max.abs() {
+            // not a plant g·H: wait for the level
+            self.ratio_done = true;
+            return None;
+        }
+        if self.ratio_s < RATIO_HOLD_S + 1.0 / RATIO_FILTER_RAD_S || !(self.ratio > 0.0) {
+            return None;
+        }
+        self.ratio_done = true;
+        let g = self.ratio.max(PLANT_GAIN_MIN).min(PLANT_GAIN_MAX);
+        if (g - self.gain).abs() < 0.5 * RATIO_SPREAD * self.gain {
+            return None;
+        }
+        let k = g / self.gain;
+        self.gain = g;
+        if k < 1.0 {
+            // a weaker plant: the command stays (bumpless), the raised gain brings it up
+            return Some([(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]);
+        }
+        // a stronger plant: at once the command that holds the force at this gain, the
+        // level's plus the step's change (what it has in excess would go into the handle)
+        let u0 = self.level.map(|l| l.1).unwrap_or([0.0; 2]);
+        Some([g * u0[0] - f0[0], g * u0[1] - f0[1]])
+    }
+
+    /// Advances the nominal plant H (the converters' identified second order, Table 5.2) by
+    /// the command sent this period (after the division by the gain), N.
+    pub fn drive(&mut self, command_n: Vec2<f32>, wn_rad_s: f32, zeta: f32, dt_s: f32) {
+        if !self.nominal_started {
+            self.nominal_n = command_n;
+            self.nominal_started = true;
+        }
+        for i in 0..2 {
+            let acc = wn_rad_s * wn_rad_s * (command_n[i] - self.nominal_n[i])
+                - 2.0 * zeta * wn_rad_s * self.nominal_rate_n_s[i];
+            self.nominal_rate_n_s[i] += acc * dt_s;
+            self.nominal_n[i] += self.nominal_rate_n_s[i] * dt_s;
+        }
     }
 }
