@@ -243,6 +243,11 @@ impl ForceLoop {
         self.plant_gain.gain()
     }
 
+    /// The plant-gain estimator's state (diagnostics).
+    pub fn plant_gain_state(&self) -> &PlantGain {
+        &self.plant_gain
+    }
+
     /// Forget the measured plant gain (the plant changed: the gain plane was switched).
     pub fn forget_plant_gain(&mut self) {
         self.plant_gain = PlantGain::new();
@@ -403,6 +408,16 @@ impl ForceLoop {
         let mut command_n = [0.0; 2];
         let mut feed_forward_n = [0.0; 2];
         let mut err_sq = 0.0;
+        // the integral waits while the force closes the error by itself faster than half the
+        // rate the integral alone would close it, ki/(1 + kp) (plant g = 1): the commands sent
+        // are still arriving (slow, flow-limited converters); not once this step's force is
+        // known to follow the nominal plant g·H, where the closing is the loop's own doing
+        // (force mode; the impedance mode's target moves with the handle)
+        let closing_per_s = if !shaped || self.plant_gain.follows() {
+            f32::INFINITY
+        } else {
+            0.5 * ki / (1.0 + kp)
+        };
         for a in 0..2 {
             let r =
                 self.reference_n[a] + (target_n[a] - self.reference_n[a]).clamp_to(-max_df, max_df);
@@ -435,9 +450,11 @@ impl ForceLoop {
             let e_rate = self.model_rate_n_s[a] - self.measured_rate_n_s[a];
             self.error_n[a] = e;
             err_sq += e * e;
-            // anti-windup: while clamped, the integral may only shrink
+            // anti-windup: while clamped, or while the error closes by itself, the integral
+            // may only shrink
             let grows = e * self.integral_n[a] > 0.0 || self.integral_n[a] == 0.0;
-            if !(saturated && grows) {
+            let closing = self.measured_rate_n_s[a] * e.signum() > closing_per_s * e.abs();
+            if !((saturated || closing) && grows) {
                 self.integral_n[a] = (self.integral_n[a] + ki * e * dt_s)
                     .clamp_to(-cfg.integral_limit_n, cfg.integral_limit_n);
             }

@@ -30,15 +30,19 @@ pub const STEADY_ERROR_N: f32 = 0.2;
 /// about 0.01 N).
 pub const STEADY_FILTER_RAD_S: f32 = 10.0;
 
+/// Within a step: the least change of the nominal plant's force since the last level over
+/// which the measured one is divided, N (as `COMPLIANCE_FORCE_MIN_N`).
+pub const RATIO_LEVER_MIN_N: f32 = 2.0;
 /// Within a step: how long the ratio of the measured force's change to the nominal plant's
 /// (H of the loop's own command) must hold still before it is taken as the gain, s.
-pub const RATIO_HOLD_S: f32 = 0.06;
+pub const RATIO_HOLD_S: f32 = 0.04;
 /// How still: the ratio's spread over that time, relative. A plant that is g·H keeps the
 /// ratio at g from the first newton; one that is not (flow-limited converters, a delay, a
 /// hand) moves it, and is left to the steady levels.
 pub const RATIO_SPREAD: f32 = 0.1;
-/// Bandwidth of the ratio's filter, rad/s.
-pub const RATIO_FILTER_RAD_S: f32 = 20.0;
+/// Bandwidth of the ratio's filter, rad/s (the noise's share of the ratio, 0.15 N over the
+/// lever, falls below 1 %).
+pub const RATIO_FILTER_RAD_S: f32 = 40.0;
 
 /// The estimate and the last steady level it is measured from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,8 +61,12 @@ pub struct PlantGain {
     ratio: f32,
     ratio_min: f32,
     ratio_max: f32,
+    /// the gain before this step's ratio was taken (restored if the ratio then moves)
+    gain_before: f32,
     ratio_s: f32,
     ratio_done: bool,
+    /// this step's force followed the nominal plant at a steady ratio: a plant g·H
+    follows: bool,
 }
 
 impl Default for PlantGain {
@@ -82,8 +90,10 @@ impl PlantGain {
             ratio: 0.0,
             ratio_min: 0.0,
             ratio_max: 0.0,
+            gain_before: 1.0,
             ratio_s: 0.0,
             ratio_done: false,
+            follows: false,
         }
     }
 
@@ -122,6 +132,7 @@ impl PlantGain {
         self.steady_s += dt_s;
         self.ratio_s = 0.0;
         self.ratio_done = false;
+        self.follows = false;
         if self.measured || self.steady_s < STEADY_S {
             return None;
         }
@@ -184,7 +195,7 @@ impl PlantGain {
             self.nominal_n[1] - self.nominal_level_n[1],
         ];
         let dy_sq = dy[0] * dy[0] + dy[1] * dy[1];
-        if dy_sq < GAIN_LEVER_MIN_N * GAIN_LEVER_MIN_N {
+        if dy_sq < RATIO_LEVER_MIN_N * RATIO_LEVER_MIN_N {
             self.ratio_s = 0.0;
             return None;
         }
@@ -202,17 +213,34 @@ impl PlantGain {
             self.ratio_max = self.ratio;
             return None;
         }
-        self.ratio_min = self.ratio_min.min(self.ratio);
-        self.ratio_max = self.ratio_max.max(self.ratio);
-        if self.ratio_max - self.ratio_min > RATIO_SPREAD * self.ratio_max.abs() {
-            // not a plant g·H: wait for the level
+        // watched for as long again after it was taken, then left to the level
+        if self.ratio_s > 2.0 * RATIO_HOLD_S + 1.0 / RATIO_FILTER_RAD_S {
             self.ratio_done = true;
             return None;
         }
-        if self.ratio_s < RATIO_HOLD_S + 1.0 / RATIO_FILTER_RAD_S || !(self.ratio > 0.0) {
+        self.ratio_min = self.ratio_min.min(self.ratio);
+        self.ratio_max = self.ratio_max.max(self.ratio);
+        if self.ratio_max - self.ratio_min > RATIO_SPREAD * self.ratio_max.abs() {
+            // not a plant g·H: wait for the level; if it looked like one at first (a ramp
+            // of flow-limited converters can, for a while), the gain taken from it goes
+            self.ratio_done = true;
+            let taken = self.follows && self.gain != self.gain_before;
+            self.follows = false;
+            if !taken {
+                return None;
+            }
+            let k = self.gain_before / self.gain;
+            self.gain = self.gain_before;
+            return Some([(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]);
+        }
+        if self.follows
+            || self.ratio_s < RATIO_HOLD_S + 1.0 / RATIO_FILTER_RAD_S
+            || !(self.ratio > 0.0)
+        {
             return None;
         }
-        self.ratio_done = true;
+        self.follows = true;
+        self.gain_before = self.gain;
         let g = self.ratio.max(PLANT_GAIN_MIN).min(PLANT_GAIN_MAX);
         if (g - self.gain).abs() < 0.5 * RATIO_SPREAD * self.gain {
             return None;
@@ -242,5 +270,11 @@ impl PlantGain {
             self.nominal_rate_n_s[i] += acc * dt_s;
             self.nominal_n[i] += self.nominal_rate_n_s[i] * dt_s;
         }
+    }
+
+    /// This step's force followed the nominal plant at a steady ratio (a plant g·H), until
+    /// the next level: what closes the error is then the loop's own doing.
+    pub fn follows(&self) -> bool {
+        self.follows
     }
 }
