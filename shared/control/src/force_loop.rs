@@ -411,13 +411,18 @@ impl ForceLoop {
         // the integral waits while the force closes the error by itself faster than half the
         // rate the integral alone would close it, ki/(1 + kp) (plant g = 1): the commands sent
         // are still arriving (slow, flow-limited converters); not once this step's force is
-        // known to follow the nominal plant g·H, where the closing is the loop's own doing
-        // (force mode; the impedance mode's target moves with the handle)
-        let closing_per_s = if !shaped || self.plant_gain.follows() {
-            f32::INFINITY
-        } else {
-            0.5 * ki / (1.0 + kp)
-        };
+        // known to follow the nominal plant g·H, where the closing is the loop's own doing;
+        // at a block (a hand yields by itself, and its gentle loop needs the integral) and in
+        // force mode (the impedance mode's target moves with the handle)
+        if (0..2).any(|a| (target_n[a] - self.reference_n[a]).abs() >= 1e-3) {
+            self.plant_gain.begin_step();
+        }
+        let closing_per_s =
+            if !shaped || self.compliance_m_per_n != 0.0 || !self.plant_gain.undecided_step() {
+                f32::INFINITY
+            } else {
+                0.5 * ki / (1.0 + kp)
+            };
         for a in 0..2 {
             let r =
                 self.reference_n[a] + (target_n[a] - self.reference_n[a]).clamp_to(-max_df, max_df);

@@ -67,6 +67,8 @@ pub struct PlantGain {
     ratio_done: bool,
     /// this step's force followed the nominal plant at a steady ratio: a plant g·H
     follows: bool,
+    /// the reference left a measured level and has not reached the next one
+    stepping: bool,
 }
 
 impl Default for PlantGain {
@@ -94,6 +96,7 @@ impl PlantGain {
             ratio_s: 0.0,
             ratio_done: false,
             follows: false,
+            stepping: false,
         }
     }
 
@@ -130,6 +133,7 @@ impl PlantGain {
             return None;
         }
         self.steady_s += dt_s;
+        self.stepping = false;
         self.ratio_s = 0.0;
         self.ratio_done = false;
         self.follows = false;
@@ -220,7 +224,10 @@ impl PlantGain {
         }
         self.ratio_min = self.ratio_min.min(self.ratio);
         self.ratio_max = self.ratio_max.max(self.ratio);
-        if self.ratio_max - self.ratio_min > RATIO_SPREAD * self.ratio_max.abs() {
+        // once taken, only a ratio that moves by twice the spread undoes it (the taut-cable
+        // inverse's floor bends the rig's ratio by about the spread within a step)
+        let spread = if self.follows { 2.0 } else { 1.0 } * RATIO_SPREAD;
+        if self.ratio_max - self.ratio_min > spread * self.ratio_max.abs() {
             // not a plant g·H: wait for the level; if it looked like one at first (a ramp
             // of flow-limited converters can, for a while), the gain taken from it goes
             self.ratio_done = true;
@@ -233,10 +240,13 @@ impl PlantGain {
             self.gain = self.gain_before;
             return Some([(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]);
         }
-        if self.follows
-            || self.ratio_s < RATIO_HOLD_S + 1.0 / RATIO_FILTER_RAD_S
-            || !(self.ratio > 0.0)
-        {
+        if self.follows || self.ratio_s < RATIO_HOLD_S + 1.0 / RATIO_FILTER_RAD_S {
+            return None;
+        }
+        if !(PLANT_GAIN_MIN..=PLANT_GAIN_MAX).contains(&self.ratio) {
+            // outside the range the design covers: not taken within a step (a slow plant's
+            // ramp starts low), the level decides
+            self.ratio_done = true;
             return None;
         }
         self.follows = true;
@@ -270,6 +280,18 @@ impl PlantGain {
             self.nominal_rate_n_s[i] += acc * dt_s;
             self.nominal_n[i] += self.nominal_rate_n_s[i] * dt_s;
         }
+    }
+
+    /// The reference moved (a new target); a step from a measured level begins.
+    pub fn begin_step(&mut self) {
+        self.stepping = self.level.is_some();
+    }
+
+    /// Between a measured level and the next steady one, the step's force not (yet) known to
+    /// follow the nominal plant g·H: whether it closes the error by itself is the plant's
+    /// doing, not the loop's (the integral waits while it does).
+    pub fn undecided_step(&self) -> bool {
+        self.stepping && !self.follows
     }
 
     /// This step's force followed the nominal plant at a steady ratio (a plant g·H), until
