@@ -300,3 +300,59 @@ impl PlantGain {
         self.follows
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::{ForceLoop, ForceLoopConfig};
+    use pam_model::RobotModel;
+
+    /// A blocked handle behind converters H (Table 5.2) and a static gain `g`, one period of
+    /// delay; `rate_n_s` bounds how fast the force can follow its command (a flow limit).
+    /// Steps 0 → 9.1 N after a second at 0; returns the measured gain after the step's first
+    /// 0.2 s and after 1 s, and the integral's peak.
+    fn run(g: f32, rate_n_s: f32) -> (f32, f32, f32) {
+        let cfg = ForceLoopConfig::designed();
+        let ip = RobotModel::<f32>::thesis().params.ip;
+        let (wn, z) = (ip.natural_freq_rad_s, ip.damping_ratio);
+        let dt = 0.001;
+        let mut fl = ForceLoop::new();
+        let (mut x, mut v, mut u_prev) = (0.0f32, 0.0f32, 0.0f32);
+        let (mut g_early, mut peak) = (0.0, 0.0f32);
+        for k in 0..2000 {
+            let target = if k < 1000 { 0.0 } else { 9.1 };
+            let o = fl.step(&cfg, &ip, [target, 0.0], [g * x, 0.0], 1.0, false, dt);
+            // the converters, their output rate-limited
+            let acc = wn * wn * (u_prev - x) - 2.0 * z * wn * v;
+            v = (v + acc * dt).clamp(-rate_n_s, rate_n_s);
+            x += v * dt;
+            u_prev = o.command_n[0];
+            if k == 1200 {
+                g_early = fl.plant_gain();
+            }
+            if k >= 1000 {
+                peak = peak.max(fl.integral_n()[0].abs());
+            }
+        }
+        (g_early, fl.plant_gain(), peak)
+    }
+
+    #[test]
+    fn a_weaker_plant_is_measured_within_the_first_step() {
+        let (early, late, _) = run(0.57, f32::INFINITY);
+        assert!((early - 0.57).abs() < 0.03, "within the step: {early}");
+        assert!((late - 0.57).abs() < 0.01, "at the level: {late}");
+        let (early, late, _) = run(1.0, f32::INFINITY);
+        assert!(early == 1.0 && (late - 1.0).abs() < 0.01, "{early} {late}");
+        let (_, late, _) = run(1.75, f32::INFINITY);
+        assert!((late - 1.75).abs() < 0.02, "at the level: {late}");
+    }
+
+    #[test]
+    fn a_flow_limited_plant_is_not_taken_for_a_weaker_one_nor_winds_the_integral_up() {
+        let (early, late, peak) = run(1.0, 40.0);
+        assert!(early == 1.0, "within the step: {early}");
+        assert!((late - 1.0).abs() < 0.02, "at the level: {late}");
+        // 10.9 N without the wait (a step of 9.1 N)
+        assert!(peak < 2.0, "integral peak {peak} N");
+    }
+}
