@@ -475,12 +475,16 @@ impl ForceLoop {
             && (target_n[1] - self.reference_n[1]).abs() < 1e-3;
         let (m, i) = (self.model_n, self.integral_n);
         let blocked = shaped && !saturated && self.compliance_m_per_n == 0.0;
-        let new_integral = match self.plant_gain.track(measured_n, [m, i], blocked, dt_s) {
-            None => self
-                .plant_gain
-                .observe(m, self.reference_n, i, self.error_n, settled, dt_s)
-                .map(|k| [(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]),
-            v => v,
+        // (force mode only: the impedance mode never measures it, its gain stays 1)
+        let new_integral = match shaped {
+            false => None,
+            true => match self.plant_gain.track(measured_n, [m, i], blocked, dt_s) {
+                None => self
+                    .plant_gain
+                    .observe(m, self.reference_n, i, self.error_n, settled, dt_s)
+                    .map(|k| [(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]),
+                v => v,
+            },
         };
         if let Some(v) = new_integral {
             for a in 0..2 {
@@ -493,7 +497,9 @@ impl ForceLoop {
             feed_forward_n[a] /= g;
             command_n[a] = (command_n[a] + self.integral_n[a]) / g;
         }
-        self.plant_gain.drive(command_n, wn, zeta, dt_s);
+        if shaped {
+            self.plant_gain.drive(command_n, wn, zeta, dt_s);
+        }
         let trip = self.guard(cfg, err_sq, dt_s);
         ForceLoopOutput {
             command_n,
