@@ -12,7 +12,7 @@
 //! command by it, as the plane does — the loop gain is the design's again. Incremental, so an
 //! offset the integral holds (a preload, a load-cell zero) is not mistaken for gain.
 
-use pam_model::Vec2;
+use pam_model::{Real, Vec2};
 
 /// Range of the estimate: a factor 2 either way around the model, the practical gain margin
 /// of the design (×2 still works at every pose, ×3 does not: docs/closed-loop.md, "Margins").
@@ -164,7 +164,7 @@ impl PlantGain {
         if !(g > 0.0) {
             return None;
         }
-        let g = g.max(PLANT_GAIN_MIN).min(PLANT_GAIN_MAX);
+        let g = g.clamp_to(PLANT_GAIN_MIN, PLANT_GAIN_MAX);
         let k = g / self.gain;
         self.gain = g;
         Some(k)
@@ -184,9 +184,7 @@ impl PlantGain {
         blocked: bool,
         dt_s: f32,
     ) -> Option<Vec2<f32>> {
-        let Some((f0, _)) = self.level else {
-            return None;
-        };
+        let (f0, _) = self.level?;
         if !blocked {
             // clamped or held: not the plant g·H, this step
             self.ratio_done = true;
@@ -251,7 +249,8 @@ impl PlantGain {
         }
         self.follows = true;
         self.gain_before = self.gain;
-        let g = self.ratio.max(PLANT_GAIN_MIN).min(PLANT_GAIN_MAX);
+        // within the range (checked above)
+        let g = self.ratio;
         if (g - self.gain).abs() < 0.5 * RATIO_SPREAD * self.gain {
             return None;
         }
