@@ -22,6 +22,10 @@
 //!   ([`ForceLoop::through_plane`]): the plane is a bet on the plant's static gain that only
 //!   a fast feedback can take back, and against a hand the feedback is slow, so the bet
 //!   would go into the patient's hand.
+//! - **The plant's gain** ([`crate::plant_gain`], force mode, at a block): measured at steady
+//!   levels and within a step, the command divided by it as the gain plane divides; and the
+//!   integral waits while the force closes the error by itself in a step not (yet) known to
+//!   follow the nominal plant g·H (slow, flow-limited converters: the commands are arriving).
 //! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
 //!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
