@@ -82,8 +82,8 @@ fn main() {
         let out = ctl.step(&s);
         if (i >= n_pre && (i - n_pre).is_multiple_of(10)) || i + 1 == n_pre {
             let fl = ctl.force_loop();
-            println!("{:4} F {:7.2} {:7.2} I {:6.2} {:6.2} p {:5.2} {:5.2} {:5.2} {:5.2} | true {:5.2} {:5.2} {:5.2} {:5.2} mf {:?} lim {:?} ol {} st {:?} {:?}",
-                i as i64 - n_pre as i64, m.force_user_n[0], m.force_user_n[1], fl.integral_n()[0], fl.integral_n()[1],
+            println!("{:4} g {:5.3} {} F {:7.2} {:7.2} I {:6.2} {:6.2} p {:5.2} {:5.2} {:5.2} {:5.2} | true {:5.2} {:5.2} {:5.2} {:5.2} mf {:?} lim {:?} ol {} st {:?} {:?}",
+                i as i64 - n_pre as i64, fl.plant_gain(), fl.plant_gain_state().follows(), m.force_user_n[0], m.force_user_n[1], fl.integral_n()[0], fl.integral_n()[1],
                 out.pressure_bar[0], out.pressure_bar[1], out.pressure_bar[2], out.pressure_bar[3],
                 m.pressure_bar[0], m.pressure_bar[1], m.pressure_bar[2], m.pressure_bar[3], twin.state().muscle_force_n.map(|f| f.round()), out.limited, out.output_limited, out.state, out.faults);
         }

@@ -5,6 +5,9 @@
 //! scale of the designed loop for that plant and predicts its 9.1 N step. Nothing is sent to
 //! the device: the user applies the scale with `pamctl set force … --closed-loop
 //! --gain-scale S` (the link carries only the gain scale; the protocol is unchanged).
+//! The loop measures the plant's static gain itself and divides its command by it
+//! (`pam_control::plant_gain`, within 0.5–2): the plant it runs against, and the one the
+//! scale is proposed for, is G / Ĝ, not the identified G.
 
 use crate::cmd::model_loop::read_trial;
 use anyhow::{anyhow, bail, Context};
@@ -67,6 +70,19 @@ struct TuneJson {
     overshoot_pct: Vec<f64>,
 }
 
+/// The identified plant as the closed loop sees it once it has measured its gain: G / Ĝ, Ĝ
+/// the loop's measurement (G within its range 0.5–2).
+fn as_the_loop_sees(plant: &StepPlant) -> StepPlant {
+    use pam_control::plant_gain::{PLANT_GAIN_MAX, PLANT_GAIN_MIN};
+    let measured = plant
+        .gain
+        .clamp(PLANT_GAIN_MIN as f64, PLANT_GAIN_MAX as f64);
+    StepPlant {
+        gain: plant.gain / measured,
+        ..*plant
+    }
+}
+
 pub fn run(a: TuneArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let (trial, _) = read_trial(&a.log)?;
     if trial.force_ref_n.is_none() {
@@ -92,7 +108,7 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> anyhow::Result<()> {
             omega_n_rad_s: f.omega_n_rad_s,
             delay_s: a.delay_ms * 1e-3,
         };
-        let proposal = tune::propose(&plant, period_s)
+        let proposal = tune::propose(&as_the_loop_sees(&plant), period_s)
             .map_err(|e| anyhow!("{} axis {}: {e}", a.log.display(), ["X", "Y"][axis]))?;
         axes.push((axis, plant, proposal));
     }
@@ -106,7 +122,7 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let cfg = pam_control::ForceLoopConfig::designed();
     let at_scale: Vec<tune::Prediction> = axes
         .iter()
-        .map(|(_, plant, _)| tune::predict(&cfg, scale, plant, period_s))
+        .map(|(_, plant, _)| tune::predict(&cfg, scale, &as_the_loop_sees(plant), period_s))
         .collect();
     if a.json {
         let j = TuneJson {

@@ -22,6 +22,10 @@
 //!   ([`ForceLoop::through_plane`]): the plane is a bet on the plant's static gain that only
 //!   a fast feedback can take back, and against a hand the feedback is slow, so the bet
 //!   would go into the patient's hand.
+//! - **The plant's gain** ([`crate::plant_gain`], force mode, at a block): measured at steady
+//!   levels and within a step, the command divided by it as the gain plane divides; and the
+//!   integral waits while the force closes the error by itself in a step not (yet) known to
+//!   follow the nominal plant g·H (slow, flow-limited converters: the commands are arriving).
 //! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
 //!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
@@ -29,6 +33,7 @@
 //!
 //! The design, its margins and the measured tables are in docs/closed-loop.md. f32, no heap.
 
+use crate::plant_gain::PlantGain;
 use pam_model::params::{GainPlane, IpConverter};
 use pam_model::{Real, Vec2};
 #[cfg(feature = "serde")]
@@ -184,6 +189,7 @@ pub struct ForceLoop {
     handle0_m: Vec2<f32>,
     force0_n: Vec2<f32>,
     compliance_m_per_n: f32,
+    plant_gain: PlantGain,
 }
 
 impl Default for ForceLoop {
@@ -222,6 +228,7 @@ impl ForceLoop {
             handle0_m: [0.0; 2],
             force0_n: [0.0; 2],
             compliance_m_per_n: 0.0,
+            plant_gain: PlantGain::new(),
         }
     }
 
@@ -232,6 +239,22 @@ impl ForceLoop {
 
     pub fn integral_n(&self) -> Vec2<f32> {
         self.integral_n
+    }
+
+    /// The plant's static gain the loop measured at steady levels and divides its command by
+    /// (1 until measured; `crate::plant_gain`).
+    pub fn plant_gain(&self) -> f32 {
+        self.plant_gain.gain()
+    }
+
+    /// The plant-gain estimator's state (diagnostics).
+    pub fn plant_gain_state(&self) -> &PlantGain {
+        &self.plant_gain
+    }
+
+    /// Forget the measured plant gain (the plant changed: the gain plane was switched).
+    pub fn forget_plant_gain(&mut self) {
+        self.plant_gain = PlantGain::new();
     }
 
     /// The compliance of what holds the handle, as [`ForceLoop::observe_handle`] last saw it,
@@ -389,6 +412,21 @@ impl ForceLoop {
         let mut command_n = [0.0; 2];
         let mut feed_forward_n = [0.0; 2];
         let mut err_sq = 0.0;
+        // the integral waits while the force closes the error by itself faster than half the
+        // rate the integral alone would close it, ki/(1 + kp) (plant g = 1): the commands sent
+        // are still arriving (slow, flow-limited converters); not once this step's force is
+        // known to follow the nominal plant g·H, where the closing is the loop's own doing;
+        // at a block (a hand yields by itself, and its gentle loop needs the integral) and in
+        // force mode (the impedance mode's target moves with the handle)
+        if (0..2).any(|a| (target_n[a] - self.reference_n[a]).abs() >= 1e-3) {
+            self.plant_gain.begin_step();
+        }
+        let closing_per_s =
+            if !shaped || self.compliance_m_per_n != 0.0 || !self.plant_gain.undecided_step() {
+                f32::INFINITY
+            } else {
+                0.5 * ki / (1.0 + kp)
+            };
         for a in 0..2 {
             let r =
                 self.reference_n[a] + (target_n[a] - self.reference_n[a]).clamp_to(-max_df, max_df);
@@ -421,14 +459,50 @@ impl ForceLoop {
             let e_rate = self.model_rate_n_s[a] - self.measured_rate_n_s[a];
             self.error_n[a] = e;
             err_sq += e * e;
-            // anti-windup: while clamped, the integral may only shrink
+            // anti-windup: while clamped, or while the error closes by itself, the integral
+            // may only shrink
             let grows = e * self.integral_n[a] > 0.0 || self.integral_n[a] == 0.0;
-            if !(saturated && grows) {
+            let closing = self.measured_rate_n_s[a] * e.signum() > closing_per_s * e.abs();
+            if !((saturated || closing) && grows) {
                 self.integral_n[a] = (self.integral_n[a] + ki * e * dt_s)
                     .clamp_to(-cfg.integral_limit_n, cfg.integral_limit_n);
             }
             feed_forward_n[a] = ff;
-            command_n[a] = ff + kp * e + kd * e_rate + self.integral_n[a];
+            command_n[a] = ff + kp * e + kd * e_rate;
+        }
+        // the plant's static gain, measured at steady levels at a block (a hand's force is
+        // not the muscles' alone); the integral keeps the command where it was
+        let settled = shaped
+            && !saturated
+            && self.compliance_m_per_n == 0.0
+            && (target_n[0] - self.reference_n[0]).abs() < 1e-3
+            && (target_n[1] - self.reference_n[1]).abs() < 1e-3;
+        let (m, i) = (self.model_n, self.integral_n);
+        let blocked = shaped && !saturated && self.compliance_m_per_n == 0.0;
+        // (force mode only: the impedance mode never measures it, its gain stays 1)
+        let new_integral = match shaped {
+            false => None,
+            true => match self.plant_gain.track(measured_n, [m, i], blocked, dt_s) {
+                None => self
+                    .plant_gain
+                    .observe(m, self.reference_n, i, self.error_n, settled, dt_s)
+                    .map(|k| [(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]),
+                v => v,
+            },
+        };
+        if let Some(v) = new_integral {
+            for a in 0..2 {
+                self.integral_n[a] = v[a].clamp_to(-cfg.integral_limit_n, cfg.integral_limit_n);
+            }
+        }
+        // divided by the measured gain, as the gain plane divides: the design's loop gain
+        let g = self.plant_gain.gain();
+        for a in 0..2 {
+            feed_forward_n[a] /= g;
+            command_n[a] = (command_n[a] + self.integral_n[a]) / g;
+        }
+        if shaped {
+            self.plant_gain.drive(command_n, wn, zeta, dt_s);
         }
         let trip = self.guard(cfg, err_sq, dt_s);
         ForceLoopOutput {

@@ -26,6 +26,7 @@ pub mod faults;
 pub mod force_loop;
 pub mod impedance;
 pub mod mode;
+pub mod plant_gain;
 pub mod plausibility;
 pub mod safety;
 pub mod supervisor;

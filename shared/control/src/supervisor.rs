@@ -232,6 +232,18 @@ impl Controller {
             self.force_loop.reset();
             self.impedance.reset();
         }
+        // the gain plane is part of the plant the loop measured: switched, measure again
+        if let (
+            Mode::ForceClosedLoop {
+                feed_forward: was, ..
+            },
+            Mode::ForceClosedLoop { feed_forward, .. },
+        ) = (self.mode, mode)
+        {
+            if was != feed_forward {
+                self.force_loop.forget_plant_gain();
+            }
+        }
         self.mode = mode;
         self.accepted();
         Ok(())
