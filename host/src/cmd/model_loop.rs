@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use pam_ident::diagnose::{self, Loop, Settings};
+use pam_ident::diagnose::{self, Loop, Settings, Verdict};
 use pam_ident::effects::{self, Experiment};
 use pam_ident::{report, FilterSettings, Trial};
 use pam_model::RobotModel;
@@ -149,6 +149,12 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
         d.base.nrmse.fx, d.base.nrmse.fy, d.base.r2.fx, d.base.r2.fy
     )?;
     writeln!(out, "verdict: {}", d.verdict)?;
+    if d.verdict == Verdict::Unexplained && d.effects.iter().any(|e| e.accepted) {
+        writeln!(
+            out,
+            "  (an effect below is worth its parameters, but the structure listed after them carries more of the residual than it removes)"
+        )?;
+    }
     if !d.ambiguous.is_empty() {
         let names: Vec<&str> = d.ambiguous.iter().map(|f| f.name()).collect();
         writeln!(

@@ -18,7 +18,9 @@ pub enum Verdict {
     Effect,
     /// The base model explains the log: nothing is missing that the data can show.
     None,
-    /// No effect is accepted, but the residual has structure (a tone, a wander).
+    /// The residual has structure no effect explains (a tone, a wander): no effect is
+    /// accepted, or the structure carries more of the residual than the accepted effects
+    /// (still listed, `accepted`) removed of the base's error.
     Unexplained,
 }
 
