@@ -177,24 +177,30 @@ impl Trial {
         // encoders' quantisation (white up to Nyquist) would otherwise reach the stiffness
         // regressor but not the measured force, and the base would spend terms (the
         // pneumatic high-pass) cancelling it instead of describing the arm
-        let dx = [0, 1].map(|a| {
-            let d: Vec<f64> = x[a].iter().map(|v| v - x0[a]).collect();
-            bw.filtfilt(&d, fs, cutoff)
-        });
         let deriv = |s: &[f64]| -> Vec<f64> {
             let raw = central_difference(s, &self.t_s);
             bw.filtfilt(&raw, fs, cutoff)
         };
-        let v = [deriv(&x[0]), deriv(&x[1])];
-        let alpha_smooth_rad = [
-            bw.filtfilt(&self.alpha_rad[0], fs, cutoff),
-            bw.filtfilt(&self.alpha_rad[1], fs, cutoff),
-        ];
+        // each axis's filters in one chain (displacement, velocity, acceleration, angle),
+        // the two axes on both cores
+        let axis = |a: usize| {
+            // the displacement through the same zero-phase low-pass as the derivatives: the
+            // encoders' quantisation (white up to Nyquist) would otherwise reach the stiffness
+            // regressor but not the measured force, and the base would spend terms (the
+            // pneumatic high-pass) cancelling it instead of describing the arm
+            let d: Vec<f64> = x[a].iter().map(|v| v - x0[a]).collect();
+            let dx = bw.filtfilt(&d, fs, cutoff);
+            let v = deriv(&x[a]);
+            let acc = deriv(&v);
+            let smooth = bw.filtfilt(&self.alpha_rad[a], fs, cutoff);
+            (dx, v, acc, smooth)
+        };
+        let ((dx0, v0, a0, s0), (dx1, v1, a1, s1)) = rayon::join(|| axis(0), || axis(1));
+        let (dx, v, a, alpha_smooth_rad) = ([dx0, dx1], [v0, v1], [a0, a1], [s0, s1]);
         let alpha0_rad = [
             mean(&self.alpha_rad[0][..start]),
             mean(&self.alpha_rad[1][..start]),
         ];
-        let a = [deriv(&v[0]), deriv(&v[1])];
         Ok(Prepared {
             t_s: self.t_s.clone(),
             dt_s: dt,

@@ -38,29 +38,53 @@ pub fn prepare_with_best_cutoff(
     model: &RobotModel<f64>,
     filter: FilterSettings,
 ) -> Result<Prepared, crate::IdentError> {
+    // the three preparations on both cores, chosen in order below
+    let prepared: Vec<Result<(f64, Prepared), crate::IdentError>> = [1.0, 0.6, 0.4]
+        .par_iter()
+        .map(|f| {
+            let settings = FilterSettings {
+                cutoff_hz: filter.cutoff_hz * f,
+                ..filter
+            };
+            let p = trial.prepare(model, settings)?;
+            let p = p.every(analysis_stride(p.dt_s));
+            let y = msd::target(&p);
+            let mut cols = msd::msd_columns(&p);
+            cols.extend(offset_columns(p.len()));
+            let ne = lsq::normal_equations(&cols, &[&y[0], &y[1]], 0..p.split);
+            let th = lsq::solve(&ne, &MSD_POSITIVE);
+            let yty: f64 = (0..2)
+                .map(|a| y[a][..p.split].iter().map(|v| v * v).sum::<f64>())
+                .sum();
+            Ok((lsq::rss(&ne, yty, &th), p))
+        })
+        .collect();
     let mut best: Option<(f64, Prepared)> = None;
-    for f in [1.0, 0.6, 0.4] {
-        let settings = FilterSettings {
-            cutoff_hz: filter.cutoff_hz * f,
-            ..filter
-        };
-        let p = trial.prepare(model, settings)?;
-        let p = p.every(analysis_stride(p.dt_s));
-        let y = msd::target(&p);
-        let mut cols = msd::msd_columns(&p);
-        cols.extend(offset_columns(p.len()));
-        let ne = lsq::normal_equations(&cols, &[&y[0], &y[1]], 0..p.split);
-        let th = lsq::solve(&ne, &MSD_POSITIVE);
-        let yty: f64 = (0..2)
-            .map(|a| y[a][..p.split].iter().map(|v| v * v).sum::<f64>())
-            .sum();
-        let rss = lsq::rss(&ne, yty, &th);
+    for r in prepared {
+        let (rss, p) = r?;
         // a lower cutoff must gain more than rounding
         if best.as_ref().is_none_or(|b| rss < 0.995 * b.0) {
             best = Some((rss, p));
         }
     }
     Ok(best.expect("three cutoffs").1)
+}
+
+/// The columns every base variant starts from, made once so that the variants share them
+/// (the fits' products with them are then computed once, see [`lsq::GramMemo`]): eq.
+/// 4.29's mass, damping and Cartesian stiffness, and the offsets.
+pub(super) struct SharedColumns {
+    pub(super) msd: Vec<Column>,
+    pub(super) offsets: [Column; 2],
+}
+
+impl SharedColumns {
+    pub(super) fn of(p: &Prepared) -> Self {
+        SharedColumns {
+            msd: msd::msd_columns(p),
+            offsets: offset_columns(p.len()),
+        }
+    }
 }
 
 /// A constant force per axis (the parameter is the offset of the measured f; the columns
@@ -224,14 +248,15 @@ pub fn joint_stiffness_columns(ctx: &DynCtx, d: &[Vec<f64>; 2], prefix: &str) ->
 /// or as the model's muscle force law with a gain per joint, from the trial's start or
 /// absolute (its curvature away from the neutral pose is then the model's too) — whichever the training part prefers — and the
 /// pneumatic compliance. `None` when the variant needs what the log lacks (currents).
-pub fn base_columns(
+pub(super) fn base_columns(
     p: &Prepared,
     ctx: &DynCtx,
     stiffness: Stiffness,
     omega_n: f64,
     zeta: f64,
+    shared: &SharedColumns,
 ) -> Option<Vec<Column>> {
-    let mut cols = msd::msd_columns(p);
+    let mut cols = shared.msd.clone();
     match stiffness {
         Stiffness::Cartesian => {}
         Stiffness::Joint => {
@@ -274,6 +299,7 @@ pub(super) fn choose_pneumatic(
     p: &Prepared,
     model: &RobotModel<f64>,
     stiffness: Stiffness,
+    shared: &SharedColumns,
 ) -> Option<(Vec<Column>, (f64, f64))> {
     let y = msd::target(p);
     let rows = 0..p.split;
@@ -284,12 +310,12 @@ pub(super) fn choose_pneumatic(
     let with_offset = |cols: &[Column]| {
         let mut c = cols.to_vec();
         if stiffness.takes_offset() {
-            c.extend(offset_columns(p.len()));
+            c.extend(shared.offsets.iter().cloned());
         }
         c
     };
     // without the pneumatic term
-    let plain = base_columns(p, &ctx, stiffness, 0.0, 0.0)?;
+    let plain = base_columns(p, &ctx, stiffness, 0.0, 0.0, shared)?;
     let plain_off = with_offset(&plain);
     let target = [y[0].as_slice(), y[1].as_slice()];
     let ne_plain = lsq::normal_equations(&plain_off, &target, rows.clone());
@@ -311,8 +337,13 @@ pub(super) fn choose_pneumatic(
             wn0 * wf,
             z,
         ));
-        let ne =
-            lsq::normal_equations_extended(&plain_ne, &with_offset(&cols), &target, rows.clone());
+        let ne = lsq::normal_equations_extended(
+            &plain_ne,
+            &with_offset(&cols),
+            &target,
+            rows.clone(),
+            &mut lsq::GramMemo::default(),
+        );
         let th = lsq::solve(&ne, &stiffness.positive());
         let r = lsq::rss(&ne, yty, &th);
         if best.as_ref().is_none_or(|b| r < b.0) {

@@ -124,7 +124,12 @@ impl<'a> Loop<'a> {
         })
     }
 
-    fn candidate(&self, v: usize, terms: &[DynTerm]) -> Option<Candidate> {
+    fn candidate(
+        &self,
+        v: usize,
+        terms: &[DynTerm],
+        memo: &mut lsq::GramMemo,
+    ) -> Option<Candidate> {
         let (cols, _, positive, shift, nb) = self.assemble(v, terms)?;
         let c = self.cv_cache();
         let t = self.target(shift);
@@ -134,7 +139,7 @@ impl<'a> Loop<'a> {
             .enumerate()
             .map(|(b, r)| {
                 let known = c.base[v][b].prefix(nb);
-                Self::normal_with_known(&known, &cols, &t.y, shift, r.clone())
+                Self::normal_with_known(&known, &cols, &t.y, shift, r.clone(), memo)
             })
             .collect();
         let yty = if shift == 0 {
@@ -184,12 +189,15 @@ impl<'a> Loop<'a> {
                 .collect(),
             None => vec![None],
         };
+        // the terms' columns against every shortlisted variant's, block by block: the
+        // products the variants share are computed once
+        let mut memo = lsq::GramMemo::default();
         for ft in free_terms {
             if let Some(t) = ft {
                 terms.push(t);
             }
             for &v in self.shortlist() {
-                if let Some(c) = self.candidate(v, &terms) {
+                if let Some(c) = self.candidate(v, &terms, &mut memo) {
                     candidates.push(c);
                 }
             }

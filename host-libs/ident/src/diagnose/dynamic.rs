@@ -105,26 +105,26 @@ impl<'a> Loop<'a> {
         let yty_train = (0..2)
             .map(|a| y[a][..self.p.split].iter().map(|v| v * v).sum::<f64>())
             .sum();
-        let t = std::sync::Arc::new(Target { y, yty_train });
+        let t = std::sync::Arc::new(Target {
+            y: y.map(std::sync::Arc::new),
+            yty_train,
+        });
         cache.insert(shift, t.clone());
         t
     }
 
     /// Normal equations of `cols` (the first `nb` the variant's base columns, whose Gram
-    /// block is `known`'s) against the target shifted by `shift`.
+    /// block is `known`'s) against the target shifted by `shift`; `memo` serves the column
+    /// products fits over the same rows share.
     pub(super) fn normal_with_known(
         known: &lsq::Normal,
         cols: &[Column],
-        y: &[Vec<f64>; 2],
+        y: &[std::sync::Arc<Vec<f64>>; 2],
         shift: usize,
         rows: std::ops::Range<usize>,
+        memo: &mut lsq::GramMemo,
     ) -> lsq::Normal {
-        let target = [y[0].as_slice(), y[1].as_slice()];
-        if shift > 0 {
-            lsq::normal_equations_retarget(known, cols, &target, rows)
-        } else {
-            lsq::normal_equations_extended(known, cols, &target, rows)
-        }
+        lsq::normal_equations_shared_target(known, cols, y, rows, memo, shift > 0)
     }
 
     /// Information criterion of a fit of `ncols` columns with variant `v`: the pneumatic
@@ -157,6 +157,8 @@ impl<'a> Loop<'a> {
             }
         } else {
             let mut scored: Vec<(f64, Shape)> = Vec::new();
+            // one shape's columns against every shortlisted variant's: products shared
+            let mut memo = lsq::GramMemo::default();
             for s in shapes {
                 let term = [e.dynamic_term(ctx, &s)];
                 let mut best = f64::INFINITY;
@@ -164,7 +166,7 @@ impl<'a> Loop<'a> {
                     let Some((cols, _, positive, shift, nb)) = self.assemble(v, &term) else {
                         continue;
                     };
-                    let ne = self.training_normal(v, &cols, shift, nb);
+                    let ne = self.training_normal(v, &cols, shift, nb, &mut memo);
                     let yty = self.target(shift).yty_train;
                     let th = self.solve_dynamic(&ne, &positive);
                     let r = self.criterion(lsq::rss(&ne, yty, &th), cols.len(), v);
@@ -190,10 +192,11 @@ impl<'a> Loop<'a> {
         cols: &[Column],
         shift: usize,
         base_len: usize,
+        memo: &mut lsq::GramMemo,
     ) -> lsq::Normal {
         let known = &self.base_variants[v].normal.prefix(base_len);
         let t = self.target(shift);
-        Self::normal_with_known(known, cols, &t.y, shift, 0..self.p.split)
+        Self::normal_with_known(known, cols, &t.y, shift, 0..self.p.split, memo)
     }
 
     /// The base variants effects are fitted with: the [`SHORTLIST`] the base alone fits
@@ -232,7 +235,7 @@ impl<'a> Loop<'a> {
     pub(super) fn fit_dynamic(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
         let p = &self.p;
         let ctx = DynCtx::new(p, self.model);
-        let y = self.target(0).y.clone();
+        let y = self.target(0).y.clone().map(|v| v.to_vec());
         let chosen: Vec<(&dyn ModelEffect, Shape)> = effects
             .iter()
             .filter(|e| e.applies(Experiment::Dynamic))
@@ -240,12 +243,13 @@ impl<'a> Loop<'a> {
             .collect();
         // every base variant; keep the one the training part prefers
         let mut best: Option<VariantFit> = None;
+        let mut memo = lsq::GramMemo::default();
         for &v in self.shortlist() {
             let Some((cols, ranges, positive, shift, nb)) = self.dyn_columns(&ctx, v, &chosen)
             else {
                 continue;
             };
-            let ne = self.training_normal(v, &cols, shift, nb);
+            let ne = self.training_normal(v, &cols, shift, nb, &mut memo);
             let theta = self.solve_dynamic(&ne, &positive);
             let r = lsq::rss(&ne, self.target(shift).yty_train, &theta);
             let c = self.criterion(r, cols.len(), v);

@@ -12,9 +12,7 @@ mod selection;
 mod step_fit;
 mod unexplained;
 use base::*;
-pub use base::{
-    base_columns, joint_stiffness_columns, pneumatic_columns, prepare_with_best_cutoff, Stiffness,
-};
+pub use base::{joint_stiffness_columns, pneumatic_columns, prepare_with_best_cutoff, Stiffness};
 pub use compare::*;
 pub use cv::{FoldScores, FOLDS};
 pub use decide::*;
@@ -29,6 +27,7 @@ use crate::spectrum::{amplitude_spectrum, narrow_peaks};
 use crate::step::{self, StepParams};
 use crate::trial::{rms, std_dev, FilterSettings, Prepared, Trial};
 use pam_model::RobotModel;
+use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -211,7 +210,8 @@ const SHORTLIST: usize = 6;
 
 /// A dynamic fit's target (−f), possibly shifted for a delay.
 pub(super) struct Target {
-    pub y: [Vec<f64>; 2],
+    /// (shared: fits keep the right-hand sides they share in a [`lsq::GramMemo`])
+    pub y: [std::sync::Arc<Vec<f64>>; 2],
     /// Σ y² over the training rows.
     pub yty_train: f64,
 }
@@ -278,29 +278,36 @@ fn choose_drive(
     init: Response,
 ) -> Option<(Drive, Response, [Vec<f64>; 2])> {
     let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
+    // every candidate fitted on both cores, then chosen in order
+    let fitted: Vec<(f64, Drive, Response, [Vec<f64>; 2])> = Drive::candidates(p, model)
+        .into_par_iter()
+        .map(|d| {
+            // the axes the drive commands to move (as `Loop::stepping_axes` will see them)
+            let commanded = [d.commanded(0), d.commanded(1)];
+            let axes: Vec<usize> = (0..2).filter(|&a| std_dev(&commanded[a]) > 1e-9).collect();
+            let fitted = response::fit(p, &d, &init, &[], &axes, p.split);
+            let mut pred = [vec![0.0; p.split], vec![0.0; p.split]];
+            response::simulate(&fitted, &d, &p.t_s, alpha, p.split, &mut pred);
+            let cost: f64 = axes
+                .iter()
+                .map(|&a| {
+                    (0..p.split)
+                        .map(|i| (p.force_n[a][i] - pred[a][i]).powi(2))
+                        .sum::<f64>()
+                })
+                .sum();
+            (cost, d, fitted, commanded)
+        })
+        .collect();
     let mut best: Option<(f64, Drive, Response, [Vec<f64>; 2])> = None;
-    for (k, d) in Drive::candidates(p, model).into_iter().enumerate() {
-        // the axes the drive commands to move (as `Loop::stepping_axes` will see them)
-        let commanded = [d.commanded(0), d.commanded(1)];
-        let axes: Vec<usize> = (0..2).filter(|&a| std_dev(&commanded[a]) > 1e-9).collect();
-        let fitted = response::fit(p, &d, &init, &[], &axes, p.split);
-        let mut pred = [vec![0.0; p.split], vec![0.0; p.split]];
-        response::simulate(&fitted, &d, &p.t_s, alpha, p.split, &mut pred);
-        let cost: f64 = axes
-            .iter()
-            .map(|&a| {
-                (0..p.split)
-                    .map(|i| (p.force_n[a][i] - pred[a][i]).powi(2))
-                    .sum::<f64>()
-            })
-            .sum();
+    for (k, candidate) in fitted.into_iter().enumerate() {
         let better = match &best {
             None => true,
             // the first candidate is the physical view: another must beat it clearly
-            Some((c, ..)) => k > 0 && cost < 0.9 * c,
+            Some((c, ..)) => k > 0 && candidate.0 < 0.9 * c,
         };
         if better {
-            best = Some((cost, d, fitted, commanded));
+            best = Some(candidate);
         }
     }
     best.map(|(_, d, r, commanded)| (d, r, commanded))
@@ -403,36 +410,45 @@ impl<'a> Loop<'a> {
         // the pneumatic term; every fit (base alone or with effects) uses the variant that
         // its training part prefers by the information criterion
         let (base_variants, n_eff) = if experiment == Experiment::Dynamic {
-            let mut v = Vec::new();
-            for stiffness in Stiffness::ALL {
-                let Some((cols, pneumatic)) = choose_pneumatic(&p, model, stiffness) else {
-                    continue;
-                };
-                let mut plain = cols.clone();
-                plain.truncate(stiffness.plain_len());
-                let mut forms = vec![(plain, (0.0, 0.0))];
-                if pneumatic.0 > 0.0 {
-                    forms.push((cols, pneumatic));
-                }
-                let offset = stiffness.takes_offset();
-                for (cols, _) in &mut forms {
-                    if offset {
-                        cols.extend(offset_columns(p.len()));
+            // the stiffness forms on both cores, kept in their order
+            let shared = SharedColumns::of(&p);
+            let v: Vec<BaseVariant> = Stiffness::ALL
+                .par_iter()
+                .map(|&stiffness| {
+                    let Some((cols, pneumatic)) = choose_pneumatic(&p, model, stiffness, &shared)
+                    else {
+                        return Vec::new();
+                    };
+                    let mut plain = cols.clone();
+                    plain.truncate(stiffness.plain_len());
+                    let mut forms = vec![(plain, (0.0, 0.0))];
+                    if pneumatic.0 > 0.0 {
+                        forms.push((cols, pneumatic));
                     }
-                }
-                let y = msd::target(&p);
-                for (cols, pneumatic) in forms {
-                    let target = [y[0].as_slice(), y[1].as_slice()];
-                    let normal = lsq::normal_equations(&cols, &target, 0..p.split);
-                    v.push(BaseVariant {
-                        cols,
-                        offset,
-                        pneumatic,
-                        stiffness,
-                        normal,
-                    });
-                }
-            }
+                    let offset = stiffness.takes_offset();
+                    for (cols, _) in &mut forms {
+                        if offset {
+                            cols.extend(shared.offsets.iter().cloned());
+                        }
+                    }
+                    let y = msd::target(&p);
+                    forms
+                        .into_iter()
+                        .map(|(cols, pneumatic)| {
+                            let target = [y[0].as_slice(), y[1].as_slice()];
+                            let normal = lsq::normal_equations(&cols, &target, 0..p.split);
+                            BaseVariant {
+                                cols,
+                                offset,
+                                pneumatic,
+                                stiffness,
+                                normal,
+                            }
+                        })
+                        .collect::<Vec<_>>()
+                })
+                .flatten()
+                .collect();
             let y = msd::target(&p);
             let pred = msd::fit_columns(&p, &v[0].cols, &v[0].positive(), &y).1;
             let res: Vec<Vec<f64>> = (0..2)

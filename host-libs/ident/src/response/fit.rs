@@ -6,6 +6,7 @@ use super::params::{lower_bounds, pack, unpack};
 use super::simulate::peak_rate;
 use super::*;
 use crate::lm;
+use rayon::prelude::*;
 
 /// Least-squares fit of the step-trial model on rows [0, fit_end) of `axes`, from `start`
 /// (the base's values; extras start from several inactive-to-strong settings).
@@ -322,17 +323,23 @@ pub fn fit(
         r.offset_n = offset;
         (cost, r)
     };
-    let mut screen = |r: &Response| -> (f64, Response) {
+    let screen = |sims: &mut Sims, r: &Response| -> (f64, Response) {
         let mut r = *r;
         let slopes = r.gain_slope_per_rad;
         r.gain_slope_per_rad = [[0.0; 2]; 2];
-        let (cost, mut r) = project(&r, Some(unit), start, &mut sims, None);
+        let (cost, mut r) = project(&r, Some(unit), start, sims, None);
         r.gain_slope_per_rad = slopes;
         (cost, r)
     };
     let keep = 3;
     if starts.len() > keep {
-        let mut scored: Vec<(f64, Response)> = starts.iter().map(&mut screen).collect();
+        // the starts on both cores (each thread its own buffers); the order of `scored`
+        // is the starts' and the sort is stable, so the result does not depend on the
+        // threads
+        let mut scored: Vec<(f64, Response)> = starts
+            .par_iter()
+            .map_init(|| Sims::new(n), screen)
+            .collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         starts = scored.into_iter().take(keep).map(|s| s.1).collect();
     }
@@ -379,26 +386,33 @@ pub fn fit(
         .collect();
     // each start is its own template: a grid start carries the capped channel, a choice
     // that is not among the packed parameters
+    // the kept starts refined side by side (their Jacobians are parallel too); the best
+    // is chosen in the starts' order, as a serial loop would
+    let refined: Vec<(f64, Response)> = starts
+        .par_iter()
+        .map(|&s0| {
+            let full = pack(&s0, extras, axes);
+            let init: Vec<f64> = full
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| !linear.contains(i))
+                .map(|(_, v)| *v)
+                .collect();
+            let expand = |v: &[f64]| -> Response {
+                let mut f = v[..linear.start].to_vec();
+                f.extend(std::iter::repeat_n(0.0, linear.len()));
+                f.extend_from_slice(&v[linear.start..]);
+                unpack(&f, extras, axes, &s0)
+            };
+            let (theta, _) = lm::minimize(&init, &lower_nl, n_res, 30, |v, res| {
+                // each evaluation its own buffers: the Jacobian's columns run in parallel
+                project(&expand(v), unit_gain, &s0, &mut Sims::new(n), Some(res));
+            });
+            project(&expand(&theta), unit_gain, &s0, &mut Sims::new(n), None)
+        })
+        .collect();
     let mut best: Option<(f64, Response)> = None;
-    for s0 in starts {
-        let full = pack(&s0, extras, axes);
-        let init: Vec<f64> = full
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| !linear.contains(i))
-            .map(|(_, v)| *v)
-            .collect();
-        let expand = |v: &[f64]| -> Response {
-            let mut f = v[..linear.start].to_vec();
-            f.extend(std::iter::repeat_n(0.0, linear.len()));
-            f.extend_from_slice(&v[linear.start..]);
-            unpack(&f, extras, axes, &s0)
-        };
-        let (theta, _) = lm::minimize(&init, &lower_nl, n_res, 30, |v, res| {
-            // each evaluation its own buffers: the Jacobian's columns run in parallel
-            project(&expand(v), unit_gain, &s0, &mut Sims::new(n), Some(res));
-        });
-        let fitted = project(&expand(&theta), unit_gain, &s0, &mut sims, None);
+    for fitted in refined {
         if best.as_ref().is_none_or(|b| fitted.0 < b.0) {
             best = Some(fitted);
         }

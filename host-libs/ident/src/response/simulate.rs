@@ -113,14 +113,22 @@ fn simulate_channels<const K: usize>(
         r.force_fall_n_per_s.max(1e-9) * d.dt_s,
     );
     let mut slewed: [Option<f64>; 2] = [None; 2];
+    // without a pose dependence the gain is a constant: a force channel's factor is then
+    // exactly 1 (g / g), and the division per sample (a tenth of a step fit's time,
+    // measured) is left out
+    let constant_gain = [0, 1].map(|a| {
+        (r.gain_slope_per_rad[a] == [0.0; 2]).then(|| if force_channels { 1.0 } else { r.gain[a] })
+    });
     for i in 0..n {
         let forces = d.channel_forces(i, &x);
         for a in 0..2 {
-            let g = r.gain[a]
-                + r.gain_slope_per_rad[a][0] * alpha[0][i]
-                + r.gain_slope_per_rad[a][1] * alpha[1][i];
             let f = d.axis_force(i, a, &forces);
-            let g = if force_channels {
+            let g = if let Some(g) = constant_gain[a] {
+                g
+            } else if force_channels {
+                let g = r.gain[a]
+                    + r.gain_slope_per_rad[a][0] * alpha[0][i]
+                    + r.gain_slope_per_rad[a][1] * alpha[1][i];
                 // x already carries the gain; only its pose dependence is left
                 if r.gain[a].abs() > 1e-12 {
                     g / r.gain[a]
@@ -128,7 +136,9 @@ fn simulate_channels<const K: usize>(
                     1.0
                 }
             } else {
-                g
+                r.gain[a]
+                    + r.gain_slope_per_rad[a][0] * alpha[0][i]
+                    + r.gain_slope_per_rad[a][1] * alpha[1][i]
             };
             let mut force = g * f;
             if force_limited {
