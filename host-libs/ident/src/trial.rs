@@ -4,6 +4,7 @@
 
 use crate::filter::Butterworth;
 use pam_model::RobotModel;
+use rayon::prelude::*;
 
 /// The columns of one trial, in SI units, user frame.
 #[derive(Clone, Debug, Default)]
@@ -152,17 +153,28 @@ impl Trial {
         model: &RobotModel<f64>,
         filt: FilterSettings,
     ) -> Result<Prepared, crate::IdentError> {
+        let mut each = self.prepare_each(model, &[filt])?;
+        Ok(each.remove(0))
+    }
+
+    /// [`Trial::prepare`] with each of `filters`, on both cores: the validation, an uneven
+    /// log's resampling, the forward kinematics and the raw velocity are computed once for
+    /// all (the model loop tries three derivative cutoffs on a log of up to 1 kHz).
+    pub fn prepare_each(
+        &self,
+        model: &RobotModel<f64>,
+        filters: &[FilterSettings],
+    ) -> Result<Vec<Prepared>, crate::IdentError> {
         self.validate()?;
         if let Some(uniform) = self.resampled_if_uneven() {
-            let mut p = uniform.prepare(model, filt)?;
-            p.resampled = true;
-            return Ok(p);
+            let mut each = uniform.prepare_each(model, filters)?;
+            for p in &mut each {
+                p.resampled = true;
+            }
+            return Ok(each);
         }
         let n = self.len();
         let dt = (self.t_s[n - 1] - self.t_s[0]) / (n - 1) as f64;
-        let fs = 1.0 / dt;
-        let cutoff = filt.cutoff_hz.min(0.45 * fs);
-        let bw = Butterworth::lowpass(filt.order, cutoff, fs)?;
         let mut x = [Vec::with_capacity(n), Vec::with_capacity(n)];
         for i in 0..n {
             let p = model
@@ -173,14 +185,30 @@ impl Trial {
         }
         let start = n.min(((0.1 / dt).round() as usize).max(1));
         let x0 = [mean(&x[0][..start]), mean(&x[1][..start])];
-        // the displacement through the same zero-phase low-pass as the derivatives: the
-        // encoders' quantisation (white up to Nyquist) would otherwise reach the stiffness
-        // regressor but not the measured force, and the base would spend terms (the
-        // pneumatic high-pass) cancelling it instead of describing the arm
-        let deriv = |s: &[f64]| -> Vec<f64> {
-            let raw = central_difference(s, &self.t_s);
-            bw.filtfilt(&raw, fs, cutoff)
-        };
+        let raw_v = [0, 1].map(|a| central_difference(&x[a], &self.t_s));
+        let each: Vec<Result<Prepared, crate::IdentError>> = filters
+            .par_iter()
+            .map(|filt| self.filtered(&x, x0, &raw_v, start, *filt))
+            .collect();
+        // the first error in the filters' order, as a serial loop would give
+        each.into_iter().collect()
+    }
+
+    /// The filtered signals of an evenly sampled trial whose positions `x` (their mean over
+    /// the first `start` samples `x0`) and raw velocities `raw_v` are known.
+    fn filtered(
+        &self,
+        x: &[Vec<f64>; 2],
+        x0: [f64; 2],
+        raw_v: &[Vec<f64>; 2],
+        start: usize,
+        filt: FilterSettings,
+    ) -> Result<Prepared, crate::IdentError> {
+        let n = self.len();
+        let dt = (self.t_s[n - 1] - self.t_s[0]) / (n - 1) as f64;
+        let fs = 1.0 / dt;
+        let cutoff = filt.cutoff_hz.min(0.45 * fs);
+        let bw = Butterworth::lowpass(filt.order, cutoff, fs)?;
         // each axis's filters in one chain (displacement, velocity, acceleration, angle),
         // the two axes on both cores
         let axis = |a: usize| {
@@ -190,13 +218,12 @@ impl Trial {
             // pneumatic high-pass) cancelling it instead of describing the arm
             let d: Vec<f64> = x[a].iter().map(|v| v - x0[a]).collect();
             let dx = bw.filtfilt(&d, fs, cutoff);
-            let v = deriv(&x[a]);
-            let acc = deriv(&v);
+            let v = bw.filtfilt(&raw_v[a], fs, cutoff);
+            let acc = bw.filtfilt(&central_difference(&v, &self.t_s), fs, cutoff);
             let smooth = bw.filtfilt(&self.alpha_rad[a], fs, cutoff);
             (dx, v, acc, smooth)
         };
         let ((dx0, v0, a0, s0), (dx1, v1, a1, s1)) = rayon::join(|| axis(0), || axis(1));
-        let (dx, v, a, alpha_smooth_rad) = ([dx0, dx1], [v0, v1], [a0, a1], [s0, s1]);
         let alpha0_rad = [
             mean(&self.alpha_rad[0][..start]),
             mean(&self.alpha_rad[1][..start]),
@@ -205,14 +232,14 @@ impl Trial {
             t_s: self.t_s.clone(),
             dt_s: dt,
             alpha_rad: self.alpha_rad.clone(),
-            x_m: x,
-            dx_m: dx,
+            x_m: x.clone(),
+            dx_m: [dx0, dx1],
             x0_m: x0,
-            v_m_s: v,
-            a_m_s2: a,
+            v_m_s: [v0, v1],
+            a_m_s2: [a0, a1],
             force_n: self.force_n.clone(),
             force_ref_n: self.force_ref_n.clone(),
-            alpha_smooth_rad,
+            alpha_smooth_rad: [s0, s1],
             alpha0_rad,
             current_ma: self.current_ma.clone(),
             split: (n * 4) / 5,

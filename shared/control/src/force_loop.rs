@@ -486,7 +486,7 @@ impl ForceLoop {
                 None => self
                     .plant_gain
                     .observe(m, self.reference_n, i, self.error_n, settled, dt_s)
-                    .map(|k| [(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]),
+                    .map(|k| PlantGain::bumpless_integral(m, i, k)),
                 v => v,
             },
         };

@@ -236,7 +236,7 @@ impl PlantGain {
             }
             let k = self.gain_before / self.gain;
             self.gain = self.gain_before;
-            return Some([(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]);
+            return Some(Self::bumpless_integral(m, i, k));
         }
         if self.follows || self.ratio_s < RATIO_HOLD_S + 1.0 / RATIO_FILTER_RAD_S {
             return None;
@@ -258,12 +258,21 @@ impl PlantGain {
         self.gain = g;
         if k < 1.0 {
             // a weaker plant: the command stays (bumpless), the raised gain brings it up
-            return Some([(m[0] + i[0]) * k - m[0], (m[1] + i[1]) * k - m[1]]);
+            return Some(Self::bumpless_integral(m, i, k));
         }
         // a stronger plant: at once the command that holds the force at this gain, the
         // level's plus the step's change (what it has in excess would go into the handle)
         let u0 = self.level.map(|l| l.1).unwrap_or([0.0; 2]);
         Some([g * u0[0] - f0[0], g * u0[1] - f0[1]])
+    }
+
+    /// The integral that keeps the command where it was when the gain changes by `k`:
+    /// the command is (m + I)/g, so (m + I')/(k·g) = (m + I)/g gives I' = (m + I)·k − m.
+    pub fn bumpless_integral(model_n: Vec2<f32>, integral_n: Vec2<f32>, k: f32) -> Vec2<f32> {
+        [
+            (model_n[0] + integral_n[0]) * k - model_n[0],
+            (model_n[1] + integral_n[1]) * k - model_n[1],
+        ]
     }
 
     /// Advances the nominal plant H (the converters' identified second order, Table 5.2) by

@@ -38,15 +38,16 @@ pub fn prepare_with_best_cutoff(
     model: &RobotModel<f64>,
     filter: FilterSettings,
 ) -> Result<Prepared, crate::IdentError> {
-    // the three preparations on both cores, chosen in order below
-    let prepared: Vec<Result<(f64, Prepared), crate::IdentError>> = [1.0, 0.6, 0.4]
-        .par_iter()
-        .map(|f| {
-            let settings = FilterSettings {
-                cutoff_hz: filter.cutoff_hz * f,
-                ..filter
-            };
-            let p = trial.prepare(model, settings)?;
+    // the three preparations (kinematics once) and their fits on both cores, chosen in
+    // order below
+    let filters = [1.0, 0.6, 0.4].map(|f| FilterSettings {
+        cutoff_hz: filter.cutoff_hz * f,
+        ..filter
+    });
+    let prepared: Vec<(f64, Prepared)> = trial
+        .prepare_each(model, &filters)?
+        .into_par_iter()
+        .map(|p| {
             let p = p.every(analysis_stride(p.dt_s));
             let y = msd::target(&p);
             let mut cols = msd::msd_columns(&p);
@@ -56,12 +57,11 @@ pub fn prepare_with_best_cutoff(
             let yty: f64 = (0..2)
                 .map(|a| y[a][..p.split].iter().map(|v| v * v).sum::<f64>())
                 .sum();
-            Ok((lsq::rss(&ne, yty, &th), p))
+            (lsq::rss(&ne, yty, &th), p)
         })
         .collect();
     let mut best: Option<(f64, Prepared)> = None;
-    for r in prepared {
-        let (rss, p) = r?;
+    for (rss, p) in prepared {
         // a lower cutoff must gain more than rounding
         if best.as_ref().is_none_or(|b| rss < 0.995 * b.0) {
             best = Some((rss, p));
@@ -325,6 +325,8 @@ pub(super) fn choose_pneumatic(
     // `base_columns`); only their products are new, the plain block is reused
     let plain_ne = ne_plain.prefix(plain.len());
     let mut best: Option<(f64, Vec<Column>, (f64, f64))> = None;
+    // the grid's fits share the plain and offset columns: their products once
+    let mut memo = lsq::GramMemo::default();
     for (wf, z) in [0.6, 1.0, 1.6]
         .iter()
         .flat_map(|&wf| [z0, 0.7, 1.0].into_iter().map(move |z| (wf, z)))
@@ -342,7 +344,7 @@ pub(super) fn choose_pneumatic(
             &with_offset(&cols),
             &target,
             rows.clone(),
-            &mut lsq::GramMemo::default(),
+            &mut memo,
         );
         let th = lsq::solve(&ne, &stiffness.positive());
         let r = lsq::rss(&ne, yty, &th);
