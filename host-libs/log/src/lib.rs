@@ -53,6 +53,10 @@ pub mod col {
     pub const STATE: &str = "state";
     /// Latched fault bits (pam-control `Faults`).
     pub const FAULTS: &str = "faults";
+    /// What the controller had to limit (telemetry's `limited` byte: the model's `Limited`
+    /// bits of both joints, 0x20 a closed-loop force target scaled to the capability, 0x80
+    /// the slew limit or a converter's range). Not in [`KNOWN`]: an extra column.
+    pub const LIMITED: &str = "limited";
 
     /// Every log has these, in any order.
     pub const REQUIRED: [&str; 9] = [

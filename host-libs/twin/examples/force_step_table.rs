@@ -7,7 +7,9 @@
 //!     [--per-step] [--period SECONDS] [--within N] [--seed N]
 //! ```
 //! Prints one markdown row: worst / mean 5 % settling, worst overshoot, mean |gain − 1|,
-//! gain range, and how many poses faulted. `--within N` keeps only the steps between levels
+//! gain range, the worst steady error on the axis that did not step, the steps the controller
+//! declared out of reach (its worst overshoot there in newtons; those steps are left out of
+//! the overshoot column, `pam_twin::step_metrics`), and how many poses faulted. `--within N` keeps only the steps between levels
 //! of at most N newtons (e.g. 19: leave out the ±27.3 N levels the identified rig's weaker
 //! muscles cannot reach at every pose). `--seed N` changes the twin's noise realisation
 //! (default 0): check a result on a few.
@@ -65,8 +67,9 @@ fn main() {
                 if per_step {
                     for s in &steps {
                         println!(
-                            "pose {pose} axis {} {:6.1} → {:6.1} N: settle {:.3} s, overshoot {:.1} %, gain {:.3}",
-                            s.axis, s.from_n, s.to_n, s.settling_s, s.overshoot_pct, s.gain
+                            "pose {pose} axis {} {:6.1} → {:6.1} N: settle {:.3} s, overshoot {:.1} % ({:.2} N), gain {:.3}, cross {:.2} N{}",
+                            s.axis, s.from_n, s.to_n, s.settling_s, s.overshoot_pct, s.overshoot_n,
+                            s.gain, s.cross_error_n, if s.out_of_reach { ", out of reach" } else { "" }
                         );
                     }
                 }
@@ -113,13 +116,16 @@ fn main() {
         },
     );
     println!(
-        "| {label} | {:.3} | {:.3} | {:.1} | {:.3} | {:.3}–{:.3} | {} |",
+        "| {label} | {:.3} | {:.3} | {:.1} | {:.3} | {:.3}–{:.3} | {:.2} | {} ({:.2} N) | {} |",
         s.settling_worst_s,
         s.settling_mean_s,
         s.overshoot_worst_pct,
         s.gain_error_mean,
         s.gain_min,
         s.gain_max,
+        s.cross_error_worst_n,
+        s.out_of_reach_steps,
+        s.out_of_reach_overshoot_worst_n,
         faulted.len()
     );
     for f in faulted {

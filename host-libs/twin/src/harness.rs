@@ -151,7 +151,7 @@ fn columns(with_ref: bool, with_hand_ref: bool) -> Vec<&'static str> {
     if with_hand_ref {
         c.extend(["hand_x_ref_m", "hand_y_ref_m"]);
     }
-    c.extend([col::SEQ, col::STATE, col::FAULTS]);
+    c.extend([col::SEQ, col::STATE, col::FAULTS, col::LIMITED]);
     c
 }
 
@@ -269,7 +269,9 @@ impl Rig {
                 State::Armed => 1.0,
                 State::Faulted => 2.0,
             };
-            row.extend([self.seq as f64, state, out.faults.0 as f64]);
+            // as telemetry carries it (pam_protocol::LIMITED_OUTPUT for the output path)
+            let limited = out.limited.0 | if out.output_limited { 0x80 } else { 0 };
+            row.extend([self.seq as f64, state, out.faults.0 as f64, limited as f64]);
             self.log.push_row(&row);
             self.seq += 1;
         }

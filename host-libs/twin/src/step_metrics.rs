@@ -13,8 +13,16 @@
 //!   steady value, in the step's direction, over the measured step |Δsteady|, %.
 //! - 5 % settling: from the step to the last sample outside ±5 % of |Δreference| around the
 //!   new steady value.
+//! - Out of reach: a step to or from a level the controller said it could not reach (the
+//!   log's `limited` column has the closed loop's [`Limited::TARGET`] bit on most of that
+//!   level's last 20 %: it scaled the target down to what the muscles can give). Such a step's delivered change may be near zero, so its
+//!   overshoot is kept apart, in newtons, not as a percentage of that change.
+//! - Cross error: |steady − reference| on the axis that did not step, at the new level: a
+//!   step that cannot be delivered in full may still be met on its axis by pushing the
+//!   other way too (the step gain alone does not see it).
 
 use pam_log::{col, Log, LogError};
+use pam_model::Limited;
 
 /// One step's figures.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,18 +34,29 @@ pub struct StepFigures {
     pub settling_s: f64,
     pub overshoot_pct: f64,
     pub gain: f64,
+    /// |steady − reference| on the other axis at the new level, N.
+    pub cross_error_n: f64,
+    /// The largest excursion beyond the new steady value, in the step's direction, N.
+    pub overshoot_n: f64,
+    /// The controller scaled this step's target to the capability (see the module's notes).
+    pub out_of_reach: bool,
 }
 
 /// Summary over many steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Summary {
     pub steps: usize,
+    /// Over the steps within reach (all of them when the log does not say).
     pub settling_worst_s: f64,
     pub settling_mean_s: f64,
     pub overshoot_worst_pct: f64,
     pub gain_error_mean: f64,
     pub gain_min: f64,
     pub gain_max: f64,
+    pub cross_error_worst_n: f64,
+    /// Steps the controller declared out of reach, and their worst overshoot, N.
+    pub out_of_reach_steps: usize,
+    pub out_of_reach_overshoot_worst_n: f64,
 }
 
 const SMOOTH_HALF: usize = 10;
@@ -62,6 +81,7 @@ pub fn force_steps(log: &Log) -> Result<Vec<StepFigures>, LogError> {
     let t = log.require(col::T_S)?;
     let refs = [log.require(col::FX_REF_N)?, log.require(col::FY_REF_N)?];
     let force = [log.require(col::FX_N)?, log.require(col::FY_N)?];
+    let limited = log.column(col::LIMITED);
     let n = t.len();
     // boundaries: row indices where either reference changes
     let mut starts = vec![0usize];
@@ -90,6 +110,19 @@ pub fn force_steps(log: &Log) -> Result<Vec<StepFigures>, LogError> {
         let s = &full[..full.len().saturating_sub(SMOOTH_HALF).max(1)];
         let peak = s.iter().map(|v| (v - y1) * dir).fold(0.0, f64::max);
         let band = 0.05 * d_ref.abs();
+        // from a level or to a level the controller could not reach
+        let out_of_reach = limited.is_some_and(|l| {
+            let scaled = |a: usize, b: usize| {
+                let hold = b - ((b - a) / 5).max(1);
+                let bit = Limited::TARGET.0 as u32;
+                let n = l[hold..b]
+                    .iter()
+                    .filter(|v| (**v as u32) & bit != 0)
+                    .count();
+                2 * n > b - hold
+            };
+            scaled(prev, a) || scaled(a, b)
+        });
         let last_out = s.iter().rposition(|v| (v - y1).abs() > band);
         let settling_s = match last_out {
             Some(k) if k + 1 < s.len() => t[a + k + 1] - t[a],
@@ -107,6 +140,9 @@ pub fn force_steps(log: &Log) -> Result<Vec<StepFigures>, LogError> {
                 f64::INFINITY
             },
             gain: d_y / d_ref,
+            cross_error_n: (steady(1 - axis, a, b) - refs[1 - axis][a]).abs(),
+            overshoot_n: peak,
+            out_of_reach,
         });
     }
     Ok(out)
@@ -122,13 +158,24 @@ pub fn summarize(steps: &[StepFigures]) -> Summary {
         steps: steps.len(),
         settling_worst_s: steps.iter().map(|s| s.settling_s).fold(0.0, f64::max),
         settling_mean_s: steps.iter().map(|s| s.settling_s).sum::<f64>() / n,
-        overshoot_worst_pct: steps.iter().map(|s| s.overshoot_pct).fold(0.0, f64::max),
+        overshoot_worst_pct: steps
+            .iter()
+            .filter(|s| !s.out_of_reach)
+            .map(|s| s.overshoot_pct)
+            .fold(0.0, f64::max),
         gain_error_mean: steps.iter().map(|s| (s.gain - 1.0).abs()).sum::<f64>() / n,
         gain_min: steps.iter().map(|s| s.gain).fold(f64::INFINITY, f64::min),
         gain_max: steps
             .iter()
             .map(|s| s.gain)
             .fold(f64::NEG_INFINITY, f64::max),
+        cross_error_worst_n: steps.iter().map(|s| s.cross_error_n).fold(0.0, f64::max),
+        out_of_reach_steps: steps.iter().filter(|s| s.out_of_reach).count(),
+        out_of_reach_overshoot_worst_n: steps
+            .iter()
+            .filter(|s| s.out_of_reach)
+            .map(|s| s.overshoot_n)
+            .fold(0.0, f64::max),
     }
 }
 
@@ -173,5 +220,23 @@ mod tests {
         );
         let sum = summarize(&steps);
         assert!((sum.gain_error_mean - 0.2).abs() < 0.01);
+        assert!(sum.cross_error_worst_n < 1e-12, "{sum:?}");
+        // a response that also pushes the other axis by 0.3 of the step's force
+        let mut skew = Log::new(&[col::T_S, col::FX_N, col::FY_N, col::FX_REF_N, col::FY_REF_N]);
+        let base = synthetic(1.0, 0.05);
+        let (fx, rx) = (
+            base.require(col::FX_N).unwrap(),
+            base.require(col::FX_REF_N).unwrap(),
+        );
+        for i in 0..fx.len() {
+            skew.push_row(&[i as f64 * 0.001, fx[i], 0.3 * fx[i], rx[i], 0.0]);
+        }
+        let steps = force_steps(&skew).unwrap();
+        assert!(
+            (steps[0].cross_error_n - 3.0).abs() < 0.01,
+            "{:?}",
+            steps[0]
+        );
+        assert!((steps[0].gain - 1.0).abs() < 0.01, "{:?}", steps[0]);
     }
 }

@@ -106,3 +106,45 @@ fn closed_loop_without_the_plane_measures_the_rigs_gain_and_settles_within_0_28_
         assert!(worst <= 0.28, "seed {seed}: worst settling {worst:.3} s");
     }
 }
+
+/// The ±27.3 N levels lie beyond what the rig's 0.57 muscles give at some of the §5.2 poses.
+/// The closed loop scales such a target to what they can give, its direction kept
+/// (`RobotModel::reachable_force_scale`), and says so (`Limited::TARGET` in the log's
+/// `limited` column). Before, one joint saturated while the other still followed: the force
+/// turned up to 6.2 N into the axis that did not step, and the approach to the unreachable
+/// level overshot its steady value by 26–38 % (docs/closed-loop.md). Every step at the nine
+/// poses, with and without the plane, two seeds: the axis that did not step within 0.3 N of
+/// its reference; the steps within reach ≤ 10 % overshoot at gain 1 ± 0.01; the steps to or
+/// from an unreachable level ≤ 0.5 N beyond their steady value, and only those involving
+/// the ±27.3 N levels are declared out of reach.
+#[test]
+fn unreachable_levels_are_scaled_to_the_capability_with_the_direction_kept() {
+    for feed_forward in [false, true] {
+        for seed in 0..2 {
+            let mut spec = TrialSpec::new(Experiment::ForceStep);
+            spec.identified_rig = true;
+            spec.closed_loop = true;
+            spec.feed_forward = feed_forward;
+            spec.seed = seed;
+            let mut out_of_reach = 0;
+            for pose in 0..9 {
+                spec.pose = pose;
+                let log = run_trial(&spec).unwrap_or_else(|e| panic!("pose {pose}: {e}"));
+                for s in force_steps(&log).unwrap() {
+                    let at = format!("plane {feed_forward} seed {seed} pose {pose}: {s:?}");
+                    assert!(s.cross_error_n < 0.3, "{at}");
+                    if s.out_of_reach {
+                        out_of_reach += 1;
+                        assert!(s.from_n.abs() > 19.0 || s.to_n.abs() > 19.0, "{at}");
+                        assert!(s.overshoot_n < 0.5, "{at}");
+                    } else {
+                        assert!(s.overshoot_pct < 10.0, "{at}");
+                        assert!((s.gain - 1.0).abs() < 0.01, "{at}");
+                    }
+                }
+            }
+            println!("plane {feed_forward} seed {seed}: {out_of_reach} steps out of reach");
+            assert!(out_of_reach >= 4, "plane {feed_forward} seed {seed}");
+        }
+    }
+}

@@ -53,7 +53,7 @@ pub fn columns(with_force_ref: bool) -> Vec<&'static str> {
         col::STATE,
         col::FAULTS,
         "mode",
-        "limited",
+        col::LIMITED,
         "loop_exec_us",
         "loop_jitter_us",
     ]);

@@ -165,14 +165,22 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Resul
     writeln!(out, "mode set: {}", super::status::describe_mode(&mode))?;
     // a few samples tell whether the target had to be clamped at this pose
     let mut clamped = false;
+    let mut scaled = false;
     for _ in 0..5 {
         if let Ok(Some(t)) = client.next_telemetry(Duration::from_millis(20)) {
             // the model's clamping only: the slew limit (LIMITED_OUTPUT) is the normal way
             // to a new target
             clamped |= t.limited & !pam_protocol::LIMITED_OUTPUT != 0;
+            scaled |= t.limited & pam_model::Limited::TARGET.0 != 0;
         }
     }
-    if clamped {
+    if scaled {
+        writeln!(
+            out,
+            "warning: the force target is beyond what the muscles can give at this pose: the \
+             closed loop scaled it down to what they can, in the same direction"
+        )?;
+    } else if clamped {
         writeln!(
             out,
             "warning: the target is beyond what the robot can do at this pose: it is clamped \

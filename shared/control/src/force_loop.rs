@@ -34,8 +34,9 @@
 //! The design, its margins and the measured tables are in docs/closed-loop.md. f32, no heap.
 
 use crate::plant_gain::PlantGain;
+use pam_model::kinematics::PoseTrig;
 use pam_model::params::{GainPlane, IpConverter};
-use pam_model::{Real, Vec2};
+use pam_model::{Real, RobotModel, Vec2};
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
@@ -75,6 +76,11 @@ pub struct ForceLoopConfig {
     /// joint's anti-slack force (`pam_model::taut`): a cable cannot push, and a muscle asked
     /// for less than nothing leaves the loop with half its gain.
     pub taut_force_fraction: f32,
+    /// Share of the taut-cable torque range a target may ask for in steady state, 0–1: a
+    /// target beyond it is scaled down, its direction kept
+    /// ([`pam_model::RobotModel::reachable_force_scale`]); the rest is the feedback's room
+    /// for what the model misses.
+    pub reach_margin: f32,
     /// Compliance of what holds the handle (handle travel per newton) at which the loop's
     /// gains are halfway to [`ForceLoopConfig::compliant_gain_scale`], m/N: 20 000 N/m puts
     /// the arm's resonance on it (≈ 1.4 kg) at 120 rad/s, three times the loop's crossover; a
@@ -116,6 +122,7 @@ impl ForceLoopConfig {
             guard_flips: 6.0,
             guard_speed_m_s: 0.5,
             taut_force_fraction: 0.1,
+            reach_margin: 0.95,
             compliance_ref_m_per_n: 5e-5,
             compliant_gain_scale: 0.3,
             handle_deadband_m: 3e-4,
@@ -144,6 +151,8 @@ impl ForceLoopConfig {
             && self.kd_s >= 0.0
             && self.taut_force_fraction >= 0.0
             && self.taut_force_fraction < 1.0
+            && self.reach_margin > 0.0
+            && self.reach_margin <= 1.0
             && self.compliance_ref_m_per_n.is_finite()
             && self.compliance_ref_m_per_n > 0.0
             && self.compliant_gain_scale.is_finite()
@@ -337,6 +346,36 @@ impl ForceLoop {
         ];
         let (c, limited) = plane.correct(rest, alpha_rad);
         ([c[0] + keep * ff[0], c[1] + keep * ff[1]], limited)
+    }
+
+    /// How much of `target_n` the muscles can give at the pose, 0–1
+    /// ([`RobotModel::reachable_force_scale`] on the steady command the target needs: the
+    /// loop's steady command, (target + integral) / measured plant gain, and with
+    /// `feed_forward` through the gain plane as [`ForceLoop::through_plane`] sends it; the
+    /// integral carries what the model misses at the present level, so this is the local
+    /// extrapolation from where the plant is). The caller scales the target by it.
+    pub fn reachable_scale(
+        &self,
+        cfg: &ForceLoopConfig,
+        model: &RobotModel<f32>,
+        alpha_rad: Vec2<f32>,
+        trig: &PoseTrig<f32>,
+        target_n: Vec2<f32>,
+        feed_forward: bool,
+    ) -> f32 {
+        let g = self.plant_gain.gain();
+        let i = self.integral_n;
+        let (mut t, mut o) = ([target_n[0] / g, target_n[1] / g], [i[0] / g, i[1] / g]);
+        if feed_forward {
+            // the feed-forward's share of the plane by its weight, the integral's all of it
+            let w = self.plane_weight(cfg);
+            let plane = &model.params.gain_plane;
+            let (c, _) = plane.correct(t, alpha_rad);
+            t = [w * c[0] + (1.0 - w) * t[0], w * c[1] + (1.0 - w) * t[1]];
+            o = plane.correct(o, alpha_rad).0;
+        }
+        let (f, m) = (cfg.taut_force_fraction, cfg.reach_margin);
+        model.reachable_force_scale(alpha_rad, trig, t, o, f, m)
     }
 
     /// One period. `saturated`: the previous command was clamped by a capability limit on

@@ -162,6 +162,37 @@ pub fn closed_loop_reaches_the_force_the_open_loop_misses() -> CheckResult {
     )
 }
 
+/// A target beyond the muscles (a plant at 0.57 of the model, as the rig): scaled to what
+/// they give, in the direction asked for, flagged, no fault (`RobotModel::reachable_force_scale`).
+pub fn a_target_beyond_the_muscles_is_scaled_in_its_direction() -> CheckResult {
+    let mut plant = Plant::new(0.57);
+    let mut c = armed(closed([0.0; 2], 1.0));
+    run(&mut c, &mut plant, 500);
+    // a level first: the loop measures the plant's gain between levels
+    c.set_mode(closed(TARGET_N, 1.0)).ok();
+    run(&mut c, &mut plant, 1500);
+    let far = [8.0 * TARGET_N[0], 8.0 * TARGET_N[1]];
+    holds("accepted", c.set_mode(closed(far, 1.0)).is_ok())?;
+    let r = run(&mut c, &mut plant, 2000);
+    holds("no fault", r.faulted_at.is_none() && r.out.faults.is_none())?;
+    holds(
+        "flagged as scaled",
+        r.out.limited.contains(pam_model::Limited::TARGET),
+    )?;
+    // along = dot / |far|, across = cross / |far| (squared: no square root needed)
+    let f = r.mean_force_n;
+    let n2 = far[0] * far[0] + far[1] * far[1];
+    let dot = f[0] * far[0] + f[1] * far[1];
+    let cross = f[0] * far[1] - f[1] * far[0];
+    let level = 1.5 * TARGET_N[0];
+    holds(
+        "more than the level before",
+        dot > 0.0 && dot * dot > level * level * n2,
+    )?;
+    holds("less than asked", dot < 0.95 * n2)?;
+    holds("in the direction asked for", cross * cross < 0.09 * n2)
+}
+
 pub fn bad_gains_are_caught_by_the_guard_and_vented() -> CheckResult {
     let mut plant = Plant::new(1.0);
     let mut c = armed(closed([0.0; 2], 1.0));
@@ -425,6 +456,7 @@ pub fn impedance_renders_the_spring_force_and_refuses_out_of_range() -> CheckRes
 
 pam_model::register_checks!(
     closed_loop_reaches_the_force_the_open_loop_misses,
+    a_target_beyond_the_muscles_is_scaled_in_its_direction,
     bad_gains_are_caught_by_the_guard_and_vented,
     a_force_the_plant_cannot_give_is_a_persistent_error,
     gain_scale_outside_its_range_is_refused,

@@ -441,10 +441,20 @@ impl Controller {
                         // a hand gives way where a block does not: gentler gains
                         self.force_loop
                             .observe_handle(&self.force_loop_cfg, w, force_user_n, dt);
+                        // a target beyond the muscles is scaled to what they can give
+                        let reach = self.force_loop.reachable_scale(
+                            &self.force_loop_cfg,
+                            &self.model,
+                            alpha,
+                            &trig,
+                            force_n,
+                            feed_forward,
+                        );
+                        let target_n = [reach * force_n[0], reach * force_n[1]];
                         let fl = self.force_loop.step(
                             &self.force_loop_cfg,
                             ip,
-                            force_n,
+                            target_n,
                             force_user_n,
                             gain_scale,
                             self.last_saturated,
@@ -476,6 +486,9 @@ impl Controller {
                             self.force_loop_cfg.taut_force_fraction,
                         );
                         limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
+                        if reach < 1.0 {
+                            limited = limited.with(Limited::TARGET);
+                        }
                         self.model.channel_pressures_bar([
                             cmd.joints[0].pressure_bar,
                             cmd.joints[1].pressure_bar,

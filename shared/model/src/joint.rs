@@ -318,6 +318,9 @@ impl Limited {
     pub const INVALID_INPUT: Limited = Limited(8);
     /// The linear system was singular: the safe pretension was returned.
     pub const SINGULAR: Limited = Limited(16);
+    /// The closed force loop's target was beyond what the muscles can give at this pose and
+    /// was scaled down to it, its direction kept (`RobotModel::reachable_force_scale`).
+    pub const TARGET: Limited = Limited(32);
 
     #[inline]
     pub const fn with(self, other: Limited) -> Limited {

@@ -93,9 +93,75 @@ impl<R: Real> JointConsts<R> {
             limited,
         }
     }
+
+    /// The torque range with taut cables at this pose, N·m: the loaded muscle at the top of
+    /// the pressure range, the other at `min_force_n` (or more, where the bottom of the range
+    /// already gives more), τ = R (F2 − F1). The torque [`JointConsts::inverse_taut`] gives
+    /// without cutting it, less the floor's margin. `None` for a pose out of range.
+    pub fn taut_torque_range_nm(
+        &self,
+        muscle: &MuscleCoeffs<R>,
+        alpha_rad: R,
+        min_force_n: R,
+    ) -> Option<(R, R)> {
+        if !self.alpha_in_range(alpha_rad) {
+            return None;
+        }
+        let pose = self.pose(muscle, alpha_rad);
+        let (lo, hi) = (self.pressure_min_bar, self.pressure_max_bar);
+        let unloaded = |m: usize| pose.muscles[m].force_n(lo).max(min_force_n);
+        let r = self.pulley_radius_m;
+        Some((
+            r * (unloaded(1) - pose.muscles[0].force_n(hi)),
+            r * (pose.muscles[1].force_n(hi) - unloaded(0)),
+        ))
+    }
 }
 
 impl<R: Real> RobotModel<R> {
+    /// How much of a force command the muscles can give at this pose with taut cables: the
+    /// largest s in [0, 1] for which τ = Jᵀ (s·`force_cmd_n` + `offset_cmd_n`) stays within
+    /// `margin` × each joint's [`JointConsts::taut_torque_range_nm`]. The closed loop scales
+    /// its target by it (the direction kept) so that its reference, feed-forward and integral
+    /// ask only for what can arrive: a target beyond the capability otherwise saturates one
+    /// joint, the other still follows, and the force turns away from the direction asked for
+    /// (measured: +6.4 N on Y for −27.3 N on X at the rig's pose 4, docs/closed-loop.md).
+    /// 1 where it cannot say: a joint's pose out of range, a command that is not finite, or an
+    /// offset alone already beyond the range (the inverse model's limits and the loop's
+    /// anti-windup and guard handle those).
+    pub fn reachable_force_scale(
+        &self,
+        alpha_rad: Vec2<R>,
+        trig: &PoseTrig<R>,
+        force_cmd_n: Vec2<R>,
+        offset_cmd_n: Vec2<R>,
+        min_force_fraction: R,
+        margin: R,
+    ) -> R {
+        let (_, _, slope) = self.joint_torque_for(alpha_rad, trig, force_cmd_n, false);
+        let (_, _, offset) = self.joint_torque_for(alpha_rad, trig, offset_cmd_n, false);
+        let mut s = R::ONE;
+        for j in 0..2 {
+            let c = &self.joints[j];
+            let floor = min_force_fraction * c.anti_slack_force_n;
+            let Some((lo, hi)) = c.taut_torque_range_nm(&self.params.muscle, alpha_rad[j], floor)
+            else {
+                continue;
+            };
+            let (lo, hi, a, b) = (margin * lo, margin * hi, slope[j], offset[j]);
+            // NaN: every comparison is false and s stays as it is
+            if !(b >= lo && b <= hi) {
+                continue;
+            }
+            if a > R::ZERO && a + b > hi {
+                s = s.min((hi - b) / a);
+            } else if a < R::ZERO && a + b < lo {
+                s = s.min((lo - b) / a);
+            }
+        }
+        s
+    }
+
     /// [`RobotModel::force_command_at`] with taut cables: each joint's muscles keep at least
     /// `min_force_fraction` × the joint's anti-slack force ([`JointConsts::inverse_taut`]).
     pub fn force_command_taut_at(
@@ -212,5 +278,48 @@ mod tests {
         let s = c.inverse_taut(m, f64::NAN, 1.0, 10.0, 10.0);
         assert!(s.limited.contains(Limited::INVALID_INPUT));
         assert_eq!(s, c.inverse(m, f64::NAN, 1.0, 10.0));
+    }
+
+    /// The §5.2 step test's 27.3 N along X at pose 7 with the rig's 0.57 (a command of
+    /// 27.3 / 0.57 N): beyond the taut-cable torque range. The scale brings it inside, the
+    /// scaled command needs no cut of the torque, and a force within reach is left alone.
+    #[test]
+    fn a_command_beyond_the_capability_is_scaled_inside_it() {
+        let model = RobotModel::<f64>::thesis();
+        let a = STEP_POSES_DEG[7];
+        let alpha = [a[0].to_radians(), a[1].to_radians()];
+        let trig = model.kinematics.trig(alpha);
+        let k = crate::protocols::step_test_stiffness(&model, alpha);
+        let cmd = [27.3 / 0.57, 0.0];
+        let s = model.reachable_force_scale(alpha, &trig, cmd, [0.0; 2], 0.1, 1.0);
+        assert!(s > 0.3 && s < 0.95, "{s}");
+        let limits = Limited::TORQUE.with(Limited::PRESSURE);
+        let cut = |f: [f64; 2]| {
+            let c = model.force_command_taut_at(alpha, &trig, f, k, false, 0.1);
+            c.joints.iter().any(|j| j.limited.0 & limits.0 != 0)
+        };
+        assert!(
+            cut(cmd),
+            "the unscaled command is within reach: the test shows nothing"
+        );
+        assert!(!cut([s * cmd[0], s * cmd[1]]), "{s}");
+        // a margin scales the range; an offset shifts it
+        let s95 = model.reachable_force_scale(alpha, &trig, cmd, [0.0; 2], 0.1, 0.95);
+        assert!((s95 - 0.95 * s).abs() < 1e-9, "{s95} {s}");
+        let shifted = model.reachable_force_scale(alpha, &trig, cmd, [2.0, 0.0], 0.1, 1.0);
+        assert!(shifted < s, "{shifted} {s}");
+        // within reach, not finite, or an offset alone beyond: 1
+        assert_eq!(
+            model.reachable_force_scale(alpha, &trig, [5.0, -3.0], [0.0; 2], 0.1, 1.0),
+            1.0
+        );
+        assert_eq!(
+            model.reachable_force_scale(alpha, &trig, [f64::NAN, 0.0], [0.0; 2], 0.1, 1.0),
+            1.0
+        );
+        assert_eq!(
+            model.reachable_force_scale(alpha, &trig, cmd, [1e4, 0.0], 0.1, 1.0),
+            1.0
+        );
     }
 }
