@@ -193,6 +193,38 @@ pub fn a_target_beyond_the_muscles_is_scaled_in_its_direction() -> CheckResult {
     holds("in the direction asked for", cross * cross < 0.09 * n2)
 }
 
+/// A stiff virtual spring far from its target asks for more than the muscles give: the
+/// impedance mode scales the force, its direction kept, and flags it
+/// (`impedance::reachable_impedance_force_n`); joint by joint the force would turn.
+pub fn a_spring_force_beyond_the_muscles_keeps_its_direction() -> CheckResult {
+    let model = RobotModel::<f32>::thesis();
+    let x = model.kinematics.forward_user(POSE_RAD);
+    // 15 cm down and to the right at 3000 N/m: 670 N asked, bounded to 100 N per axis as a
+    // force request is, and beyond the muscles at this pose still
+    let d = [0.1, -0.11];
+    let mut plant = Plant::new(1.0);
+    let mut c = armed(Mode::Impedance {
+        target_user_m: [x[0] + d[0], x[1] + d[1]],
+        stiffness_n_per_m: [3000.0, 3000.0],
+        damping_n_s_per_m: [5.0, 5.0],
+        mass_kg: [0.0, 0.0],
+    });
+    let r = run(&mut c, &mut plant, 2000);
+    holds("no fault", r.faulted_at.is_none() && r.out.faults.is_none())?;
+    holds(
+        "flagged as scaled",
+        r.out.limited.contains(pam_model::Limited::TARGET),
+    )?;
+    let f = r.mean_force_n;
+    let n2 = d[0] * d[0] + d[1] * d[1];
+    let dot = f[0] * d[0] + f[1] * d[1];
+    let cross = f[0] * d[1] - f[1] * d[0];
+    // along the spring's direction: at least 10 N, less than the bound, within 0.5 N of it
+    holds("toward the target", dot > 0.0 && dot * dot > 100.0 * n2)?;
+    holds("less than asked", dot * dot < 100.0 * 100.0 * n2)?;
+    holds("in the spring's direction", cross * cross < 0.25 * n2)
+}
+
 pub fn bad_gains_are_caught_by_the_guard_and_vented() -> CheckResult {
     let mut plant = Plant::new(1.0);
     let mut c = armed(closed([0.0; 2], 1.0));
@@ -457,6 +489,7 @@ pub fn impedance_renders_the_spring_force_and_refuses_out_of_range() -> CheckRes
 pam_model::register_checks!(
     closed_loop_reaches_the_force_the_open_loop_misses,
     a_target_beyond_the_muscles_is_scaled_in_its_direction,
+    a_spring_force_beyond_the_muscles_keeps_its_direction,
     bad_gains_are_caught_by_the_guard_and_vented,
     a_force_the_plant_cannot_give_is_a_persistent_error,
     gain_scale_outside_its_range_is_refused,

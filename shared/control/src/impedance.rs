@@ -6,6 +6,7 @@
 //! go below (K_min). How the rendering is made faithful (a motion observer, the spring led by
 //! the loop's residual lag, the arm's inertia fed forward) is in docs/impedance.md.
 
+use crate::force_loop::ForceLoopConfig;
 use pam_model::kinematics::PoseTrig;
 use pam_model::{Mat2, RobotModel, Vec2};
 
@@ -193,6 +194,37 @@ pub fn impedance_force_n(
     f
 }
 
+/// The spring-damper force `f_ref` scaled to what may be asked and what the muscles can give
+/// at the pose, its direction kept, and the scale (1: neither applies).
+/// - What may be asked: each axis within `max_force_n` (the supervisor's bound on a force
+///   request, `SafetyConfig::max_request_force_n`): a stiff spring far from its target would
+///   otherwise ask for up to 5000 N/m × 0.3 m.
+/// - What the muscles can give: the loop's steady command is the force plus
+///   `[integral, inertia]` (the impedance mode has no gain plane and no measured gain), and
+///   its inverse model runs at the least stiffness, so the range is the capability
+///   quadrilateral's torque range ([`RobotModel::reachable_force_scale_least_stiffness`],
+///   `reach_margin` of it). Clamped joint by joint instead, the force would turn away from
+///   the target, and the loop's guard would vent on the error it cannot close.
+pub fn reachable_impedance_force_n(
+    model: &RobotModel<f32>,
+    cfg: &ForceLoopConfig,
+    (alpha_rad, trig): (Vec2<f32>, &PoseTrig<f32>),
+    (f_ref, max_force_n): (Vec2<f32>, f32),
+    [integral, inertia]: [Vec2<f32>; 2],
+) -> (Vec2<f32>, f32) {
+    let largest = f_ref[0].abs().max(f_ref[1].abs());
+    let bound = if largest > max_force_n {
+        max_force_n / largest
+    } else {
+        1.0
+    };
+    let f = [bound * f_ref[0], bound * f_ref[1]];
+    let offset = [integral[0] + inertia[0], integral[1] + inertia[1]];
+    let margin = cfg.reach_margin;
+    let s = model.reachable_force_scale_least_stiffness(alpha_rad, trig, f, offset, margin);
+    ([s * f[0], s * f[1]], s * bound)
+}
+
 /// The force the muscles need beyond the handle's so that the arm's own inertia does not
 /// reach the load cell: M_C(α) ẍ, N (the Cartesian mass of eq. 4.11 at the pose, from the
 /// pose's sines and cosines; zero at a singular pose).
@@ -217,6 +249,33 @@ pub fn arm_inertia_force_n(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A spring force beyond the request bound is cut to it per axis, beyond the muscles to
+    /// what they give; the direction is kept either way, and a force within both is left as
+    /// it is.
+    #[test]
+    fn a_spring_force_is_bounded_in_its_direction() {
+        let model = RobotModel::<f32>::thesis();
+        let cfg = ForceLoopConfig::designed();
+        let alpha = [0.1, -0.2];
+        let trig = model.kinematics.trig(alpha);
+        let none = [[0.0; 2]; 2];
+        let scaled = |f: Vec2<f32>, max: f32| {
+            reachable_impedance_force_n(&model, &cfg, (alpha, &trig), (f, max), none)
+        };
+        let (f, s) = scaled([6.0, -5.0], 100.0);
+        assert_eq!((f, s), ([6.0, -5.0], 1.0));
+        // the bound: 40 N on the larger axis
+        let (f, s) = scaled([60.0, -30.0], 40.0);
+        assert!(
+            (f[0] - 40.0).abs() < 1e-4 && (f[1] + 20.0).abs() < 1e-4,
+            "{f:?} {s}"
+        );
+        // the muscles: far beyond them, the direction kept
+        let (f, s) = scaled([600.0, -660.0], 1e4);
+        assert!(s < 0.5 && s > 0.0, "{f:?} {s}");
+        assert!((f[1] / f[0] + 1.1).abs() < 1e-4, "{f:?}");
+    }
 
     /// Released: asked for 9 N, reading 0.5 N, moving at 0.1 m/s, for 15 ms: yes. Held (the
     /// load cell reads the force), still, or asked for little: never.

@@ -13,9 +13,9 @@ pub use crate::safety::{
 
 use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
 use crate::impedance::{
-    arm_inertia_force_n, impedance_force_n, Impedance, VirtualImpedance, IMPEDANCE_INTEGRAL_SCALE,
-    MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_MASS_KG, MAX_IMPEDANCE_STIFFNESS_N_PER_M,
-    MAX_IMPEDANCE_TARGET_M,
+    arm_inertia_force_n, impedance_force_n, reachable_impedance_force_n, Impedance,
+    VirtualImpedance, IMPEDANCE_INTEGRAL_SCALE, MAX_IMPEDANCE_DAMPING_N_S_PER_M,
+    MAX_IMPEDANCE_MASS_KG, MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
 };
 use crate::plausibility::BalanceMonitor;
 
@@ -511,6 +511,20 @@ impl Controller {
                             mass_kg,
                         };
                         let f_ref = impedance_force_n(target_user_m, &imp, &self.impedance, x_m);
+                        // the muscles also move the arm's own mass, behind the load cell
+                        let inertia = arm_inertia_force_n(
+                            &self.model,
+                            &trig,
+                            self.impedance.acceleration_m_s2(),
+                        );
+                        // a spring force beyond the muscles is scaled, its direction kept
+                        let (f_ref, reach) = reachable_impedance_force_n(
+                            &self.model,
+                            &self.force_loop_cfg,
+                            (alpha, &trig),
+                            (f_ref, self.safety.max_request_force_n),
+                            [self.force_loop.integral_n(), inertia],
+                        );
                         let released = self.impedance.released(f_ref, force_user_n, dt);
                         let fl = self.force_loop.step_direct(
                             &self.force_loop_cfg,
@@ -525,12 +539,6 @@ impl Controller {
                             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
                             self.state = State::Faulted;
                         }
-                        // the muscles also move the arm's own mass, behind the load cell
-                        let inertia = arm_inertia_force_n(
-                            &self.model,
-                            &trig,
-                            self.impedance.acceleration_m_s2(),
-                        );
                         let command_n =
                             [fl.command_n[0] + inertia[0], fl.command_n[1] + inertia[1]];
                         // stiffness 0: the inverse model gives the least the muscles can
@@ -538,6 +546,9 @@ impl Controller {
                             .model
                             .force_command_at(alpha, &trig, command_n, [0.0; 2], false);
                         limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
+                        if reach < 1.0 {
+                            limited = limited.with(Limited::TARGET);
+                        }
                         self.model.channel_pressures_bar([
                             cmd.joints[0].pressure_bar,
                             cmd.joints[1].pressure_bar,

@@ -138,14 +138,49 @@ impl<R: Real> RobotModel<R> {
         min_force_fraction: R,
         margin: R,
     ) -> R {
+        let range = |j: usize| {
+            let c = &self.joints[j];
+            let floor = min_force_fraction * c.anti_slack_force_n;
+            c.taut_torque_range_nm(&self.params.muscle, alpha_rad[j], floor)
+        };
+        self.scale_within(alpha_rad, trig, force_cmd_n, offset_cmd_n, margin, range)
+    }
+
+    /// [`RobotModel::reachable_force_scale`] for the thesis's inverse model at the least
+    /// stiffness (the impedance mode's): each joint's range is the capability
+    /// quadrilateral's torque range at the pose (Table 3.2), which the inverse model would
+    /// otherwise clamp each joint to on its own, turning the force.
+    pub fn reachable_force_scale_least_stiffness(
+        &self,
+        alpha_rad: Vec2<R>,
+        trig: &PoseTrig<R>,
+        force_cmd_n: Vec2<R>,
+        offset_cmd_n: Vec2<R>,
+        margin: R,
+    ) -> R {
+        let range = |j: usize| {
+            let in_range = self.joints[j].alpha_in_range(alpha_rad[j]);
+            in_range.then(|| self.capability(j, alpha_rad[j]).torque_limits_nm())
+        };
+        self.scale_within(alpha_rad, trig, force_cmd_n, offset_cmd_n, margin, range)
+    }
+
+    /// The largest s in [0, 1] with Jᵀ (s·`force_cmd_n` + `offset_cmd_n`) within `margin` ×
+    /// `range(j)` on both joints (1 where it cannot say; see the callers).
+    fn scale_within(
+        &self,
+        alpha_rad: Vec2<R>,
+        trig: &PoseTrig<R>,
+        force_cmd_n: Vec2<R>,
+        offset_cmd_n: Vec2<R>,
+        margin: R,
+        range: impl Fn(usize) -> Option<(R, R)>,
+    ) -> R {
         let (_, _, slope) = self.joint_torque_for(alpha_rad, trig, force_cmd_n, false);
         let (_, _, offset) = self.joint_torque_for(alpha_rad, trig, offset_cmd_n, false);
         let mut s = R::ONE;
         for j in 0..2 {
-            let c = &self.joints[j];
-            let floor = min_force_fraction * c.anti_slack_force_n;
-            let Some((lo, hi)) = c.taut_torque_range_nm(&self.params.muscle, alpha_rad[j], floor)
-            else {
+            let Some((lo, hi)) = range(j) else {
                 continue;
             };
             let (lo, hi, a, b) = (margin * lo, margin * hi, slope[j], offset[j]);
