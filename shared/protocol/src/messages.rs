@@ -359,7 +359,9 @@ impl ModeKind {
 }
 
 /// Bit of [`Telemetry::limited`] set when the slew limit or a converter's range changed the
-/// command; the low bits are the model's `Limited` flags (joint 1 | joint 2).
+/// command; the low bits are the model's `Limited` flags (joint 1 | joint 2), and 0x20
+/// (`Limited::TARGET`) says a closed-loop or impedance force target was scaled to what the
+/// muscles can give, its direction kept.
 pub const LIMITED_OUTPUT: u8 = 0x80;
 
 wire_struct! {
