@@ -99,12 +99,47 @@ pub fn describe_sample(t: &Telemetry) -> String {
         t.pressure_cmd_bar[3],
         t.loop_exec_us,
         t.loop_jitter_us,
-        if t.limited != 0 {
-            "  [target clamped]"
-        } else {
-            ""
-        }
+        describe_limited(t.limited)
     )
+}
+
+/// Telemetry's `limited` byte in words, "" when nothing was limited, else `  [what, …]`.
+pub fn describe_limited(bits: u8) -> String {
+    use pam_model::Limited;
+    const WORDS: [(u8, &str); 7] = [
+        (Limited::TARGET.0, "target scaled to the muscles"),
+        (Limited::TORQUE.0, "torque clamped"),
+        (Limited::STIFFNESS.0, "stiffness not attainable"),
+        (Limited::PRESSURE.0, "pressure clamped"),
+        (Limited::INVALID_INPUT.0, "invalid input"),
+        (Limited::SINGULAR.0, "singular"),
+        (pam_protocol::LIMITED_OUTPUT, "slew or converter range"),
+    ];
+    let words: Vec<&str> = WORDS
+        .iter()
+        .filter(|(bit, _)| bits & bit != 0)
+        .map(|(_, w)| *w)
+        .collect();
+    if words.is_empty() {
+        String::new()
+    } else {
+        format!("  [{}]", words.join(", "))
+    }
+}
+
+#[cfg(test)]
+mod limited_tests {
+    use super::describe_limited;
+
+    #[test]
+    fn the_limited_byte_in_words() {
+        assert_eq!(describe_limited(0), "");
+        assert_eq!(
+            describe_limited(0x20 | 0x02 | 0x80),
+            "  [target scaled to the muscles, stiffness not attainable, slew or converter range]"
+        );
+        assert_eq!(describe_limited(0x01), "  [torque clamped]");
+    }
 }
 
 /// Where the configuration came from, and whether it was changed since.

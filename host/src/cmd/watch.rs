@@ -211,7 +211,7 @@ impl View {
             exec,
             exec_max,
             jitter_max,
-            if t.limited != 0 { "   [target clamped]" } else { "" }
+            super::status::describe_limited(t.limited)
         ));
         lines.push(format!(
             "currents {:6.2} {:6.2} {:6.2} {:6.2} mA",
