@@ -127,21 +127,6 @@ pub fn describe_limited(bits: u8) -> String {
     }
 }
 
-#[cfg(test)]
-mod limited_tests {
-    use super::describe_limited;
-
-    #[test]
-    fn the_limited_byte_in_words() {
-        assert_eq!(describe_limited(0), "");
-        assert_eq!(
-            describe_limited(0x20 | 0x02 | 0x80),
-            "  [target scaled to the muscles, stiffness not attainable, slew or converter range]"
-        );
-        assert_eq!(describe_limited(0x01), "  [torque clamped]");
-    }
-}
-
 /// Where the configuration came from, and whether it was changed since.
 pub fn describe_config(s: &Status) -> String {
     let origin = match s.config {
@@ -269,4 +254,19 @@ pub fn run(link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         )?,
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod limited_tests {
+    use super::describe_limited;
+
+    #[test]
+    fn the_limited_byte_in_words() {
+        assert_eq!(describe_limited(0), "");
+        assert_eq!(
+            describe_limited(0x20 | 0x02 | 0x80),
+            "  [target scaled to the muscles, stiffness not attainable, slew or converter range]"
+        );
+        assert_eq!(describe_limited(0x01), "  [torque clamped]");
+    }
 }
