@@ -162,6 +162,16 @@ pub fn closed_loop_reaches_the_force_the_open_loop_misses() -> CheckResult {
     )
 }
 
+/// A force `f` against a direction `d`: (|d|², f·d, f × d). Along d is f·d / |d| and across
+/// it f × d / |d|; the checks compare squares, so no square root is needed on the target.
+fn against(f: Vec2<f32>, d: Vec2<f32>) -> (f32, f32, f32) {
+    (
+        d[0] * d[0] + d[1] * d[1],
+        f[0] * d[0] + f[1] * d[1],
+        f[0] * d[1] - f[1] * d[0],
+    )
+}
+
 /// A target beyond the muscles (a plant at 0.57 of the model, as the rig): scaled to what
 /// they give, in the direction asked for, flagged, no fault (`RobotModel::reachable_force_scale`).
 pub fn a_target_beyond_the_muscles_is_scaled_in_its_direction() -> CheckResult {
@@ -179,11 +189,7 @@ pub fn a_target_beyond_the_muscles_is_scaled_in_its_direction() -> CheckResult {
         "flagged as scaled",
         r.out.limited.contains(pam_model::Limited::TARGET),
     )?;
-    // along = dot / |far|, across = cross / |far| (squared: no square root needed)
-    let f = r.mean_force_n;
-    let n2 = far[0] * far[0] + far[1] * far[1];
-    let dot = f[0] * far[0] + f[1] * far[1];
-    let cross = f[0] * far[1] - f[1] * far[0];
+    let (n2, dot, cross) = against(r.mean_force_n, far);
     let level = 1.5 * TARGET_N[0];
     holds(
         "more than the level before",
@@ -215,10 +221,7 @@ pub fn a_spring_force_beyond_the_muscles_keeps_its_direction() -> CheckResult {
         "flagged as scaled",
         r.out.limited.contains(pam_model::Limited::TARGET),
     )?;
-    let f = r.mean_force_n;
-    let n2 = d[0] * d[0] + d[1] * d[1];
-    let dot = f[0] * d[0] + f[1] * d[1];
-    let cross = f[0] * d[1] - f[1] * d[0];
+    let (n2, dot, cross) = against(r.mean_force_n, d);
     // along the spring's direction: at least 10 N, less than the bound, within 0.5 N of it
     holds("toward the target", dot > 0.0 && dot * dot > 100.0 * n2)?;
     holds("less than asked", dot * dot < 100.0 * 100.0 * n2)?;
