@@ -9,6 +9,14 @@ use std::time::{Duration, Instant};
 
 const SIM: &[&str] = &["--handle", "blocked"];
 
+/// `pamctl record` for `seconds` into a temporary `NAME.csv`, read back.
+fn record(device: &str, name: &str, seconds: &str) -> pam_log::Log {
+    let file = tmp(&format!("{name}.csv"));
+    let path = file.to_str().expect("a UTF-8 temporary path");
+    ok(device, &["record", path, "--duration", seconds, "--quiet"]);
+    pam_log::read_path(&file).expect("a valid log")
+}
+
 #[test]
 fn closed_loop_force_step_reaches_the_target() {
     let _serial = exclusive();
@@ -19,16 +27,7 @@ fn closed_loop_force_step_reaches_the_target() {
     // away from the neutral force, so that the step is a real one
     let out = ok(d, &["set", "force", "--force-n", "9.1,-4", "--closed-loop"]);
     assert!(out.contains("closed loop"), "{out}");
-    let file = tmp("closed_loop.csv");
-    let args = [
-        "record",
-        file.to_str().unwrap(),
-        "--duration",
-        "1.5",
-        "--quiet",
-    ];
-    ok(d, &args);
-    let log = pam_log::read_path(&file).expect("a valid log");
+    let log = record(d, "closed_loop", "1.5");
     assert!(
         column(&log, "mode").iter().all(|&m| m == 5.0),
         "mode code 5"
@@ -67,16 +66,7 @@ fn closed_loop_force_beyond_the_muscles_is_scaled_in_its_direction() {
     ok(d, &["arm"]);
     let out = ok(d, &["set", "force", "--force-n", "95,0", "--closed-loop"]);
     assert!(out.contains("scaled it down"), "{out}");
-    let file = tmp("closed_loop_beyond.csv");
-    let args = [
-        "record",
-        file.to_str().unwrap(),
-        "--duration",
-        "1.5",
-        "--quiet",
-    ];
-    ok(d, &args);
-    let log = pam_log::read_path(&file).expect("a valid log");
+    let log = record(d, "closed_loop_beyond", "1.5");
     assert!(column(&log, col::FAULTS).iter().all(|&f| f == 0.0));
     assert!(column(&log, col::STATE).iter().all(|&s| s == 1.0));
     let bit = pam_model::Limited::TARGET.0 as u32;
@@ -110,16 +100,7 @@ fn closed_loop_force_against_a_held_handle_settles_without_ringing() {
     let d = target.address.as_str();
     ok(d, &["arm"]);
     ok(d, &["set", "force", "--force-n", "9.1,-4", "--closed-loop"]);
-    let file = tmp("closed_loop_held.csv");
-    let args = [
-        "record",
-        file.to_str().unwrap(),
-        "--duration",
-        "2.5",
-        "--quiet",
-    ];
-    ok(d, &args);
-    let log = pam_log::read_path(&file).expect("a valid log");
+    let log = record(d, "closed_loop_held", "2.5");
     assert!(
         column(&log, col::FAULTS).iter().all(|&f| f == 0.0),
         "no fault against the held handle"
@@ -342,18 +323,7 @@ fn impedance_mode_renders_its_spring_against_the_operator() {
     let out = ok(d, &["set", "impedance", "--stiffness-n-per-m", "300,300"]);
     assert!(out.contains("impedance about"), "{out}");
     // the operator holds 3 s after the mode change, then moves ±4 cm
-    let file = tmp("impedance.csv");
-    ok(
-        d,
-        &[
-            "record",
-            file.to_str().unwrap(),
-            "--duration",
-            "7",
-            "--quiet",
-        ],
-    );
-    let log = pam_log::read_path(&file).expect("a valid log");
+    let log = record(d, "impedance", "7");
     assert!(
         column(&log, "mode").iter().all(|&m| m == 6.0),
         "mode code 6"
