@@ -269,9 +269,8 @@ impl Rig {
                 State::Armed => 1.0,
                 State::Faulted => 2.0,
             };
-            // as telemetry carries it (pam_protocol::LIMITED_OUTPUT for the output path)
-            let limited = out.limited.0 | if out.output_limited { 0x80 } else { 0 };
-            row.extend([self.seq as f64, state, out.faults.0 as f64, limited as f64]);
+            let limited = out.limited_byte() as f64;
+            row.extend([self.seq as f64, state, out.faults.0 as f64, limited]);
             self.log.push_row(&row);
             self.seq += 1;
         }

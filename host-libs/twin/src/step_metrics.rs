@@ -46,9 +46,9 @@ pub struct StepFigures {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Summary {
     pub steps: usize,
-    /// Over the steps within reach (all of them when the log does not say).
     pub settling_worst_s: f64,
     pub settling_mean_s: f64,
+    /// Over the steps within reach (all of them when the log does not say).
     pub overshoot_worst_pct: f64,
     pub gain_error_mean: f64,
     pub gain_min: f64,
@@ -91,9 +91,11 @@ pub fn force_steps(log: &Log) -> Result<Vec<StepFigures>, LogError> {
         }
     }
     starts.push(n);
+    // a level's last 20 %: its steady value, and whether the controller scaled its target
+    let tail = |a: usize, b: usize| (b - ((b - a) / 5).max(1))..b;
     let steady = |axis: usize, a: usize, b: usize| {
-        let from = b - ((b - a) / 5).max(1);
-        force[axis][from..b].iter().sum::<f64>() / (b - from) as f64
+        let r = tail(a, b);
+        force[axis][r.clone()].iter().sum::<f64>() / r.len() as f64
     };
     let mut out = Vec::new();
     for w in 1..starts.len() - 1 {
@@ -113,13 +115,13 @@ pub fn force_steps(log: &Log) -> Result<Vec<StepFigures>, LogError> {
         // from a level or to a level the controller could not reach
         let out_of_reach = limited.is_some_and(|l| {
             let scaled = |a: usize, b: usize| {
-                let hold = b - ((b - a) / 5).max(1);
+                let r = tail(a, b);
                 let bit = Limited::TARGET.0 as u32;
-                let n = l[hold..b]
+                let n = l[r.clone()]
                     .iter()
                     .filter(|v| (**v as u32) & bit != 0)
                     .count();
-                2 * n > b - hold
+                2 * n > r.len()
             };
             scaled(prev, a) || scaled(a, b)
         });

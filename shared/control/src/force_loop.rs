@@ -207,6 +207,21 @@ impl Default for ForceLoop {
     }
 }
 
+/// A command `command_n` whose feed-forward share is `ff`, through the gain plane as
+/// [`ForceLoop::through_plane`] sends it: `keep` of the feed-forward (1 −
+/// [`ForceLoop::plane_weight`]) passes it by, the rest is divided by G(α). Linear in both.
+fn plane_map(
+    keep: f32,
+    command_n: Vec2<f32>,
+    ff: Vec2<f32>,
+    plane: &GainPlane<f32>,
+    alpha_rad: Vec2<f32>,
+) -> (Vec2<f32>, bool) {
+    let rest = [command_n[0] - keep * ff[0], command_n[1] - keep * ff[1]];
+    let (c, limited) = plane.correct(rest, alpha_rad);
+    ([c[0] + keep * ff[0], c[1] + keep * ff[1]], limited)
+}
+
 /// One step's result.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ForceLoopOutput {
@@ -339,13 +354,7 @@ impl ForceLoop {
         alpha_rad: Vec2<f32>,
     ) -> (Vec2<f32>, bool) {
         let keep = 1.0 - self.plane_weight(cfg);
-        let ff = out.feed_forward_n;
-        let rest = [
-            out.command_n[0] - keep * ff[0],
-            out.command_n[1] - keep * ff[1],
-        ];
-        let (c, limited) = plane.correct(rest, alpha_rad);
-        ([c[0] + keep * ff[0], c[1] + keep * ff[1]], limited)
+        plane_map(keep, out.command_n, out.feed_forward_n, plane, alpha_rad)
     }
 
     /// How much of `target_n` the muscles can give at the pose, 0–1
@@ -367,12 +376,11 @@ impl ForceLoop {
         let i = self.integral_n;
         let (mut t, mut o) = ([target_n[0] / g, target_n[1] / g], [i[0] / g, i[1] / g]);
         if feed_forward {
-            // the feed-forward's share of the plane by its weight, the integral's all of it
-            let w = self.plane_weight(cfg);
+            // the target is the steady feed-forward, the integral is feedback
             let plane = &model.params.gain_plane;
-            let (c, _) = plane.correct(t, alpha_rad);
-            t = [w * c[0] + (1.0 - w) * t[0], w * c[1] + (1.0 - w) * t[1]];
-            o = plane.correct(o, alpha_rad).0;
+            let keep = 1.0 - self.plane_weight(cfg);
+            t = plane_map(keep, t, t, plane, alpha_rad).0;
+            o = plane_map(keep, o, [0.0; 2], plane, alpha_rad).0;
         }
         let (f, m) = (cfg.taut_force_fraction, cfg.reach_margin);
         model.reachable_force_scale(alpha_rad, trig, t, o, f, m)

@@ -162,6 +162,15 @@ pub fn closed_loop_reaches_the_force_the_open_loop_misses() -> CheckResult {
     )
 }
 
+/// A run that held a scaled target: no fault, and the step flagged it.
+fn held_scaled(r: &Run) -> CheckResult {
+    holds("no fault", r.faulted_at.is_none() && r.out.faults.is_none())?;
+    holds(
+        "flagged as scaled",
+        r.out.limited.contains(pam_model::Limited::TARGET),
+    )
+}
+
 /// A force `f` against a direction `d`: (|d|², f·d, f × d). Along d is f·d / |d| and across
 /// it f × d / |d|; the checks compare squares, so no square root is needed on the target.
 fn against(f: Vec2<f32>, d: Vec2<f32>) -> (f32, f32, f32) {
@@ -184,11 +193,7 @@ pub fn a_target_beyond_the_muscles_is_scaled_in_its_direction() -> CheckResult {
     let far = [8.0 * TARGET_N[0], 8.0 * TARGET_N[1]];
     holds("accepted", c.set_mode(closed(far, 1.0)).is_ok())?;
     let r = run(&mut c, &mut plant, 2000);
-    holds("no fault", r.faulted_at.is_none() && r.out.faults.is_none())?;
-    holds(
-        "flagged as scaled",
-        r.out.limited.contains(pam_model::Limited::TARGET),
-    )?;
+    held_scaled(&r)?;
     let (n2, dot, cross) = against(r.mean_force_n, far);
     let level = 1.5 * TARGET_N[0];
     holds(
@@ -216,11 +221,7 @@ pub fn a_spring_force_beyond_the_muscles_keeps_its_direction() -> CheckResult {
         mass_kg: [0.0, 0.0],
     });
     let r = run(&mut c, &mut plant, 2000);
-    holds("no fault", r.faulted_at.is_none() && r.out.faults.is_none())?;
-    holds(
-        "flagged as scaled",
-        r.out.limited.contains(pam_model::Limited::TARGET),
-    )?;
+    held_scaled(&r)?;
     let (n2, dot, cross) = against(r.mean_force_n, d);
     // along the spring's direction: at least 10 N, less than the bound, within 0.5 N of it
     holds("toward the target", dot > 0.0 && dot * dot > 100.0 * n2)?;

@@ -76,3 +76,20 @@ pub struct StepOutput {
     /// The slew limit or a converter's range changed the command this step.
     pub output_limited: bool,
 }
+
+/// Bit of [`StepOutput::limited_byte`] set when the slew limit or a converter's range changed
+/// the command (above the model's `Limited` bits).
+pub const LIMITED_OUTPUT: u8 = 0x80;
+
+impl StepOutput {
+    /// What was limited, as telemetry and the logs carry it: the model's `Limited` bits of
+    /// both joints, with [`LIMITED_OUTPUT`] for the output path.
+    pub fn limited_byte(&self) -> u8 {
+        let out = if self.output_limited {
+            LIMITED_OUTPUT
+        } else {
+            0
+        };
+        (self.limited.0 & !LIMITED_OUTPUT) | out
+    }
+}

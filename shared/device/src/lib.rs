@@ -46,8 +46,7 @@ use pam_model::{Real, RobotModel, RobotParams};
 use pam_protocol::{
     Calibration, Config, ConfigOrigin, ConfigSection, DecodeError, DeviceInfo, EncoderCalibration,
     ErrorCode, FaultEvent, ModeKind, OutputCalibration, Reply, ReplyData, Request, RequestBody,
-    Status, Telemetry, Version, LIMITED_OUTPUT, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
-    UNKNOWN_REQUEST_ID,
+    Status, Telemetry, Version, PROTOCOL_VERSION, SCHEMA_FINGERPRINT, UNKNOWN_REQUEST_ID,
 };
 pub use storage::{run_storage, BoardHealth, StorageDone, StorageJob};
 
@@ -228,12 +227,7 @@ impl Device {
                     mode: ModeKind::of(&mode),
                     state: out.state.into(),
                     faults: out.faults.0,
-                    limited: (out.limited.0 & !LIMITED_OUTPUT)
-                        | if out.output_limited {
-                            LIMITED_OUTPUT
-                        } else {
-                            0
-                        },
+                    limited: out.limited_byte(),
                     loop_exec_us: timing.loop_exec_us,
                     loop_jitter_us: timing.loop_jitter_us,
                 };

@@ -143,7 +143,7 @@ impl<R: Real> RobotModel<R> {
             let floor = min_force_fraction * c.anti_slack_force_n;
             c.taut_torque_range_nm(&self.params.muscle, alpha_rad[j], floor)
         };
-        self.scale_within(alpha_rad, trig, force_cmd_n, offset_cmd_n, margin, range)
+        self.scale_within(trig, force_cmd_n, offset_cmd_n, margin, range)
     }
 
     /// [`RobotModel::reachable_force_scale`] for the thesis's inverse model at the least
@@ -162,22 +162,21 @@ impl<R: Real> RobotModel<R> {
             let in_range = self.joints[j].alpha_in_range(alpha_rad[j]);
             in_range.then(|| self.capability(j, alpha_rad[j]).torque_limits_nm())
         };
-        self.scale_within(alpha_rad, trig, force_cmd_n, offset_cmd_n, margin, range)
+        self.scale_within(trig, force_cmd_n, offset_cmd_n, margin, range)
     }
 
     /// The largest s in [0, 1] with Jᵀ (s·`force_cmd_n` + `offset_cmd_n`) within `margin` ×
     /// `range(j)` on both joints (1 where it cannot say; see the callers).
     fn scale_within(
         &self,
-        alpha_rad: Vec2<R>,
         trig: &PoseTrig<R>,
         force_cmd_n: Vec2<R>,
         offset_cmd_n: Vec2<R>,
         margin: R,
         range: impl Fn(usize) -> Option<(R, R)>,
     ) -> R {
-        let (_, _, slope) = self.joint_torque_for(alpha_rad, trig, force_cmd_n, false);
-        let (_, _, offset) = self.joint_torque_for(alpha_rad, trig, offset_cmd_n, false);
+        let jt = self.kinematics.jacobian_at(trig).transpose();
+        let (slope, offset) = (jt.mul_vec(force_cmd_n), jt.mul_vec(offset_cmd_n));
         let mut s = R::ONE;
         for j in 0..2 {
             let Some((lo, hi)) = range(j) else {

@@ -362,7 +362,7 @@ impl ModeKind {
 /// command; the low bits are the model's `Limited` flags (joint 1 | joint 2), and 0x20
 /// (`Limited::TARGET`) says a closed-loop or impedance force target was scaled to what the
 /// muscles can give, its direction kept.
-pub const LIMITED_OUTPUT: u8 = 0x80;
+pub const LIMITED_OUTPUT: u8 = pam_control::mode::LIMITED_OUTPUT;
 
 wire_struct! {
     /// One control-period sample. Encoded size: see [`crate::TELEMETRY_FRAME_MAX`].
