@@ -13,6 +13,7 @@
 pub mod error;
 pub mod filter;
 pub mod freq;
+pub mod held_out;
 pub mod lm;
 pub mod lsq;
 pub mod msd;

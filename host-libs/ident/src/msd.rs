@@ -187,23 +187,27 @@ pub fn fit_columns(
     (theta, pred)
 }
 
+/// (held-out, training) scores per axis, on the trial's [`Prepared::held_out`] rows and
+/// the rest.
 pub fn scores(
     p: &Prepared,
     y: &[Vec<f64>; 2],
     pred: &[Vec<f64>; 2],
 ) -> ([AxisScore; 2], [AxisScore; 2]) {
-    let n = p.len();
-    let s = p.split;
-    (
-        [
-            score(&y[0][s..n], &pred[0][s..n]),
-            score(&y[1][s..n], &pred[1][s..n]),
-        ],
-        [
-            score(&y[0][..s], &pred[0][..s]),
-            score(&y[1][..s], &pred[1][..s]),
-        ],
-    )
+    let pick = |v: &[f64], rows: &mut dyn Iterator<Item = usize>| -> Vec<f64> {
+        rows.map(|i| v[i]).collect()
+    };
+    let on = |a: usize, held: bool| {
+        let rows = || -> Box<dyn Iterator<Item = usize>> {
+            if held {
+                Box::new(p.held_out.rows())
+            } else {
+                Box::new(p.held_out.train_rows())
+            }
+        };
+        score(&pick(&y[a], &mut rows()), &pick(&pred[a], &mut rows()))
+    };
+    ([on(0, true), on(1, true)], [on(0, false), on(1, false)])
 }
 
 /// Plausibility of a fitted mass matrix against the robot's Cartesian inertia at the mean pose.

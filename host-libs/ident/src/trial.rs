@@ -3,6 +3,7 @@
 //! acceleration) is derived here through the robot's forward kinematics.
 
 use crate::filter::Butterworth;
+use crate::held_out::HeldOut;
 use pam_model::RobotModel;
 use rayon::prelude::*;
 
@@ -56,8 +57,12 @@ pub struct Prepared {
     /// Equilibrium joint angles (mean over the first 0.1 s, like `x0_m`).
     pub alpha0_rad: [f64; 2],
     pub current_ma: Option<[Vec<f64>; 4]>,
-    /// First sample of the held-out part (the last 20 %).
+    /// First sample of the last 20 %: the held-out part of a dynamic trial, whose fits
+    /// (normal equations, cross-validation folds) work on the prefix before it.
     pub split: usize,
+    /// The rows fits are scored on and not fitted to: the last 20 % (from `split`), or in
+    /// a step trial with enough steps every fifth step ([`HeldOut`]).
+    pub held_out: HeldOut,
     /// The log's sampling was uneven (dropped frames, jitter) and it was resampled to its
     /// median period by linear interpolation.
     pub resampled: bool,
@@ -243,6 +248,7 @@ impl Trial {
             alpha0_rad,
             current_ma: self.current_ma.clone(),
             split: (n * 4) / 5,
+            held_out: HeldOut::last_fifth(n),
             resampled: false,
             cutoff_hz: cutoff,
         })
@@ -358,6 +364,7 @@ impl Prepared {
             alpha0_rad: self.alpha0_rad,
             current_ma: self.current_ma.as_ref().map(|c| c.each_ref().map(command)),
             split: (n * 4) / 5,
+            held_out: HeldOut::last_fifth(n),
             resampled: self.resampled,
             cutoff_hz: self.cutoff_hz,
         }

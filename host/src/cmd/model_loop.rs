@@ -140,8 +140,8 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
     }
     writeln!(
         out,
-        "experiment: {}, {} samples every {:.4} s",
-        d.experiment, d.samples, d.sample_period_s
+        "experiment: {}, {} samples every {:.4} s; {}",
+        d.experiment, d.samples, d.sample_period_s, d.held_out
     )?;
     writeln!(
         out,

@@ -48,14 +48,16 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
     let r = [fit.residual(0), fit.residual(1)];
     let w = ((1.0 / p.dt_s).round() as usize).max(5);
     let mut windows = Vec::new();
-    let mut s = p.split;
-    while s + w <= n {
-        windows.push(Window {
-            t_start_s: p.t_s[s],
-            t_end_s: p.t_s[s + w - 1],
-            rms_n: AxisPair::of([rms(&r[0][s..s + w]), rms(&r[1][s..s + w])]),
-        });
-        s += w;
+    for range in p.held_out.ranges() {
+        let mut s = range.start;
+        while s + w <= range.end {
+            windows.push(Window {
+                t_start_s: p.t_s[s],
+                t_end_s: p.t_s[s + w - 1],
+                rms_n: AxisPair::of([rms(&r[0][s..s + w]), rms(&r[1][s..s + w])]),
+            });
+            s += w;
+        }
     }
     windows.sort_by(|a, b| (b.rms_n.fx.hypot(b.rms_n.fy)).total_cmp(&a.rms_n.fx.hypot(a.rms_n.fy)));
     windows.truncate(5);
@@ -123,9 +125,10 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
     let mut warnings = fit.warnings.clone();
     let still = |a: usize| {
         lp.experiment == Experiment::Step
-            && p.force_ref_n
-                .as_ref()
-                .is_some_and(|r| std_dev(&r[a][p.split..]) < 1e-3)
+            && p.force_ref_n.as_ref().is_some_and(|r| {
+                let held: Vec<f64> = p.held_out.rows().map(|i| r[a][i]).collect();
+                std_dev(&held) < 1e-3
+            })
     };
     for &a in fit.axes.iter() {
         if still(a) {

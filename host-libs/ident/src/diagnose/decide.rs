@@ -77,7 +77,8 @@ pub struct EffectReport {
     /// Share of the relative MSE removed: cross-validated over [`FOLDS`] contiguous folds
     /// (dynamic trials), or on the held-out part (step trials).
     pub improvement: f64,
-    /// Share of the held-out (last 20 %) relative MSE removed, fitted on the first 80 %.
+    /// Share of the held-out relative MSE removed (the rows of [`Diagnosis::held_out`]), fitted
+    /// on the others.
     pub held_out_improvement: f64,
     pub added_params: usize,
     /// improvement − penalty × added_params.
@@ -116,6 +117,8 @@ pub struct Diagnosis {
     pub experiment: Experiment,
     pub samples: usize,
     pub sample_period_s: f64,
+    /// Which rows the fits were scored on ([`HeldOut::describe`]).
+    pub held_out: String,
     pub base: BaseReport,
     pub verdict: Verdict,
     /// One entry per family (its best shape): the accepted ones first, best first.
@@ -138,7 +141,9 @@ fn effect_size(base: &ModelFit, f: &ModelFit) -> f64 {
     f.axes
         .iter()
         .map(|&a| {
-            let d: Vec<f64> = (f.split..f.predicted[a].len())
+            let d: Vec<f64> = f
+                .held_out
+                .rows()
                 .map(|i| f.predicted[a][i] - base.predicted[a][i])
                 .collect();
             rms(&d) / std_dev(&f.measured[a]).max(1e-12)
@@ -162,26 +167,23 @@ pub fn diagnose(
     )
 }
 
-/// Contiguous blocks the held-out part of a step trial is scored in.
+/// Blocks the held-out part of a step trial is scored in.
 const STEP_BLOCKS: usize = 6;
 
-/// Held-out sums of squares of a fit in `blocks` contiguous blocks of its held-out part.
+/// Held-out sums of squares of a fit in `blocks` blocks of its held-out rows, in time
+/// order, each of the same number of rows.
 fn held_out_blocks(f: &ModelFit, blocks: usize) -> FoldScores {
-    let n = f.measured[0].len();
-    let len = n - f.split;
+    let rows: Vec<usize> = f.held_out.rows().collect();
+    let len = rows.len();
     let mut out = FoldScores::default();
     for b in 0..blocks {
-        let r = (f.split + b * len / blocks)..(f.split + (b + 1) * len / blocks);
+        let r = &rows[b * len / blocks..(b + 1) * len / blocks];
         let (mut sse, mut sst) = (0.0, 0.0);
         for &a in &f.axes {
-            let m = &f.measured[a][r.clone()];
-            let mean = m.iter().sum::<f64>() / m.len().max(1) as f64;
-            sse += m
-                .iter()
-                .zip(&f.predicted[a][r.clone()])
-                .map(|(x, y)| (x - y).powi(2))
-                .sum::<f64>();
-            sst += m.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
+            let (m, p) = (&f.measured[a], &f.predicted[a]);
+            let mean = r.iter().map(|&i| m[i]).sum::<f64>() / r.len().max(1) as f64;
+            sse += r.iter().map(|&i| (m[i] - p[i]).powi(2)).sum::<f64>();
+            sst += r.iter().map(|&i| (m[i] - mean).powi(2)).sum::<f64>();
         }
         out.sse.push(sse);
         out.sst.push(sst);
@@ -237,7 +239,10 @@ pub fn diagnose_observed(
     let held_out: Vec<Vec<f64>> = base
         .axes
         .iter()
-        .map(|&a| base.residual(a)[base.split..].to_vec())
+        .map(|&a| {
+            let r = base.residual(a);
+            base.held_out.rows().map(|i| r[i]).collect()
+        })
         .collect();
     let n_eff_test = effective_samples_of(&held_out);
     let folds_of = |effects: &[&dyn ModelEffect], f: &ModelFit| -> FoldScores {
@@ -502,6 +507,7 @@ pub fn diagnose_observed(
             experiment,
             samples: lp.p.len(),
             sample_period_s: lp.p.dt_s,
+            held_out: lp.p.held_out.describe(),
             base: BaseReport {
                 nrmse: AxisPair::of(base.nrmse),
                 r2: AxisPair::of(base.r2),
@@ -578,7 +584,10 @@ fn effective_samples(lp: &Loop, base: &ModelFit) -> f64 {
     let train: Vec<Vec<f64>> = base
         .axes
         .iter()
-        .map(|&a| base.residual(a)[..lp.p.split].to_vec())
+        .map(|&a| {
+            let r = base.residual(a);
+            lp.p.held_out.train_rows().map(|i| r[i]).collect()
+        })
         .collect();
     effective_samples_of(&train)
 }

@@ -335,7 +335,7 @@ impl<'a> Loop<'a> {
             measured: y,
             predicted: pred,
             train_gain,
-            split: p.split,
+            held_out: p.held_out.clone(),
             warnings,
         }
     }

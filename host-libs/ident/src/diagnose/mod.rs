@@ -1,4 +1,5 @@
-//! The model loop: fit the base model (plus chosen effects), score it on the held-out 20 %,
+//! The model loop: fit the base model (plus chosen effects), score it on the held-out rows
+//! (the last 20 %, or every fifth step of a step trial: [`HeldOut`]),
 //! test every catalog effect against the residual and by refitting, rank them by the
 //! held-out error they remove (with a penalty per added parameter), and name the residual
 //! structure no effect explains.
@@ -20,6 +21,7 @@ pub use selection::{fold_test, paired_test, t_critical, FoldTest};
 pub use unexplained::*;
 
 use crate::effects::{DynCtx, DynTerm, Experiment, Family, ModelEffect, Shape};
+use crate::held_out::HeldOut;
 use crate::lsq::{self, Column};
 use crate::msd::{self, MSD_POSITIVE};
 use crate::response::{self, Drive, Response, StepExtra};
@@ -134,8 +136,8 @@ pub struct ModelFit {
     pub predicted: [Vec<f64>; 2],
     /// Fraction of the training residual sum of squares of the base model this fit removes.
     pub train_gain: f64,
-    /// First held-out sample.
-    pub split: usize,
+    /// The rows scored and not fitted (the trial's [`Prepared::held_out`]).
+    pub held_out: HeldOut,
     pub warnings: Vec<String>,
 }
 
@@ -145,12 +147,20 @@ impl ModelFit {
     /// the held-out part (tiny variance) neither dominates nor vanishes.
     pub fn relative_mse(&self) -> f64 {
         let (mut num, mut den) = (0.0, 0.0);
+        let held = self.held_out.len().max(1) as f64;
         for &a in &self.axes {
-            let m = &self.measured[a][self.split..];
-            let p = &self.predicted[a][self.split..];
-            let mean = m.iter().sum::<f64>() / m.len().max(1) as f64;
-            num += m.iter().zip(p).map(|(x, y)| (x - y).powi(2)).sum::<f64>();
-            den += m.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
+            let (m, p) = (&self.measured[a], &self.predicted[a]);
+            let mean = self.held_out.rows().map(|i| m[i]).sum::<f64>() / held;
+            num += self
+                .held_out
+                .rows()
+                .map(|i| (m[i] - p[i]).powi(2))
+                .sum::<f64>();
+            den += self
+                .held_out
+                .rows()
+                .map(|i| (m[i] - mean).powi(2))
+                .sum::<f64>();
         }
         if den > 0.0 {
             num / den
@@ -285,13 +295,15 @@ fn choose_drive(
             // the axes the drive commands to move (as `Loop::stepping_axes` will see them)
             let commanded = [d.commanded(0), d.commanded(1)];
             let axes: Vec<usize> = (0..2).filter(|&a| std_dev(&commanded[a]) > 1e-9).collect();
-            let fitted = response::fit(p, &d, &init, &[], &axes, p.split);
-            let mut pred = [vec![0.0; p.split], vec![0.0; p.split]];
-            response::simulate(&fitted, &d, &p.t_s, alpha, p.split, &mut pred);
+            let fitted = response::fit(p, &d, &init, &[], &axes, &p.held_out);
+            let end = p.held_out.train_end();
+            let mut pred = [vec![0.0; end], vec![0.0; end]];
+            response::simulate(&fitted, &d, &p.t_s, alpha, end, &mut pred);
             let cost: f64 = axes
                 .iter()
                 .map(|&a| {
-                    (0..p.split)
+                    p.held_out
+                        .train_rows()
                         .map(|i| (p.force_n[a][i] - pred[a][i]).powi(2))
                         .sum::<f64>()
                 })
@@ -324,7 +336,7 @@ pub fn analysis_trial(
 ) -> Result<Prepared, crate::IdentError> {
     check_long_enough(trial)?;
     let p = prepared_at_log_rate(trial, model, experiment, settings)?;
-    Ok(on_analysis_grid(p, experiment))
+    Ok(on_analysis_grid(p, experiment, &settings))
 }
 
 fn prepared_at_log_rate(
@@ -344,16 +356,28 @@ fn prepared_at_log_rate(
 /// 5 ms grid. A dynamic trial's signals are low-passed far below it and every statistic of
 /// the verdict was already computed there; a step trial's model is simulated on every
 /// sample of the grid, with the commands averaged over each period.
-fn on_analysis_grid(p: Prepared, experiment: Experiment) -> Prepared {
+/// A step trial's held-out rows are chosen on the grid: every fifth step of its reference
+/// when it has enough ([`HeldOut::every_fifth_step`]).
+fn on_analysis_grid(p: Prepared, experiment: Experiment, settings: &Settings) -> Prepared {
     let stride = analysis_stride(p.dt_s);
-    if stride <= 1 {
-        // already on the grid (a slow log, or the best cutoff's preparation)
-        return p;
-    }
-    match experiment {
+    // (stride 1: already on the grid, a slow log or the best cutoff's preparation)
+    let mut p = match experiment {
+        _ if stride <= 1 => p,
         Experiment::Dynamic => p.every(stride),
         Experiment::Step => p.every_with_mean_commands(stride),
+    };
+    if let (Experiment::Step, Some(r)) = (experiment, &p.force_ref_n) {
+        let steps = step::reference_steps(r, settings.step_threshold_n);
+        // each step's level, halfway through it (past a ramp's samples)
+        let levels: Vec<[f64; 2]> = steps
+            .iter()
+            .map(|s| [r[0][(s.start + s.end) / 2], r[1][(s.start + s.end) / 2]])
+            .collect();
+        if let Some(h) = HeldOut::every_fifth_step(&steps, &levels, p.len()) {
+            p.held_out = h;
+        }
     }
+    p
 }
 
 impl<'a> Loop<'a> {
@@ -366,7 +390,7 @@ impl<'a> Loop<'a> {
         check_long_enough(trial)?;
         let mut p = prepared_at_log_rate(trial, model, experiment, settings)?;
         if experiment == Experiment::Dynamic {
-            p = on_analysis_grid(p, experiment);
+            p = on_analysis_grid(p, experiment, &settings);
         }
         if experiment == Experiment::Step && p.force_ref_n.is_none() {
             return Err(crate::IdentError::NoForceReference);
@@ -397,7 +421,7 @@ impl<'a> Loop<'a> {
                 [init[0].gain, init[1].gain],
             ));
             // the steps are found at the log's rate, the model fitted on the analysis grid
-            p = on_analysis_grid(p, experiment);
+            p = on_analysis_grid(p, experiment, &settings);
             let (d, base, commanded) = choose_drive(&p, model, step_init.expect("set above"))
                 .ok_or(crate::IdentError::NoForceReference)?;
             *base_step.lock().expect("base cache") = Some(base);

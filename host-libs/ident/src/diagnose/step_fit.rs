@@ -4,19 +4,6 @@
 use super::*;
 
 impl<'a> Loop<'a> {
-    /// Axes scored in a step trial: those whose reference steps in the held-out part (the
-    /// NRMSE of an axis that only holds still measures noise), else those that step at all.
-    #[allow(dead_code)]
-    pub(super) fn step_axes(&self) -> Vec<usize> {
-        let r = self.p.force_ref_n.as_ref().expect("checked in new");
-        let s = self.p.split;
-        let held: Vec<usize> = (0..2).filter(|&a| std_dev(&r[a][s..]) > 1e-9).collect();
-        if !held.is_empty() {
-            return held;
-        }
-        (0..2).filter(|&a| std_dev(&r[a]) > 1e-9).collect()
-    }
-
     /// Axes with any step (fitted).
     pub(super) fn stepping_axes(&self) -> Vec<usize> {
         let r = self.p.force_ref_n.as_ref().expect("checked in new");
@@ -32,7 +19,14 @@ impl<'a> Loop<'a> {
             .step_init
             .unwrap_or(Response::base(0.7, 20.0, [1.0, 1.0]));
         let d = self.drive.as_ref().expect("step trials have a drive");
-        let fitted = response::fit(&self.p, d, &init, &[], &self.stepping_axes(), self.p.split);
+        let fitted = response::fit(
+            &self.p,
+            d,
+            &init,
+            &[],
+            &self.stepping_axes(),
+            &self.p.held_out,
+        );
         *cached = Some(fitted);
         fitted
     }
@@ -58,7 +52,7 @@ impl<'a> Loop<'a> {
         let fitted = if extras.is_empty() {
             base
         } else {
-            response::fit(p, d, &base, &extras, &axes, p.split)
+            response::fit(p, d, &base, &extras, &axes, &p.held_out)
         };
         let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
         let mut pred = [vec![0.0; p.len()], vec![0.0; p.len()]];
@@ -84,7 +78,8 @@ impl<'a> Loop<'a> {
             params.insert(e.id().to_string(), m);
         }
         let train = |pr: &[Vec<f64>; 2], a: usize| {
-            (0..p.split)
+            p.held_out
+                .train_rows()
                 .map(|i| (y[a][i] - pr[a][i]).powi(2))
                 .sum::<f64>()
         };
@@ -109,7 +104,7 @@ impl<'a> Loop<'a> {
             measured: y,
             predicted: pred,
             train_gain,
-            split: p.split,
+            held_out: p.held_out.clone(),
             warnings: Vec::new(),
         }
     }

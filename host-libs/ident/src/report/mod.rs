@@ -146,8 +146,11 @@ fn optional_field(e: &serde_json::Value, key: &str) -> String {
 pub fn diagnosis_page(d: &Diagnosis, fits: &[ModelFit], p: &Prepared) -> String {
     let mut page = Page::new(&format!("Model diagnosis — {} experiment", d.experiment));
     page.p(&format!(
-        "Verdict: {}. {} samples every {:.4} s; fitted on the first 80 %, scored on the last 20 % (NRMSE = RMS(residual)/std(measured)).",
-        d.verdict, d.samples, d.sample_period_s
+        "Verdict: {}. {} samples every {:.4} s; {} (NRMSE = RMS(residual)/std(measured)).",
+        d.verdict,
+        d.samples,
+        d.sample_period_s,
+        p.held_out.describe()
     ));
     page.p(&format!(
         "Base model: NRMSE fx {:.4}, fy {:.4}; R² fx {:.3}, fy {:.3}.",

@@ -171,8 +171,8 @@ pub struct Stack<'a> {
     pub x_title: &'a str,
     /// (y title, traces) per panel, top first.
     pub panels: Vec<(String, Vec<Trace>)>,
-    /// A shaded x range (the held-out part), with its label.
-    pub shade: Option<(f64, f64, &'a str)>,
+    /// Shaded x ranges (the held-out part), with their label.
+    pub shade: Option<(Vec<(f64, f64)>, &'a str)>,
     pub panel_height: usize,
     pub log_x: bool,
     pub log_y: bool,
@@ -255,21 +255,28 @@ pub fn stack(s: Stack) -> String {
             );
         }
     }
-    if let Some((x0, x1, label)) = s.shade {
-        layout = layout
-            .shapes(vec![Shape::new()
-                .shape_type(ShapeType::Rect)
-                .x_ref("x")
-                .y_ref("paper")
-                .x0(x0)
-                .x1(x1)
-                .y0(0.0)
-                .y1(1.0)
-                .fill_color("#f2e6a0")
-                .opacity(0.35)
-                .layer(ShapeLayer::Below)
-                .line(ShapeLine::new().width(0.0))])
-            .annotations(vec![plotly::layout::Annotation::new()
+    if let Some((ranges, label)) = s.shade {
+        let shapes = ranges
+            .iter()
+            .map(|&(x0, x1)| {
+                Shape::new()
+                    .shape_type(ShapeType::Rect)
+                    .x_ref("x")
+                    .y_ref("paper")
+                    .x0(x0)
+                    .x1(x1)
+                    .y0(0.0)
+                    .y1(1.0)
+                    .fill_color("#f2e6a0")
+                    .opacity(0.35)
+                    .layer(ShapeLayer::Below)
+                    .line(ShapeLine::new().width(0.0))
+            })
+            .collect();
+        layout = layout.shapes(shapes);
+        // the label once, over the first range
+        if let Some(&(x0, x1)) = ranges.first() {
+            layout = layout.annotations(vec![plotly::layout::Annotation::new()
                 .text(label)
                 .x_ref("x")
                 .y_ref("paper")
@@ -277,6 +284,7 @@ pub fn stack(s: Stack) -> String {
                 .y(1.0)
                 .show_arrow(false)
                 .y_anchor(plotly::common::Anchor::Bottom)]);
+        }
     }
     plot.set_layout(layout);
     plot.set_configuration(Configuration::new().responsive(true).display_logo(false));

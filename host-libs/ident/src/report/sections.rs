@@ -1,13 +1,14 @@
 //! The sections that show where a model fails: over time (zoomable), over the workspace,
 //! over velocity, over frequency and per step, each for the fits compared (before/after).
 
-use super::bins::{by_variable, grid_rms, quantile, steps, workspace_edges};
+use super::bins::{by_variable, grid_rms, quantile, workspace_edges};
 use super::plots::{self, Stack, Trace};
 use super::svg::{self, LinePanel, Series, MEASURED};
 use super::Page;
 use crate::diagnose::ModelFit;
 use crate::effects::Experiment;
 use crate::spectrum::amplitude_spectrum;
+use crate::step::{reference_steps, ReferenceStep};
 use crate::trial::{rms, Prepared};
 
 /// A fit as the page shows it: its label and colour.
@@ -64,14 +65,23 @@ pub fn time_series(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         panels.push((format!("residual {} [N]", AXES[axis]), traces));
     }
     let id = page.next_id();
-    let t_split = t.get(p.split).copied().unwrap_or(0.0);
+    let t_end = t.last().copied().unwrap_or(0.0);
+    let held: Vec<(f64, f64)> = p
+        .held_out
+        .ranges()
+        .iter()
+        .map(|r| {
+            let at = |i: usize| t.get(i).copied().unwrap_or(t_end);
+            (at(r.start), at(r.end.saturating_sub(1)))
+        })
+        .collect();
     page.plotly(&plots::stack(Stack {
         id: &id,
         title:
             "Measured and predicted force, and the residual (drag to zoom, double-click to reset)",
         x_title: "t [s]",
         panels,
-        shade: Some((t_split, t.last().copied().unwrap_or(0.0), "held-out 20 %")),
+        shade: (!held.is_empty()).then_some((held, p.held_out.label())),
         panel_height: 190,
         log_x: false,
         log_y: false,
@@ -217,14 +227,14 @@ pub fn per_step(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         return;
     };
     let Some(first) = fits.first() else { return };
-    let st: Vec<_> = steps(reference, 3.0)
+    let st: Vec<_> = reference_steps(reference, 3.0)
         .into_iter()
         .filter(|s| s.end > s.start + 5)
         .collect();
     if st.is_empty() {
         return;
     }
-    let step_rms = |f: &ModelFit, s: &super::bins::Step| {
+    let step_rms = |f: &ModelFit, s: &ReferenceStep| {
         let r: Vec<f64> = f
             .axes
             .iter()
@@ -232,10 +242,12 @@ pub fn per_step(page: &mut Page, p: &Prepared, fits: &[Shown]) {
             .collect();
         rms(&r)
     };
-    let first_held = st
+    let held: Vec<String> = st
         .iter()
-        .position(|s| s.start >= p.split)
-        .map_or(st.len(), |k| k);
+        .enumerate()
+        .filter(|(_, s)| p.held_out.contains(s.start))
+        .map(|(k, _)| (k + 1).to_string())
+        .collect();
     let labels: Vec<String> = (1..=st.len()).map(|k| k.to_string()).collect();
     let series: Vec<(&str, &str, Vec<f64>)> = fits
         .iter()
@@ -249,9 +261,16 @@ pub fn per_step(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         .collect();
     page.raw(&svg::bars(
         &format!(
-            "RMS residual per step (both scored axes); steps {}–{} are held out",
-            first_held + 1,
-            st.len()
+            "RMS residual per step (both scored axes); held out: {}",
+            if held.is_empty() {
+                "none".to_string()
+            } else {
+                format!(
+                    "step{} {}",
+                    if held.len() > 1 { "s" } else { "" },
+                    held.join(", ")
+                )
+            }
         ),
         "RMS residual [N]",
         &labels,

@@ -5,20 +5,22 @@
 use super::params::{lower_bounds, pack, unpack};
 use super::simulate::peak_rate;
 use super::*;
+use crate::held_out::HeldOut;
 use crate::lm;
 use rayon::prelude::*;
 
-/// Least-squares fit of the step-trial model on rows [0, fit_end) of `axes`, from `start`
-/// (the base's values; extras start from several inactive-to-strong settings).
+/// Least-squares fit of the step-trial model on the rows of `axes` that are not
+/// `held_out`, from `start` (the base's values; extras start from several
+/// inactive-to-strong settings). The model is simulated up to the last fitted row.
 pub fn fit(
     p: &Prepared,
     d: &Drive,
     start: &Response,
     extras: &[StepExtra],
     axes: &[usize],
-    fit_end: usize,
+    held_out: &HeldOut,
 ) -> Response {
-    let n = fit_end.min(p.len());
+    let n = held_out.train_end().min(p.len());
     if n < 4 || axes.is_empty() {
         return *start;
     }
@@ -35,11 +37,14 @@ pub fn fit(
             slew_command: true,
             ..*start
         };
-        return fit(p, d, &start, &mapped, axes, fit_end);
+        return fit(p, d, &start, &mapped, axes, held_out);
     }
     // the simulation runs on every sample; residuals every ≥ 5 ms keep 1 kHz logs cheap
     let stride = ((0.005 / p.dt_s).floor() as usize).max(1);
-    let rows: Vec<usize> = (0..n).step_by(stride).collect();
+    let rows: Vec<usize> = (0..n)
+        .step_by(stride)
+        .filter(|&i| !held_out.contains(i))
+        .collect();
     let t = &p.t_s[..n];
     let alpha = [&p.alpha_rad[0][..n], &p.alpha_rad[1][..n]];
     let mut sims = Sims::new(n);
@@ -58,12 +63,12 @@ pub fn fit(
             .copied()
             .filter(|x| *x != StepExtra::Saturation)
             .collect();
-        let stage = fit(p, d, start, &first, axes, fit_end);
-        return fit(p, d, &stage, extras, axes, fit_end);
+        let stage = fit(p, d, start, &first, axes, held_out);
+        return fit(p, d, &stage, extras, axes, held_out);
     }
     // the fastest rate the base reaches: the scale of the rate limits' starts and floor
     let peak = if extras.contains(&StepExtra::SlewRate) {
-        peak_rate(start, d, n).max(1e-6)
+        peak_rate(start, d, n, held_out).max(1e-6)
     } else {
         1.0
     };
@@ -78,7 +83,7 @@ pub fn fit(
             omega_n_rad_s: omega0,
             ..*start
         };
-        let peak_own = peak_rate(&own, d, n).max(1e-6);
+        let peak_own = peak_rate(&own, d, n, held_out).max(1e-6);
         let mut v = Vec::new();
         for fast in [false, true] {
             // down to 1 %: a converter that needs 20 s to fill never reaches its set-point
@@ -102,7 +107,8 @@ pub fn fit(
         starts = v;
     }
     if extras.contains(&StepExtra::Saturation) && knee_inactive {
-        // knees at quantiles of the set-points, from just active to strong
+        // knees at quantiles of the set-points, from just active to strong (held-out
+        // steps included: their levels lie within the fitted ones', `HeldOut`)
         let all = Quantiles::of(
             d.set[..n]
                 .iter()
@@ -185,7 +191,12 @@ pub fn fit(
         simulate(start, d, t, alpha, n, &mut sims.unit);
         let peak = axes
             .iter()
-            .flat_map(|&a| sims.unit[a][..n].windows(2).map(|w| (w[1] - w[0]).abs()))
+            .flat_map(|&a| {
+                let u = &sims.unit[a];
+                (1..n)
+                    .filter(|&i| !held_out.contains(i))
+                    .map(move |i| (u[i] - u[i - 1]).abs())
+            })
             .fold(0.0, f64::max)
             / p.dt_s;
         if peak > 0.0 {

@@ -2,6 +2,7 @@
 //! each converter's second order to the handle force.
 
 use super::*;
+use crate::held_out::HeldOut;
 
 #[inline]
 fn saturate(s: f64, knee: f64, span: f64) -> f64 {
@@ -233,8 +234,9 @@ fn transition(omega_n: f64, zeta: f64, h: f64) -> Transition {
     }
 }
 
-/// The fastest rate any channel reaches under `r` (for the rate limits' starting values).
-pub(super) fn peak_rate(r: &Response, d: &Drive, n: usize) -> f64 {
+/// The fastest rate any channel reaches under `r` in the rows that are not `held_out` (for
+/// the rate limits' starting values).
+pub(super) fn peak_rate(r: &Response, d: &Drive, n: usize, held_out: &HeldOut) -> f64 {
     let n = n.min(d.set.len());
     let sub = ((d.dt_s / MAX_SUBSTEP_S).ceil() as usize).max(1);
     let h = d.dt_s / sub as f64;
@@ -245,11 +247,14 @@ pub(super) fn peak_rate(r: &Response, d: &Drive, n: usize) -> f64 {
     x[..d.channels()].copy_from_slice(&d.set[0][..d.channels()]);
     let mut peak: f64 = 0.0;
     for i in 0..n {
+        let fitted = !held_out.contains(i);
         for _ in 0..sub {
             for c in 0..d.channels() {
                 v[c] += h * (wn2 * (d.set[i][c] - x[c]) - c2 * v[c]);
                 x[c] += h * v[c];
-                peak = peak.max(v[c].abs());
+                if fitted {
+                    peak = peak.max(v[c].abs());
+                }
             }
         }
     }

@@ -1,4 +1,5 @@
 use super::*;
+use crate::held_out::HeldOut;
 
 fn force_drive(set: Vec<f64>, dt: f64) -> (Drive, Vec<f64>) {
     let n = set.len();
@@ -138,7 +139,7 @@ fn fit_recovers_the_extras() {
     for (extras, truth) in cases {
         let p = x_axis_trial(&truth, &d, &t);
         let start = Response::base(0.6, 18.0, [1.0, 1.0]);
-        let f = fit(&p, &d, &start, extras, &[0], n);
+        let f = fit(&p, &d, &start, extras, &[0], &HeldOut::nothing(n));
         let mut checks = vec![("zeta", f.zeta, 0.42), ("gain", f.gain[0], 0.9)];
         if extras.contains(&StepExtra::Delay) {
             checks.push(("delay", f.delay_s, 0.03));
@@ -203,7 +204,14 @@ fn a_cap_on_one_channel_is_found_on_that_channel() {
         .prepare(&RobotModel::thesis(), Default::default())
         .unwrap();
     let start = Response::base(0.6, 18.0, [1.0, 1.0]);
-    let f = fit(&p, &d, &start, &[StepExtra::ChannelCap], &[0, 1], n);
+    let f = fit(
+        &p,
+        &d,
+        &start,
+        &[StepExtra::ChannelCap],
+        &[0, 1],
+        &HeldOut::nothing(n),
+    );
     assert_eq!(f.cap_channel, Some(1), "{f:?}");
     assert!((f.cap - 10.0).abs() < 0.3, "cap {}", f.cap);
     assert!(
@@ -246,7 +254,7 @@ fn fit_recovers_limits_of_the_measured_force() {
         let p = x_axis_trial(&truth, &d, &t);
         // the base fitted without the limit: its gain is the rig's
         let start = Response::base(0.5, 20.0, [0.5, 1.0]);
-        let f = fit(&p, &d, &start, &[extra], &[0], n);
+        let f = fit(&p, &d, &start, &[extra], &[0], &HeldOut::nothing(n));
         let checks = match extra {
             StepExtra::ForceSaturation => vec![
                 ("knee", f.force_knee_n, 8.0),

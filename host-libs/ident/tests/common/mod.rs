@@ -281,6 +281,11 @@ pub struct StepConfig {
     pub omega_n: f64,
     /// Largest reference step, N.
     pub step_n: f64,
+    /// The thesis's protocol (§5.2): every step on X first, then every step on Y, instead
+    /// of the axes in turn.
+    pub x_then_y: bool,
+    /// The hidden effect acts on X's force only.
+    pub hidden_on_x_only: bool,
 }
 
 impl Default for StepConfig {
@@ -295,6 +300,8 @@ impl Default for StepConfig {
             zeta: 0.42,
             omega_n: 23.04,
             step_n: 20.0,
+            x_then_y: false,
+            hidden_on_x_only: false,
         }
     }
 }
@@ -320,10 +327,20 @@ pub fn step(c: &StepConfig) -> Trial {
     for i in 0..n {
         let t = i as f64 * c.dt_s;
         if t >= next_change {
+            if c.x_then_y {
+                // X's steps in the first half, back to 0 at its end, then Y's
+                axis = usize::from(t >= c.duration_s / 2.0);
+                if axis == 1 && refs[0] != 0.0 {
+                    hyst_dir[0] = -refs[0].signum();
+                    refs[0] = 0.0;
+                }
+            }
             let new = c.step_n * (2.0 * rng.uniform() - 1.0);
             hyst_dir[axis] = (new - refs[axis]).signum();
             refs[axis] = new;
-            axis = 1 - axis;
+            if !c.x_then_y {
+                axis = 1 - axis;
+            }
             next_change = t + 1.5 + 1.5 * rng.uniform();
         }
         hist.push(refs);
@@ -358,13 +375,15 @@ pub fn step(c: &StepConfig) -> Trial {
         };
         for _ in 0..sub {
             for ax in 0..2 {
-                let mut target = c.gain * u[ax];
-                match c.hidden {
+                let untouched = c.hidden_on_x_only && ax == 1;
+                let mut target = c.gain * if untouched { refs[ax] } else { u[ax] };
+                let hidden = if untouched { Hidden::None } else { c.hidden };
+                match hidden {
                     Hidden::Saturation { max_n } => target = max_n * (target / max_n).tanh(),
                     Hidden::Hysteresis { fraction, .. } => target += fraction * hyst_dir[ax],
                     _ => {}
                 }
-                if let Hidden::SlewLimit { rate_n_per_s } = c.hidden {
+                if let Hidden::SlewLimit { rate_n_per_s } = hidden {
                     driven[ax] = target.clamp(
                         driven[ax] - 1.3 * rate_n_per_s * h,
                         driven[ax] + rate_n_per_s * h,
