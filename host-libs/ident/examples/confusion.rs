@@ -3,7 +3,7 @@
 //! accuracy, false alarms and timings.
 //!
 //! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
-//!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE]`
+//!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]`
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -14,6 +14,7 @@ use pam_ident::diagnose::{diagnose, Settings};
 use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
+use pam_synth::case::StepOrder;
 use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
 use pam_synth::{generate, CaseSpec, Experiment, Family};
 
@@ -33,6 +34,9 @@ struct Args {
     only: Option<Vec<u64>>,
     /// The loop's settings; `--set NAME=VALUE` changes one (to measure a trade-off).
     settings: Settings,
+    /// Every step log's axes in this order instead of the generator's (e.g. the thesis's
+    /// `x_then_y`, §5.2), keeping the plan's draw.
+    step_order: Option<StepOrder>,
 }
 
 fn parse() -> Result<Args, String> {
@@ -47,6 +51,7 @@ fn parse() -> Result<Args, String> {
         json: None,
         only: None,
         settings: Settings::default(),
+        step_order: None,
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
@@ -64,6 +69,9 @@ fn parse() -> Result<Args, String> {
                 a.period_s = Some(v()?.parse().map_err(|e| format!("--period-s: {e}"))?)
             }
             "--out" => a.out = Some(PathBuf::from(v()?)),
+            "--step-order" => {
+                a.step_order = Some(StepOrder::parse(&v()?).map_err(|e| e.to_string())?)
+            }
             "--json" => a.json = Some(PathBuf::from(v()?)),
             "--set" => {
                 let kv = v()?;
@@ -146,7 +154,7 @@ fn main() {
     let a = match parse() {
         Ok(a) => a,
         Err(e) => {
-            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE]");
+            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]");
             std::process::exit(2);
         }
     };
@@ -177,6 +185,16 @@ fn main() {
                 s.duration_s = f64::min(s.duration_s, pam_synth::case::MAX_SAMPLES as f64 * dt);
                 s.dt_s = dt;
                 s
+            })
+            .collect(),
+    };
+    let specs: Vec<CaseSpec> = match a.step_order {
+        None => specs,
+        Some(order) => specs
+            .into_iter()
+            .map(|s| CaseSpec {
+                step_order: order,
+                ..s
             })
             .collect(),
     };

@@ -147,7 +147,7 @@ fn simulate_channels<const K: usize>(
             }
             if force_slewed {
                 if let Some(prev) = slewed[a] {
-                    force = force.clamp(prev - force_down, prev + force_up);
+                    force = bounded(force, prev - force_down, prev + force_up);
                 }
                 slewed[a] = Some(force);
             }
@@ -169,12 +169,12 @@ fn simulate_channels<const K: usize>(
                     w_first * set_at(j, c) + (1.0 - w_first) * set_at(j + 1, c)
                 };
                 if limited && slew_the_command {
-                    s = s.clamp(driven[c] - fall * h, driven[c] + rise * h);
+                    s = bounded(s, driven[c] - fall * h, driven[c] + rise * h);
                     driven[c] = s;
                 }
                 let (e, vc) = phi.step(x[c] - s, v[c]);
                 v[c] = if limited && !slew_the_command {
-                    vc.clamp(-fall, rise)
+                    bounded(vc, -fall, rise)
                 } else {
                     vc
                 };
@@ -231,6 +231,16 @@ fn transition(omega_n: f64, zeta: f64, h: f64) -> Transition {
             [g * (c - s * mu), g * s],
             [-g * s * wn2, g * (c + s * (-2.0 * zeta * omega_n - mu))],
         ],
+    }
+}
+
+/// `v` within [lo, hi]. Bounds that are NaN or crossed (a trial step of the fit whose rates
+/// overflowed) give NaN, which the fit's cost rejects, rather than a panic.
+fn bounded(v: f64, lo: f64, hi: f64) -> f64 {
+    if lo <= hi {
+        v.clamp(lo, hi)
+    } else {
+        f64::NAN
     }
 }
 

@@ -296,6 +296,34 @@ pub struct CaseSpec {
     pub target_relative_size: f64,
     /// Dynamic: Table 4.1 point 1–5; step: step pose 1–9 (§5.2's order).
     pub site: usize,
+    /// Step: the order of the axes' steps.
+    #[serde(default)]
+    pub step_order: StepOrder,
+}
+
+/// The order in which a step log steps its axes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StepOrder {
+    /// Runs of 4–8 steps on one axis, then on the other, in turn (the generator's draw).
+    #[default]
+    Alternating,
+    /// The thesis's protocol (§5.2): X's steps for the first half of the log, then Y's.
+    XThenY,
+}
+
+impl StepOrder {
+    pub fn parse(s: &str) -> Result<Self, SynthError> {
+        match s {
+            "alternating" => Ok(StepOrder::Alternating),
+            "x_then_y" | "x-then-y" => Ok(StepOrder::XThenY),
+            other => Err(SynthError::UnknownName {
+                what: "step order",
+                name: other.to_string(),
+                choices: "alternating, x_then_y".to_string(),
+            }),
+        }
+    }
 }
 
 fn log_uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
@@ -376,6 +404,7 @@ impl CaseSpec {
             noise_n,
             target_relative_size,
             site,
+            step_order: StepOrder::Alternating,
         };
         spec.validate()?;
         Ok(spec)

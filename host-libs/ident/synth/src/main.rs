@@ -1,13 +1,15 @@
 //! `pam-synth --seed N [--experiment dynamic|step] [--family F] [--shape S] [--period-s DT] [--duration-s S]
-//! --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
+//! [--step-order alternating|x_then_y] --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use pam_synth::case::StepOrder;
 use pam_synth::{generate, write_files, CaseSpec, Experiment, Family, Shape, SynthError};
 
 const USAGE: &str = "usage: pam-synth --seed N [--experiment dynamic|step] [--family F] \
-[--shape S] [--period-s DT] [--duration-s S] --out FILE.csv | --list";
+[--shape S] [--period-s DT] [--duration-s S] [--step-order alternating|x_then_y] --out FILE.csv \
+| --list";
 
 fn list() {
     for e in Experiment::ALL {
@@ -22,6 +24,7 @@ fn list() {
 fn run(args: &[String]) -> Result<(), String> {
     let mut seed = None;
     let mut duration: Option<f64> = None;
+    let mut step_order = None;
     let (mut experiment, mut family, mut shape, mut period, mut out) =
         (None, None, None, None, None);
     let mut it = args.iter();
@@ -44,6 +47,7 @@ fn run(args: &[String]) -> Result<(), String> {
             "--period-s" => period = Some(value()?.parse::<f64>().map_err(|e| e.to_string())?),
             "--duration-s" => duration = Some(value()?.parse::<f64>().map_err(|e| e.to_string())?),
             "--out" => out = Some(PathBuf::from(value()?)),
+            "--step-order" => step_order = Some(StepOrder::parse(&value()?).map_err(e)?),
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
         }
@@ -55,6 +59,9 @@ fn run(args: &[String]) -> Result<(), String> {
     let mut spec = CaseSpec::random(seed, experiment, family).map_err(|e| e.to_string())?;
     if let Some(s) = shape {
         spec = spec.with_shape(s).map_err(|e| e.to_string())?;
+    }
+    if let Some(order) = step_order {
+        spec.step_order = order;
     }
     if let Some(dt) = period {
         spec.dt_s = dt;

@@ -7,7 +7,7 @@ use pam_model::RobotModel;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::case::{CaseSpec, Shape};
+use crate::case::{CaseSpec, Shape, StepOrder};
 use crate::effect::{named, EffectModel};
 use crate::robot;
 use crate::signal::{first_order_lag, interp, perturb, play, Forces, SecondOrder};
@@ -110,7 +110,11 @@ pub fn build(spec: &CaseSpec, model: &RobotModel<f64>, rng: &mut ChaCha8Rng) -> 
     let on_grid = |t: f64| (t / dt).round() * dt;
     let mut segs: Vec<(f64, [f64; 2])> = vec![(0.0, [0.0; 2])];
     let mut t = on_grid(rng.random_range(2.0..3.0));
-    let mut axis = rng.random_range(0..2usize);
+    let drawn_axis = rng.random_range(0..2usize);
+    let mut axis = match spec.step_order {
+        StepOrder::Alternating => drawn_axis,
+        StepOrder::XThenY => 0,
+    };
     let mut level = 0i32;
     let mut moves = 0;
     let mut planned = rng.random_range(4..9);
@@ -131,7 +135,11 @@ pub fn build(spec: &CaseSpec, model: &RobotModel<f64>, rng: &mut ChaCha8Rng) -> 
         level = next;
         moves += 1;
         if moves > planned {
-            axis = 1 - axis;
+            // a run ends back at 0: the next run's axis
+            axis = match spec.step_order {
+                StepOrder::Alternating => 1 - axis,
+                StepOrder::XThenY => usize::from(t >= spec.duration_s / 2.0),
+            };
             moves = 0;
             planned = rng.random_range(4..9);
         }
