@@ -42,7 +42,7 @@ fn model_amp(th: &[f64], w: f64, vx: f64, vy: f64) -> [f64; 2] {
 
 /// `start` = the nine time-domain parameters.
 pub fn fit(p: &Prepared, start: &[f64], band_rad_s: f64) -> Result<FreqFit, crate::IdentError> {
-    let s = p.split;
+    let s = p.split();
     let f = msd::target(p);
     let fx = amplitude_spectrum(&f[0][..s], p.dt_s);
     let fy = amplitude_spectrum(&f[1][..s], p.dt_s);

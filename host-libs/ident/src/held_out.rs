@@ -105,9 +105,13 @@ impl HeldOut {
         self.kind
     }
 
-    /// Samples of the trial (held out or not).
-    pub fn trial_len(&self) -> usize {
-        self.n
+    /// First row of the held-out tail (the last range, if it runs to the trial's end), else
+    /// the trial's length: for the last fifth, ⌊4n/5⌋.
+    pub fn tail_start(&self) -> usize {
+        match self.ranges.last() {
+            Some(r) if r.end == self.n => r.start,
+            _ => self.n,
+        }
     }
 
     /// The held-out ranges, in time order.
@@ -237,6 +241,9 @@ mod tests {
         assert_eq!(h.ranges().to_vec(), vec![(80..100)]);
         assert_eq!(h.train_ranges(), vec![0..80]);
         assert_eq!(h.train_end(), 80);
+        assert_eq!(h.tail_start(), 80);
+        assert_eq!(HeldOut::last_fifth(0).tail_start(), 0);
+        assert_eq!(HeldOut::nothing(7).tail_start(), 7);
         assert_eq!(h.len(), 20);
         assert!(h.contains(80) && h.contains(99) && !h.contains(79) && !h.contains(100));
         assert_eq!(h.rows().count() + h.train_rows().count(), 100);

@@ -86,7 +86,7 @@ pub fn frequency_split(
     let n = p.len();
     let w = ((2.0 / p.dt_s).round() as usize).max(10);
     let mut windows = Vec::new();
-    let mut s = p.split;
+    let mut s = p.split();
     while s + w / 2 <= n {
         let e = (s + w).min(n);
         let v = rms(&p.v_m_s[0][s..e]).hypot(rms(&p.v_m_s[1][s..e]));
@@ -110,7 +110,7 @@ pub fn frequency_split(
         cnt[class] += e - s;
     }
     let all = |ax: usize| {
-        let r: Vec<f64> = (p.split..n)
+        let r: Vec<f64> = (p.split()..n)
             .map(|i| measured[ax][i] - predicted[ax][i])
             .collect();
         rms(&r).powi(2)
@@ -181,7 +181,7 @@ pub fn fit_columns(
     positive: &[usize],
     y: &[Vec<f64>; 2],
 ) -> (Vec<f64>, [Vec<f64>; 2]) {
-    let ne = lsq::normal_equations(cols, &[&y[0], &y[1]], 0..p.split);
+    let ne = lsq::normal_equations(cols, &[&y[0], &y[1]], 0..p.split());
     let theta = lsq::solve(&ne, positive);
     let pred = lsq::predict(cols, &theta, p.len());
     (theta, pred)
@@ -194,20 +194,13 @@ pub fn scores(
     y: &[Vec<f64>; 2],
     pred: &[Vec<f64>; 2],
 ) -> ([AxisScore; 2], [AxisScore; 2]) {
-    let pick = |v: &[f64], rows: &mut dyn Iterator<Item = usize>| -> Vec<f64> {
-        rows.map(|i| v[i]).collect()
+    let held: Vec<usize> = p.held_out.rows().collect();
+    let train: Vec<usize> = p.held_out.train_rows().collect();
+    let on = |a: usize, rows: &[usize]| {
+        let pick = |v: &[f64]| rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        score(&pick(&y[a]), &pick(&pred[a]))
     };
-    let on = |a: usize, held: bool| {
-        let rows = || -> Box<dyn Iterator<Item = usize>> {
-            if held {
-                Box::new(p.held_out.rows())
-            } else {
-                Box::new(p.held_out.train_rows())
-            }
-        };
-        score(&pick(&y[a], &mut rows()), &pick(&pred[a], &mut rows()))
-    };
-    ([on(0, true), on(1, true)], [on(0, false), on(1, false)])
+    ([on(0, &held), on(1, &held)], [on(0, &train), on(1, &train)])
 }
 
 /// Plausibility of a fitted mass matrix against the robot's Cartesian inertia at the mean pose.

@@ -57,11 +57,8 @@ pub struct Prepared {
     /// Equilibrium joint angles (mean over the first 0.1 s, like `x0_m`).
     pub alpha0_rad: [f64; 2],
     pub current_ma: Option<[Vec<f64>; 4]>,
-    /// First sample of the last 20 %: the held-out part of a dynamic trial, whose fits
-    /// (normal equations, cross-validation folds) work on the prefix before it.
-    pub split: usize,
-    /// The rows fits are scored on and not fitted to: the last 20 % (from `split`), or in
-    /// a step trial with enough steps every fifth step ([`HeldOut`]).
+    /// The rows fits are scored on and not fitted to: the last 20 %, or in a step trial
+    /// with enough steps every fifth step ([`HeldOut`]).
     pub held_out: HeldOut,
     /// The log's sampling was uneven (dropped frames, jitter) and it was resampled to its
     /// median period by linear interpolation.
@@ -247,7 +244,6 @@ impl Trial {
             alpha_smooth_rad: [s0, s1],
             alpha0_rad,
             current_ma: self.current_ma.clone(),
-            split: (n * 4) / 5,
             held_out: HeldOut::last_fifth(n),
             resampled: false,
             cutoff_hz: cutoff,
@@ -363,7 +359,6 @@ impl Prepared {
             alpha_smooth_rad: pick2(&self.alpha_smooth_rad),
             alpha0_rad: self.alpha0_rad,
             current_ma: self.current_ma.as_ref().map(|c| c.each_ref().map(command)),
-            split: (n * 4) / 5,
             held_out: HeldOut::last_fifth(n),
             resampled: self.resampled,
             cutoff_hz: self.cutoff_hz,
@@ -371,6 +366,12 @@ impl Prepared {
     }
     pub fn is_empty(&self) -> bool {
         self.t_s.is_empty()
+    }
+
+    /// First row of the held-out tail: a dynamic trial's fits (normal equations,
+    /// cross-validation folds) work on the rows before it ([`HeldOut::tail_start`]).
+    pub fn split(&self) -> usize {
+        self.held_out.tail_start()
     }
 }
 

@@ -52,10 +52,10 @@ pub fn prepare_with_best_cutoff(
             let y = msd::target(&p);
             let mut cols = msd::msd_columns(&p);
             cols.extend(offset_columns(p.len()));
-            let ne = lsq::normal_equations(&cols, &[&y[0], &y[1]], 0..p.split);
+            let ne = lsq::normal_equations(&cols, &[&y[0], &y[1]], 0..p.split());
             let th = lsq::solve(&ne, &MSD_POSITIVE);
             let yty: f64 = (0..2)
-                .map(|a| y[a][..p.split].iter().map(|v| v * v).sum::<f64>())
+                .map(|a| y[a][..p.split()].iter().map(|v| v * v).sum::<f64>())
                 .sum();
             (lsq::rss(&ne, yty, &th), p)
         })
@@ -302,8 +302,8 @@ pub(super) fn choose_pneumatic(
     shared: &SharedColumns,
 ) -> Option<(Vec<Column>, (f64, f64))> {
     let y = msd::target(p);
-    let rows = 0..p.split;
-    let yty = sum_of_squares(&y, p.split);
+    let rows = 0..p.split();
+    let yty = sum_of_squares(&y, p.split());
     let wn0 = model.params.ip.natural_freq_rad_s;
     let ctx = DynCtx::new(p, model);
     let z0 = model.params.ip.damping_ratio;
@@ -357,7 +357,7 @@ pub(super) fn choose_pneumatic(
     // the effective number of samples of the plain residual (4 parameters with the grid)
     let pred = lsq::predict(&with_offset(&plain), &th_plain, p.len());
     let residuals: Vec<Vec<f64>> = (0..2)
-        .map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect())
+        .map(|a| (0..p.split()).map(|i| y[a][i] - pred[a][i]).collect())
         .collect();
     let n_eff = effective_samples_of(&residuals);
     let ratio = rss_pn / rss_plain.max(1e-300);

@@ -103,7 +103,7 @@ impl<'a> Loop<'a> {
             y0.map(|v| (0..n).map(|i| v[(i + shift).min(n - 1)]).collect())
         };
         let yty_train = (0..2)
-            .map(|a| y[a][..self.p.split].iter().map(|v| v * v).sum::<f64>())
+            .map(|a| y[a][..self.p.split()].iter().map(|v| v * v).sum::<f64>())
             .sum();
         let t = std::sync::Arc::new(Target {
             y: y.map(std::sync::Arc::new),
@@ -196,7 +196,7 @@ impl<'a> Loop<'a> {
     ) -> lsq::Normal {
         let known = &self.base_variants[v].normal.prefix(base_len);
         let t = self.target(shift);
-        Self::normal_with_known(known, cols, &t.y, shift, 0..self.p.split, memo)
+        Self::normal_with_known(known, cols, &t.y, shift, 0..self.p.split(), memo)
     }
 
     /// The base variants effects are fitted with: the [`SHORTLIST`] the base alone fits

@@ -460,7 +460,7 @@ impl<'a> Loop<'a> {
                         .into_iter()
                         .map(|(cols, pneumatic)| {
                             let target = [y[0].as_slice(), y[1].as_slice()];
-                            let normal = lsq::normal_equations(&cols, &target, 0..p.split);
+                            let normal = lsq::normal_equations(&cols, &target, 0..p.split());
                             BaseVariant {
                                 cols,
                                 offset,
@@ -476,7 +476,7 @@ impl<'a> Loop<'a> {
             let y = msd::target(&p);
             let pred = msd::fit_columns(&p, &v[0].cols, &v[0].positive(), &y).1;
             let res: Vec<Vec<f64>> = (0..2)
-                .map(|a| (0..p.split).map(|i| y[a][i] - pred[a][i]).collect())
+                .map(|a| (0..p.split()).map(|i| y[a][i] - pred[a][i]).collect())
                 .collect();
             (v, effective_samples_of(&res))
         } else {
