@@ -3,7 +3,8 @@
 //! accuracy, false alarms and timings.
 //!
 //! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
-//!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]`
+//!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]
+//!  [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]`
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -16,7 +17,7 @@ use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_synth::case::StepOrder;
 use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
-use pam_synth::{generate, CaseSpec, Experiment, Family};
+use pam_synth::{generate, CaseSpec, Experiment, Family, NuisancePlan};
 
 struct Args {
     logs: usize,
@@ -37,6 +38,9 @@ struct Args {
     /// Every step log's axes in this order instead of the generator's (e.g. the thesis's
     /// `x_then_y`, §5.2), keeping the plan's draw.
     step_order: Option<StepOrder>,
+    /// What the recordings add that is not an effect (jitter, drops, heavy tails, spikes,
+    /// quantisation; pam-synth's `nuisance.rs`), the same for every log or drawn per seed.
+    nuisance: Option<NuisancePlan>,
 }
 
 fn parse() -> Result<Args, String> {
@@ -52,6 +56,7 @@ fn parse() -> Result<Args, String> {
         only: None,
         settings: Settings::default(),
         step_order: None,
+        nuisance: None,
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
@@ -73,6 +78,9 @@ fn parse() -> Result<Args, String> {
                 a.step_order = Some(StepOrder::parse(&v()?).map_err(|e| e.to_string())?)
             }
             "--json" => a.json = Some(PathBuf::from(v()?)),
+            "--nuisance" => {
+                a.nuisance = Some(NuisancePlan::parse(&v()?).map_err(|e| e.to_string())?)
+            }
             "--set" => {
                 let kv = v()?;
                 let (k, x) = kv
@@ -154,7 +162,7 @@ fn main() {
     let a = match parse() {
         Ok(a) => a,
         Err(e) => {
-            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]");
+            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y] [--nuisance none|random|LIST]");
             std::process::exit(2);
         }
     };
@@ -185,6 +193,16 @@ fn main() {
                 s.duration_s = f64::min(s.duration_s, pam_synth::case::MAX_SAMPLES as f64 * dt);
                 s.dt_s = dt;
                 s
+            })
+            .collect(),
+    };
+    let specs: Vec<CaseSpec> = match a.nuisance {
+        None => specs,
+        Some(plan) => specs
+            .into_iter()
+            .map(|s| CaseSpec {
+                nuisances: plan.for_seed(s.seed),
+                ..s
             })
             .collect(),
     };

@@ -19,6 +19,7 @@ pub mod lsq;
 pub mod msd;
 pub mod response;
 pub mod spectrum;
+pub mod spikes;
 pub mod step;
 pub mod trial;
 

@@ -119,6 +119,9 @@ pub struct Diagnosis {
     pub sample_period_s: f64,
     /// Which rows the fits were scored on ([`HeldOut::describe`]).
     pub held_out: String,
+    /// Isolated spikes of the force bridged before the fits (none: absent).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spikes: Option<SpikeReport>,
     pub base: BaseReport,
     pub verdict: Verdict,
     /// One entry per family (its best shape): the accepted ones first, best first.
@@ -231,9 +234,8 @@ pub fn diagnose_observed(
     catalog: &[&dyn ModelEffect],
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<(Diagnosis, Vec<ModelFit>), crate::IdentError> {
-    let lp = Loop::new(trial, model, experiment, settings)?;
+    let (lp, base, spikes) = loop_without_spikes(trial, model, experiment, settings)?;
     let dynamic = experiment == Experiment::Dynamic;
-    let base = lp.fit(&[]);
     let e_base = base.relative_mse();
     let n_eff = effective_samples(&lp, &base);
     let held_out: Vec<Vec<f64>> = base
@@ -486,6 +488,9 @@ pub fn diagnose_observed(
         })
         .collect();
     let mut warnings = base.warnings.clone();
+    if let Some(s) = &spikes {
+        warnings.push(s.warning());
+    }
     if lp.p.resampled {
         warnings.push(
             "the log's sampling is uneven (dropped frames?): it was resampled to its median period"
@@ -508,6 +513,7 @@ pub fn diagnose_observed(
             samples: lp.p.len(),
             sample_period_s: lp.p.dt_s,
             held_out: lp.p.held_out.describe(),
+            spikes,
             base: BaseReport {
                 nrmse: AxisPair::of(base.nrmse),
                 r2: AxisPair::of(base.r2),

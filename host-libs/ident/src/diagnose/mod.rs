@@ -8,6 +8,7 @@ mod base;
 mod compare;
 mod cv;
 mod decide;
+mod despike;
 mod dynamic;
 mod selection;
 mod step_fit;
@@ -17,6 +18,8 @@ pub use base::{joint_stiffness_columns, pneumatic_columns, prepare_with_best_cut
 pub use compare::*;
 pub use cv::{FoldScores, FOLDS};
 pub use decide::*;
+use despike::loop_without_spikes;
+pub use despike::SpikeReport;
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
 pub use unexplained::*;
 

@@ -299,6 +299,9 @@ pub struct CaseSpec {
     /// Step: the order of the axes' steps.
     #[serde(default)]
     pub step_order: StepOrder,
+    /// What the recording adds that is not an effect (`nuisance.rs`); none by default.
+    #[serde(default)]
+    pub nuisances: crate::nuisance::Nuisances,
 }
 
 /// The order in which a step log steps its axes.
@@ -405,6 +408,7 @@ impl CaseSpec {
             target_relative_size,
             site,
             step_order: StepOrder::Alternating,
+            nuisances: Default::default(),
         };
         spec.validate()?;
         Ok(spec)
@@ -449,6 +453,7 @@ impl CaseSpec {
                 duration_s: self.duration_s,
             });
         }
+        self.nuisances.validate()?;
         if !(0.0..=5.0).contains(&self.noise_n) {
             return Err(SynthError::BadNoise {
                 noise_n: self.noise_n,

@@ -169,7 +169,7 @@ pub fn case_line(r: &CaseResult) -> String {
         Outcome::Wrong => "BAD",
     };
     format!(
-        "{mark} seed {:>6} {:<7} {:<22} {:<20} dt {:>5.3} size {:>5.3} -> {:<11} {:<22} impr {:>6} {:>5.2}s{}",
+        "{mark} seed {:>6} {:<7} {:<22} {:<20} dt {:>5.3} size {:>5.3} -> {:<11} {:<22} impr {:>6} {:>5.2}s{}{}",
         t.seed,
         t.experiment.name(),
         t.family.name(),
@@ -183,6 +183,11 @@ pub fn case_line(r: &CaseResult) -> String {
             .map(|x| format!("{x:.3}"))
             .unwrap_or("-".into()),
         r.seconds,
+        if t.nuisances.is_none() {
+            String::new()
+        } else {
+            format!("  [{}]", t.nuisances.describe())
+        },
         r.error
             .as_ref()
             .map(|e| format!("  ERROR {e}"))

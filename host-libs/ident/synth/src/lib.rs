@@ -16,6 +16,7 @@ mod dynamic;
 mod effect;
 pub mod error;
 pub mod judge;
+pub mod nuisance;
 mod robot;
 mod sensor;
 pub mod signal;
@@ -24,6 +25,7 @@ pub mod truth;
 
 pub use case::{CaseSpec, Experiment, Family, Shape};
 pub use error::SynthError;
+pub use nuisance::{NuisancePlan, Nuisances};
 pub use truth::Truth;
 
 use pam_model::RobotModel;
@@ -31,7 +33,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use effect::{EffectModel, Form};
-use signal::{decimate, relative_size, Forces};
+use signal::{pick, relative_size, Forces};
 
 /// A generated log and what is hidden in it.
 #[derive(Clone, Debug)]
@@ -46,7 +48,7 @@ const STREAM_BASE: u64 = 1;
 const STREAM_EFFECT: u64 = 2;
 const STREAM_NOISE: u64 = 3;
 
-fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
+pub(crate) fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
     let mut r = ChaCha8Rng::seed_from_u64(seed);
     r.set_stream(stream);
     r
@@ -55,7 +57,9 @@ fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
 /// What both trial types hand to the common part: the noise-free base force on the fine
 /// grid and the logged columns other than the force.
 struct Scene {
-    fine_per_sample: usize,
+    /// The fine-grid index of every logged row (the nuisances' jitter and drops in it).
+    rows: Vec<usize>,
+    fine_s: f64,
     base_force: Forces,
     alpha_log: Vec<[f64; 2]>,
     currents_log: Vec<[f64; 4]>,
@@ -71,47 +75,59 @@ pub fn generate(spec: &CaseSpec) -> Result<Generated, SynthError> {
     let mut rng_base = rng(spec.seed, STREAM_BASE);
     let mut rng_effect = rng(spec.seed, STREAM_EFFECT);
     let mut rng_noise = rng(spec.seed, STREAM_NOISE);
+    let mut rng_nuisance = rng(spec.seed, nuisance::STREAM_NUISANCE);
     let n = spec.samples();
     match spec.experiment {
         Experiment::Dynamic => {
             let b = dynamic::build(spec, &model, &mut rng_base)?;
             let per = (spec.dt_s / dynamic::FINE_S).round() as usize;
+            let iterations =
+                spec.nuisances
+                    .iteration_indices(n, per, b.t_s.len(), &mut rng_nuisance);
+            let rows = spec.nuisances.logged_rows(&iterations, &mut rng_nuisance);
             let scene = Scene {
-                fine_per_sample: per,
                 base_force: b.force_n.clone(),
-                alpha_log: decimate(&b.alpha_rad, per, n)
+                alpha_log: pick(&b.alpha_rad, &rows)
                     .into_iter()
                     .map(|a| a.map(robot::quantise))
                     .collect(),
-                currents_log: vec![b.currents_ma; n],
+                currents_log: vec![b.currents_ma; rows.len()],
                 refs_log: None,
                 alpha_deg: b.alpha0_rad.map(f64::to_degrees),
                 base_params: dynamic::base_params(&b),
+                rows,
+                fine_s: dynamic::FINE_S,
             };
             let effect =
                 dyn_effects::build(spec.shape, &b, &model, &mut rng_effect).or_else(|| {
                     sensor::build(spec.shape, &b.t_s, &b.alpha_rad, &model, &mut rng_effect)
                 });
-            finish(spec, scene, effect, &mut rng_noise)
+            finish(spec, scene, effect, &mut rng_noise, &mut rng_nuisance)
         }
         Experiment::Step => {
-            let b = step::build(spec, &model, &mut rng_base);
             let per = (spec.dt_s / step::FINE_S).round() as usize;
-            let seg_log = decimate(&b.seg_of, per, n);
+            let iterations =
+                spec.nuisances
+                    .iteration_indices(n, per, step::fine_len(spec), &mut rng_nuisance);
+            // the commands change at a loop iteration, as a rig's would
+            let b = step::build(spec, &model, &mut rng_base, &iterations);
+            let rows = spec.nuisances.logged_rows(&iterations, &mut rng_nuisance);
+            let seg_log = pick(&b.seg_of, &rows);
             let alpha_fine = vec![b.alpha_rad; b.t_s.len()];
             let scene = Scene {
-                fine_per_sample: per,
                 base_force: b.force_n.clone(),
-                alpha_log: vec![b.alpha_rad.map(robot::quantise); n],
+                alpha_log: vec![b.alpha_rad.map(robot::quantise); rows.len()],
                 currents_log: seg_log.iter().map(|&s| b.segments[s].currents_ma).collect(),
                 refs_log: Some(seg_log.iter().map(|&s| b.segments[s].ref_n).collect()),
                 alpha_deg: b.alpha_rad.map(f64::to_degrees),
                 base_params: step::base_params(&b),
+                rows,
+                fine_s: step::FINE_S,
             };
             let effect = step::effect(spec.shape, &b, &model, &mut rng_effect).or_else(|| {
                 sensor::build(spec.shape, &b.t_s, &alpha_fine, &model, &mut rng_effect)
             });
-            finish(spec, scene, effect, &mut rng_noise)
+            finish(spec, scene, effect, &mut rng_noise, &mut rng_nuisance)
         }
     }
 }
@@ -122,17 +138,28 @@ fn finish(
     scene: Scene,
     effect: Option<EffectModel<'_>>,
     rng_noise: &mut ChaCha8Rng,
+    rng_nuisance: &mut ChaCha8Rng,
 ) -> Result<Generated, SynthError> {
-    let n = spec.samples();
-    let per = scene.fine_per_sample;
+    let n = scene.rows.len();
+    let rows = &scene.rows;
+    let nuisances = &spec.nuisances;
     let coloured_n = if rng_noise.random::<f64>() < 0.3 {
         spec.noise_n * rng_noise.random_range(0.1..0.5)
     } else {
         0.0
     };
     let tau_s = rng_noise.random_range(0.02..0.2);
-    let noise = signal::load_cell_noise(rng_noise, n, spec.dt_s, spec.noise_n, coloured_n, tau_s);
-    let base = decimate(&scene.base_force, per, n);
+    let white_scale = || nuisances.white_scale(rng_nuisance);
+    let noise = signal::load_cell_noise(
+        rng_noise,
+        n,
+        spec.dt_s,
+        spec.noise_n,
+        coloured_n,
+        tau_s,
+        white_scale,
+    );
+    let base = pick(&scene.base_force, rows);
     let add = |a: &Forces, b: &Forces| -> Forces {
         a.iter()
             .zip(b)
@@ -148,13 +175,13 @@ fn finish(
             let at = |lam: f64| -> Forces {
                 match &em.form {
                     Form::Additive(unit) => {
-                        let u = decimate(unit, per, n);
+                        let u = pick(unit, rows);
                         base.iter()
                             .zip(&u)
                             .map(|(b, u)| [b[0] + lam * u[0], b[1] + lam * u[1]])
                             .collect()
                     }
-                    Form::Whole(apply) => decimate(&apply(lam), per, n),
+                    Form::Whole(apply) => pick(&apply(lam), rows),
                 }
             };
             let size = |lam: f64| {
@@ -171,6 +198,8 @@ fn finish(
             (with_noise(&at(lam)), rel, (em.params)(lam))
         }
     };
+    let mut force = force;
+    nuisances.corrupt(&mut force, spec.noise_n, rng_nuisance);
     let log_text = write_log(spec, &scene, &force)?;
     let truth = Truth {
         experiment: spec.experiment,
@@ -180,6 +209,8 @@ fn finish(
         dt_s: spec.dt_s,
         duration_s: spec.duration_s,
         samples: n,
+        step_order: spec.step_order,
+        nuisances: spec.nuisances,
         noise_n: spec.noise_n,
         coloured_noise_n: coloured_n,
         site: spec.site,
@@ -224,10 +255,10 @@ fn write_log(spec: &CaseSpec, scene: &Scene, force: &Forces) -> Result<String, S
     ];
     let mut w = pam_log::LogWriter::new(Vec::new(), &columns(spec.experiment), &meta)?;
     let mut row = Vec::with_capacity(11);
-    for k in 0..spec.samples() {
+    for (k, &fine) in scene.rows.iter().enumerate() {
         row.clear();
         // the time printed as a rig's clock would: whole microseconds
-        row.push((k as f64 * spec.dt_s * 1e6).round() / 1e6);
+        row.push((fine as f64 * scene.fine_s * 1e6).round() / 1e6);
         row.extend(scene.alpha_log[k]);
         row.extend(force[k]);
         row.extend(scene.currents_log[k]);

@@ -1,15 +1,18 @@
 //! `pam-synth --seed N [--experiment dynamic|step] [--family F] [--shape S] [--period-s DT] [--duration-s S]
-//! [--step-order alternating|x_then_y] --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
+//! [--step-order alternating|x_then_y] [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]
+//! --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use pam_synth::case::StepOrder;
-use pam_synth::{generate, write_files, CaseSpec, Experiment, Family, Shape, SynthError};
+use pam_synth::{
+    generate, write_files, CaseSpec, Experiment, Family, NuisancePlan, Shape, SynthError,
+};
 
 const USAGE: &str = "usage: pam-synth --seed N [--experiment dynamic|step] [--family F] \
-[--shape S] [--period-s DT] [--duration-s S] [--step-order alternating|x_then_y] --out FILE.csv \
-| --list";
+[--shape S] [--period-s DT] [--duration-s S] [--step-order alternating|x_then_y] \
+[--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N] --out FILE.csv | --list";
 
 fn list() {
     for e in Experiment::ALL {
@@ -25,6 +28,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let mut seed = None;
     let mut duration: Option<f64> = None;
     let mut step_order = None;
+    let mut nuisance = None;
     let (mut experiment, mut family, mut shape, mut period, mut out) =
         (None, None, None, None, None);
     let mut it = args.iter();
@@ -48,6 +52,7 @@ fn run(args: &[String]) -> Result<(), String> {
             "--duration-s" => duration = Some(value()?.parse::<f64>().map_err(|e| e.to_string())?),
             "--out" => out = Some(PathBuf::from(value()?)),
             "--step-order" => step_order = Some(StepOrder::parse(&value()?).map_err(e)?),
+            "--nuisance" => nuisance = Some(NuisancePlan::parse(&value()?).map_err(e)?),
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
         }
@@ -62,6 +67,9 @@ fn run(args: &[String]) -> Result<(), String> {
     }
     if let Some(order) = step_order {
         spec.step_order = order;
+    }
+    if let Some(plan) = nuisance {
+        spec.nuisances = plan.for_seed(seed);
     }
     if let Some(dt) = period {
         spec.dt_s = dt;
@@ -78,14 +86,15 @@ fn run(args: &[String]) -> Result<(), String> {
     let g = generate(&spec).map_err(|e| e.to_string())?;
     write_files(&g, &out).map_err(|e| e.to_string())?;
     eprintln!(
-        "{}: {} {} / {}, {} samples at {} s, relative size {:.3}",
+        "{}: {} {} / {}, {} samples at {} s, relative size {:.3}, nuisances {}",
         out.display(),
         g.truth.experiment.name(),
         g.truth.family.name(),
         g.truth.shape.name(),
         g.truth.samples,
         g.truth.dt_s,
-        g.truth.relative_size
+        g.truth.relative_size,
+        g.truth.nuisances.describe()
     );
     Ok(())
 }

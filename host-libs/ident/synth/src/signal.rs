@@ -8,15 +8,14 @@ use rand_distr::{Distribution, StandardNormal};
 /// Forces of both axes, one entry per sample.
 pub type Forces = Vec<[f64; 2]>;
 
-/// Every `step`-th sample.
-pub fn decimate<T: Copy>(fine: &[T], step: usize, n: usize) -> Vec<T> {
-    (0..n)
-        .map(|k| fine[(k * step).min(fine.len() - 1)])
-        .collect()
+/// The samples at these fine-grid indices (clamped to the grid).
+pub fn pick<T: Copy>(fine: &[T], rows: &[usize]) -> Vec<T> {
+    rows.iter().map(|&i| fine[i.min(fine.len() - 1)]).collect()
 }
 
 /// Load-cell noise: white (σ = `white_n`) plus an AR(1) part (σ = `coloured_n`, time
-/// constant `tau_s`), independent per axis.
+/// constant `tau_s`), independent per axis. Each white draw is multiplied by
+/// `white_scale()` (1 for Gaussian noise; a heavy-tailed nuisance draws its own).
 pub fn load_cell_noise(
     rng: &mut ChaCha8Rng,
     n: usize,
@@ -24,6 +23,7 @@ pub fn load_cell_noise(
     white_n: f64,
     coloured_n: f64,
     tau_s: f64,
+    mut white_scale: impl FnMut() -> f64,
 ) -> Forces {
     let rho = (-dt_s / tau_s).exp();
     let drive = coloured_n * (1.0 - rho * rho).sqrt();
@@ -39,7 +39,7 @@ pub fn load_cell_noise(
                 let w: f64 = StandardNormal.sample(rng);
                 let c: f64 = StandardNormal.sample(rng);
                 ar[ax] = rho * ar[ax] + drive * c;
-                out[ax] = white_n * w + ar[ax];
+                out[ax] = white_n * w * white_scale() + ar[ax];
             }
             out
         })

@@ -85,7 +85,20 @@ fn feasible(model: &RobotModel<f64>, alpha: [f64; 2], step_n: f64) -> Option<[f6
     Some(k)
 }
 
-pub fn build(spec: &CaseSpec, model: &RobotModel<f64>, rng: &mut ChaCha8Rng) -> StepBase {
+/// The fine grid's length for a step case.
+pub fn fine_len(spec: &CaseSpec) -> usize {
+    (spec.duration_s / FINE_S).round() as usize + 1
+}
+
+/// The noise-free step trial. `iterations` are the fine-grid indices of the loop's
+/// iterations: every change of the reference moves to the first at or after its draw (on
+/// even sampling they coincide).
+pub fn build(
+    spec: &CaseSpec,
+    model: &RobotModel<f64>,
+    rng: &mut ChaCha8Rng,
+    iterations: &[usize],
+) -> StepBase {
     let alpha = robot::step_pose_rad(spec.site);
     let mut step_n = rng.random_range(5.0..10.0);
     let stiffness = loop {
@@ -145,9 +158,14 @@ pub fn build(spec: &CaseSpec, model: &RobotModel<f64>, rng: &mut ChaCha8Rng) -> 
         }
         t += on_grid(rng.random_range(1.5..4.0)).max(dt);
     }
+    let on_iteration = |t: f64| {
+        let k = iterations.partition_point(|&i| (i as f64 * FINE_S) < t - 1e-9);
+        iterations.get(k).map_or(t, |&i| i as f64 * FINE_S)
+    };
     let segments: Vec<Segment> = segs
         .iter()
         .map(|&(start_s, ref_n)| {
+            let start_s = on_iteration(start_s);
             let (p, _) = robot::force_pressures(model, alpha, ref_n, stiffness);
             let currents_ma = robot::currents_ma(model, p);
             Segment {
@@ -158,7 +176,7 @@ pub fn build(spec: &CaseSpec, model: &RobotModel<f64>, rng: &mut ChaCha8Rng) -> 
             }
         })
         .collect();
-    let n = (spec.duration_s / FINE_S).round() as usize + 1;
+    let n = fine_len(spec);
     let t_s: Vec<f64> = (0..n).map(|i| i as f64 * FINE_S).collect();
     let mut seg_of = Vec::with_capacity(n);
     let mut s = 0;

@@ -5,7 +5,8 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::case::{Experiment, Family, Shape};
+use crate::case::{Experiment, Family, Shape, StepOrder};
+use crate::nuisance::Nuisances;
 
 /// The ground truth of one generated log.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -18,6 +19,12 @@ pub struct Truth {
     pub dt_s: f64,
     pub duration_s: f64,
     pub samples: usize,
+    /// The order of a step log's axes (a dynamic log's is the default and means nothing).
+    #[serde(default)]
+    pub step_order: StepOrder,
+    /// What the recording added that is not an effect (none by default).
+    #[serde(default)]
+    pub nuisances: Nuisances,
     /// Load-cell white noise per axis (N) and the coloured part's standard deviation.
     pub noise_n: f64,
     pub coloured_noise_n: f64,
