@@ -167,8 +167,31 @@ impl Trial {
         model: &RobotModel<f64>,
         filters: &[FilterSettings],
     ) -> Result<Vec<Prepared>, crate::IdentError> {
+        self.prepare_rows(model, filters, true)
+    }
+
+    /// [`Trial::prepare`] on the log's own rows even when its sampling is uneven: for a
+    /// step trial, whose model is simulated at the logged times (`response::Drive`), so a
+    /// step stays where it was logged (resampling moves it by up to half a period and
+    /// draws straight chords through the rises). The derivatives assume even sampling;
+    /// a step trial does not use them.
+    pub fn prepare_as_sampled(
+        &self,
+        model: &RobotModel<f64>,
+        filt: FilterSettings,
+    ) -> Result<Prepared, crate::IdentError> {
+        let mut each = self.prepare_rows(model, &[filt], false)?;
+        Ok(each.remove(0))
+    }
+
+    fn prepare_rows(
+        &self,
+        model: &RobotModel<f64>,
+        filters: &[FilterSettings],
+        resample_uneven: bool,
+    ) -> Result<Vec<Prepared>, crate::IdentError> {
         self.validate()?;
-        if let Some(uniform) = self.resampled_if_uneven() {
+        if let Some(uniform) = self.resampled_if_uneven().filter(|_| resample_uneven) {
             let mut each = uniform.prepare_each(model, filters)?;
             for p in &mut each {
                 p.resampled = true;

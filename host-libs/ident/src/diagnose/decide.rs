@@ -491,12 +491,7 @@ pub fn diagnose_observed(
     if let Some(s) = &spikes {
         warnings.push(s.warning());
     }
-    if lp.p.resampled {
-        warnings.push(
-            "the log's sampling is uneven (dropped frames?): it was resampled to its median period"
-                .into(),
-        );
-    }
+    warnings.extend(sampling_warning(&lp));
     let base_params = base.params.get("base").cloned().unwrap_or_default();
     if dynamic {
         let delay = reports

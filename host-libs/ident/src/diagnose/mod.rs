@@ -8,8 +8,8 @@ mod base;
 mod compare;
 mod cv;
 mod decide;
-mod despike;
 mod dynamic;
+mod recording;
 mod selection;
 mod step_fit;
 mod unexplained;
@@ -18,8 +18,8 @@ pub use base::{joint_stiffness_columns, pneumatic_columns, prepare_with_best_cut
 pub use compare::*;
 pub use cv::{FoldScores, FOLDS};
 pub use decide::*;
-use despike::loop_without_spikes;
-pub use despike::SpikeReport;
+pub use recording::SpikeReport;
+use recording::{loop_without_spikes, sampling_warning};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
 pub use unexplained::*;
 
@@ -28,7 +28,7 @@ use crate::held_out::HeldOut;
 use crate::lsq::{self, Column};
 use crate::msd::{self, MSD_POSITIVE};
 use crate::response::{self, Drive, Response, StepExtra};
-use crate::spectrum::{amplitude_spectrum, narrow_peaks};
+use crate::spectrum::{amplitude_spectrum, narrow_peaks, on_even_times};
 use crate::step::{self, StepParams};
 use crate::trial::{rms, std_dev, FilterSettings, Prepared, Trial};
 use pam_model::RobotModel;
@@ -348,10 +348,12 @@ fn prepared_at_log_rate(
     experiment: Experiment,
     settings: Settings,
 ) -> Result<Prepared, crate::IdentError> {
-    if experiment == Experiment::Dynamic && settings.adapt_cutoff {
-        prepare_with_best_cutoff(trial, model, settings.filter)
-    } else {
-        trial.prepare(model, settings.filter)
+    match experiment {
+        Experiment::Dynamic if settings.adapt_cutoff => {
+            prepare_with_best_cutoff(trial, model, settings.filter)
+        }
+        Experiment::Dynamic => trial.prepare(model, settings.filter),
+        Experiment::Step => trial.prepare_as_sampled(model, settings.filter),
     }
 }
 

@@ -21,7 +21,7 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
     };
     let input_spectra: Vec<_> = inputs
         .iter()
-        .map(|x| amplitude_spectrum(x, p.dt_s))
+        .map(|x| amplitude_spectrum(&on_even_times(&p.t_s, x, p.dt_s), p.dt_s))
         .collect();
     // a line where an input has energy (≥ 2 % of its largest line, ±2 bins) is a misfit of
     // the motion or of the steps, not an outside disturbance
@@ -39,7 +39,7 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
         if rms(&r) == 0.0 {
             continue;
         }
-        let spec = amplitude_spectrum(&r, p.dt_s);
+        let spec = amplitude_spectrum(&on_even_times(&p.t_s, &r, p.dt_s), p.dt_s);
         let df = spec.freq_hz.get(1).copied().unwrap_or(1.0);
         for pk in narrow_peaks(&spec, s.peak_prominence, s.peak_min_share)
             .into_iter()

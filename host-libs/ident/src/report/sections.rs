@@ -199,7 +199,10 @@ pub fn spectrum(page: &mut Page, p: &Prepared, fits: &[Shown]) {
     for axis in 0..2 {
         let mut traces = Vec::new();
         for s in fits {
-            let sp = amplitude_spectrum(&s.fit.residual(axis), p.dt_s);
+            let sp = amplitude_spectrum(
+                &crate::spectrum::on_even_times(&p.t_s, &s.fit.residual(axis), p.dt_s),
+                p.dt_s,
+            );
             let (f, a) = plots::max_per_log_bucket(&sp.freq_hz, &sp.amplitude, 700);
             traces.push(Trace::new(&s.label, f, a, s.color));
         }

@@ -76,6 +76,10 @@ pub struct Drive {
     /// Sign of the last change of each axis's force reference (−1, 0, 1) at each sample.
     pub direction: [Vec<f64>; 2],
     pub dt_s: f64,
+    /// The interval from each sample to the next (s) when the log's sampling is uneven (a
+    /// loop with jitter, lost frames): the simulation then steps each interval as it was.
+    /// `None` for an even log, which is stepped at `dt_s`.
+    pub intervals_s: Option<Vec<f64>>,
     /// The converters' ζ and ωn of the robot's parameters (Table 5.2): a starting point.
     pub prior_zeta_omega: (f64, f64),
 }
@@ -141,6 +145,7 @@ impl Drive {
             force_law: None,
             direction,
             dt_s: p.dt_s,
+            intervals_s: uneven_intervals(&p.t_s, p.dt_s),
             prior_zeta_omega: prior(model),
         })
     }
@@ -205,6 +210,7 @@ impl Drive {
             force_law: Some(law),
             direction,
             dt_s: p.dt_s,
+            intervals_s: uneven_intervals(&p.t_s, p.dt_s),
             prior_zeta_omega: prior(model),
         })
     }
@@ -265,6 +271,24 @@ impl Drive {
             .map(|i| self.handle_force(i, axis, &self.set[i]))
             .collect()
     }
+}
+
+/// Unevenness that the simulation steps as it was: an interval more than 1 % from the mean
+/// (a printed time's rounding is far below).
+const UNEVEN: f64 = 0.01;
+
+/// Each sample's interval to the next (the last repeats the one before), when some interval
+/// departs from the mean period `dt_s` by more than [`UNEVEN`].
+pub(crate) fn uneven_intervals(t_s: &[f64], dt_s: f64) -> Option<Vec<f64>> {
+    if t_s.len() < 2 {
+        return None;
+    }
+    let mut h: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    if h.iter().all(|&x| (x - dt_s).abs() <= UNEVEN * dt_s) {
+        return None;
+    }
+    h.push(*h.last().expect("two samples or more"));
+    Some(h)
 }
 
 fn prior(model: &RobotModel<f64>) -> (f64, f64) {

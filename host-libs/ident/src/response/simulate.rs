@@ -57,6 +57,15 @@ fn simulate_channels<const K: usize>(
     };
     let h = d.dt_s / sub as f64;
     let phi = transition(r.omega_n_rad_s, r.zeta, h);
+    // an uneven log: each interval is stepped as it was, with its own sub-steps
+    let uneven = d.intervals_s.as_deref();
+    let substeps = |interval: f64| {
+        if limited || r.delay_s > 0.0 {
+            ((interval / MAX_SUBSTEP_S).ceil() as usize).max(1)
+        } else {
+            1
+        }
+    };
     let span = r.knee_span.abs().max(1e-6);
     let force_limited = r.force_knee_n.is_finite();
     let force_span = r.force_span_n.abs().max(1e-6);
@@ -109,10 +118,12 @@ fn simulate_channels<const K: usize>(
     let hysteresis = r.hysteresis_n != [0.0; 2];
     // a slew limit on the handle force: its largest change per sample, up and down
     let force_slewed = r.force_rise_n_per_s.is_finite() || r.force_fall_n_per_s.is_finite();
-    let (force_up, force_down) = (
-        r.force_rise_n_per_s.max(1e-9) * d.dt_s,
-        r.force_fall_n_per_s.max(1e-9) * d.dt_s,
+    let force_rates = (
+        r.force_rise_n_per_s.max(1e-9),
+        r.force_fall_n_per_s.max(1e-9),
     );
+    // an uneven log's delayed set-points are looked up by time, from this row on
+    let mut delayed_from = 0usize;
     let mut slewed: [Option<f64>; 2] = [None; 2];
     // without a pose dependence the gain is a constant: a force channel's factor is then
     // exactly 1 (g / g), and the division per sample (a tenth of a step fit's time,
@@ -146,6 +157,12 @@ fn simulate_channels<const K: usize>(
                 force = saturate(force, r.force_knee_n, force_span);
             }
             if force_slewed {
+                // the largest change since the previous sample, up and down
+                let since = match (uneven, i) {
+                    (Some(iv), 1..) => iv[i - 1],
+                    _ => d.dt_s,
+                };
+                let (force_up, force_down) = (force_rates.0 * since, force_rates.1 * since);
                 if let Some(prev) = slewed[a] {
                     force = bounded(force, prev - force_down, prev + force_up);
                 }
@@ -153,14 +170,31 @@ fn simulate_channels<const K: usize>(
             }
             out[a][i] = force + hx[a] + r.offset_n[a] + r.drift_n_per_s[a] * (t_s[i] - t0);
         }
-        for &(tap, w) in &taps {
-            // the delayed sub-step in samples, spanning at most two samples (before the
-            // first sample: the first set-point)
-            let first = i as isize + tap;
-            let (j, w_first) = if first < 0 || (first == 0 && w >= 1.0) {
-                (0, 1.0)
-            } else {
-                (first as usize, w)
+        let (h, sub, phi) = match uneven {
+            None => (h, sub, phi),
+            Some(iv) => {
+                let sub = substeps(iv[i]);
+                let h = iv[i] / sub as f64;
+                (h, sub, transition(r.omega_n_rad_s, r.zeta, h))
+            }
+        };
+        for m in 0..sub {
+            // the delayed sub-step, spanning at most two samples (before the first sample:
+            // the first set-point): sample j with weight w_first, the rest from j + 1
+            let (j, w_first) = match uneven {
+                None => {
+                    let (tap, w) = taps[m];
+                    let first = i as isize + tap;
+                    if first < 0 || (first == 0 && w >= 1.0) {
+                        (0, 1.0)
+                    } else {
+                        (first as usize, w)
+                    }
+                }
+                Some(_) => {
+                    let from = t_s[i] + m as f64 * h - r.delay_s.max(0.0);
+                    delayed_sample(t_s, n, from, h, &mut delayed_from)
+                }
             };
             for c in 0..k {
                 let mut s = if w_first >= 1.0 {
@@ -190,6 +224,25 @@ fn simulate_channels<const K: usize>(
                 hv[a] = va;
             }
         }
+    }
+}
+
+/// The sample whose held set-point covers the start of the interval [from, from + h) of an
+/// unevenly sampled log, and the share of the interval before the next sample's; `at` is
+/// where the previous search ended (the intervals only move forward).
+#[inline]
+fn delayed_sample(t_s: &[f64], n: usize, from: f64, h: f64, at: &mut usize) -> (usize, f64) {
+    if from < t_s[0] {
+        return (0, 1.0);
+    }
+    while *at + 1 < n && t_s[*at + 1] <= from {
+        *at += 1;
+    }
+    let j = *at;
+    if j + 1 >= n || from + h <= t_s[j + 1] {
+        (j, 1.0)
+    } else {
+        (j, ((t_s[j + 1] - from) / h).clamp(0.0, 1.0))
     }
 }
 

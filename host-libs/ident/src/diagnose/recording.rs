@@ -1,5 +1,6 @@
-//! Spikes in the measured force are bridged before the loop compares models
-//! ([`crate::spikes`] says what a spike is). The base is fitted once on the log as it is;
+//! What the recording did to a log, before the loop compares models: uneven sampling (said
+//! in a warning; a step trial is simulated at its logged times) and isolated spikes in the
+//! measured force, which are bridged ([`crate::spikes`] says what a spike is). The base is fitted once on the log as it is;
 //! if its residual shows isolated spikes, the log's force is bridged at those rows and the
 //! loop starts again on the cleaned log. The diagnosis says how many rows were bridged.
 
@@ -56,6 +57,33 @@ impl SpikeReport {
             }
         )
     }
+}
+
+/// What the diagnosis says about the log's sampling, if it was uneven.
+pub(super) fn sampling_warning(lp: &Loop) -> Option<String> {
+    if lp.p.resampled {
+        return Some(
+            "the log's sampling is uneven (dropped frames?): it was resampled to its median \
+             period"
+                .into(),
+        );
+    }
+    let intervals = crate::response::uneven_intervals(&lp.p.t_s, lp.p.dt_s)?;
+    let (lo, hi) = intervals
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), &h| {
+            (lo.min(h), hi.max(h))
+        });
+    let treatment = match lp.experiment {
+        Experiment::Step => "the step model is simulated at the logged times",
+        Experiment::Dynamic => "the derivatives take the logged times",
+    };
+    Some(format!(
+        "the log's sampling is uneven ({:.1}–{:.1} ms between rows: jitter, lost frames): \
+         {treatment}",
+        lo * 1e3,
+        hi * 1e3
+    ))
 }
 
 /// The loop on `trial`, or on a copy with its spikes bridged when the base's residual has
