@@ -63,6 +63,7 @@ pub enum Units {
 }
 
 /// What drives a step trial, computed once per trial.
+#[derive(Clone, Debug)]
 pub struct Drive {
     pub units: Units,
     /// Set-point of each channel at each sample, held over the sample.

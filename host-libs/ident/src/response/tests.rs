@@ -20,10 +20,138 @@ fn force_drive(set: Vec<f64>, dt: f64) -> (Drive, Vec<f64>) {
             force_law: None,
             direction: [dir, vec![0.0; n]],
             dt_s: dt,
+            intervals_s: None,
             prior_zeta_omega: (0.42, 23.04),
         },
         t,
     )
+}
+
+/// A drive of `d`'s rows at `rows` only (a log sampled there), simulated at those times.
+fn at_rows(d: &Drive, t: &[f64], rows: &[usize]) -> (Drive, Vec<f64>) {
+    let pick = |v: &Vec<f64>| rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+    let t_rows: Vec<f64> = rows.iter().map(|&i| t[i]).collect();
+    let dt = (t_rows[t_rows.len() - 1] - t_rows[0]) / (rows.len() - 1) as f64;
+    (
+        Drive {
+            set: rows.iter().map(|&i| d.set[i]).collect(),
+            coeff: rows.iter().map(|&i| d.coeff[i]).collect(),
+            direction: [pick(&d.direction[0]), pick(&d.direction[1])],
+            dt_s: dt,
+            intervals_s: uneven_intervals(&t_rows, dt),
+            ..d.clone()
+        },
+        t_rows,
+    )
+}
+
+/// An unevenly sampled log (intervals of 14–26 ms, every step at a logged row) is simulated
+/// at its own times: it follows a 1 ms simulation of the same drive at those times, with a
+/// delay and a rate limit; and evenly spaced rows give the even path's numbers.
+#[test]
+fn uneven_rows_are_simulated_at_their_times() {
+    let dt = 0.001;
+    let mut rows = vec![0usize];
+    let gaps = [14, 26, 19, 22, 17, 25, 15, 21, 18, 23];
+    while *rows.last().unwrap() < 5900 {
+        let next = rows.last().unwrap() + gaps[rows.len() % gaps.len()];
+        rows.push(next);
+    }
+    // steps of the set-point at logged rows
+    let (s1, s2) = (rows[40], rows[150]);
+    let set: Vec<f64> = (0..6000)
+        .map(|i| match i {
+            _ if i < s1 => 0.0,
+            _ if i < s2 => 10.0,
+            _ => -4.0,
+        })
+        .collect();
+    let (fine, t) = force_drive(set, dt);
+    let mut r = Response::base(0.42, 23.04, [1.0, 1.0]);
+    r.delay_s = 0.031;
+    r.rise_per_s = 40.0;
+    let zero = vec![0.0; t.len()];
+    let mut want = [vec![0.0; t.len()], vec![0.0; t.len()]];
+    simulate(&r, &fine, &t, [&zero, &zero], t.len(), &mut want);
+    let (d, t_rows) = at_rows(&fine, &t, &rows);
+    assert!(d.intervals_s.is_some());
+    let n = rows.len();
+    let zero = vec![0.0; n];
+    let mut got = [vec![0.0; n], vec![0.0; n]];
+    simulate(&r, &d, &t_rows, [&zero, &zero], n, &mut got);
+    let worst = rows
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| (got[0][k] - want[0][i]).abs())
+        .fold(0.0, f64::max);
+    // the yardstick: evenly sampled rows at the mean period, against the same reference
+    // (sub-steps of 1.75–2 ms against 1 ms ones differ under a rate limit and a delay)
+    let even_rows: Vec<usize> = (0..300).map(|k| 20 * k).collect();
+    let set_even: Vec<f64> = (0..6000)
+        .map(|i| match i {
+            _ if i < 800 => 0.0,
+            _ if i < 3000 => 10.0,
+            _ => -4.0,
+        })
+        .collect();
+    let (fine_even, _) = force_drive(set_even, dt);
+    let mut want_even = [vec![0.0; t.len()], vec![0.0; t.len()]];
+    let zero_fine = vec![0.0; t.len()];
+    simulate(
+        &r,
+        &fine_even,
+        &t,
+        [&zero_fine, &zero_fine],
+        t.len(),
+        &mut want_even,
+    );
+    let (de, te) = at_rows(&fine_even, &t, &even_rows);
+    let zero_e = vec![0.0; 300];
+    let mut got_even = [vec![0.0; 300], vec![0.0; 300]];
+    simulate(&r, &de, &te, [&zero_e, &zero_e], 300, &mut got_even);
+    let yardstick = even_rows
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| (got_even[0][k] - want_even[0][i]).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 0.1 && worst < 2.0 * yardstick,
+        "worst {worst} on steps of 10 and 14, evenly sampled {yardstick}"
+    );
+    // the same rows taken as evenly spaced are wrong by far more (what the loop did)
+    let even = Drive {
+        intervals_s: None,
+        ..d.clone()
+    };
+    simulate(&r, &even, &t_rows, [&zero, &zero], n, &mut got);
+    let worst_even = rows
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| (got[0][k] - want[0][i]).abs())
+        .fold(0.0, f64::max);
+    assert!(worst_even > 10.0 * worst, "{worst_even} against {worst}");
+    // even rows through the uneven path: the even path's numbers
+    let (d, t_even) = at_rows(&fine, &t, &(0..300).map(|k| 20 * k).collect::<Vec<_>>());
+    assert!(d.intervals_s.is_none());
+    let forced = Drive {
+        intervals_s: Some(vec![0.02; 300]),
+        ..d.clone()
+    };
+    let zero = vec![0.0; 300];
+    let (mut a, mut b) = (
+        [vec![0.0; 300], vec![0.0; 300]],
+        [vec![0.0; 300], vec![0.0; 300]],
+    );
+    simulate(&r, &d, &t_even, [&zero, &zero], 300, &mut a);
+    simulate(&r, &forced, &t_even, [&zero, &zero], 300, &mut b);
+    for k in 0..300 {
+        assert!(
+            (a[0][k] - b[0][k]).abs() < 1e-6,
+            "row {k}: {} {}",
+            a[0][k],
+            b[0][k]
+        );
+    }
 }
 
 /// The x-axis response of `truth` to the force drive `d` as a prepared trial (noiseless).
