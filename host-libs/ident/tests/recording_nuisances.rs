@@ -10,7 +10,7 @@
 //! - a spiked step log with an exponential drift was called "none": a few spikes of 10–30 N
 //!   doubled the held-out error.
 
-use pam_ident::diagnose::{diagnose, Diagnosis, Settings};
+use pam_ident::diagnose::{diagnose, loop_without_spikes, Diagnosis, Settings};
 use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
@@ -119,6 +119,14 @@ fn spikes_are_bridged_and_the_drift_behind_them_is_named() {
     for t in &report.first_t_s {
         assert!(injected.contains(t), "t = {t} s was bridged but not spiked");
     }
+    // `pamctl model compare` and `fit` start from the same cleaned loop as the diagnosis
+    let log = pam_log::read_str(&spiked, None).unwrap();
+    let trial = Trial::from_log(&log).unwrap();
+    let model = RobotModel::<f64>::thesis();
+    let (_, base, again) =
+        loop_without_spikes(&trial, &model, LoopExperiment::Step, Settings::default()).unwrap();
+    assert_eq!(again.as_ref(), Some(report));
+    assert_eq!([d.base.nrmse.fx, d.base.nrmse.fy], base.nrmse);
     // the same log without spikes: nothing bridged, the same family
     let (d, _) = diagnosed(&CaseSpec {
         nuisances: Default::default(),

@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use pam_ident::diagnose::{self, Loop, Settings, Verdict};
+use pam_ident::diagnose::{self, Settings, Verdict};
 use pam_ident::effects::{self, Experiment};
 use pam_ident::{report, FilterSettings, Trial};
 use pam_model::RobotModel;
@@ -224,9 +224,12 @@ pub fn compare(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let exp = experiment_of(&a.experiment, &log, &trial)?;
     let catalog = effects::catalog();
     let with = effects::lookup(&catalog, &a.with)?;
-    let lp = Loop::new(&trial, &model, exp, settings(a))?;
+    let (lp, _, spikes) = diagnose::loop_without_spikes(&trial, &model, exp, settings(a))?;
     let fit = lp.fit(&with);
-    let c = diagnose::compare(&lp, &fit);
+    let mut c = diagnose::compare(&lp, &fit);
+    if let Some(s) = &spikes {
+        c.warnings.insert(0, s.warning());
+    }
     if let Some(path) = &a.report {
         write_report(path, &report::comparison_page(&c, &fit, &lp.p))?;
     }
@@ -294,6 +297,8 @@ struct FitJson {
     before: diagnose::AxisPair,
     after: diagnose::AxisPair,
     params: std::collections::BTreeMap<String, std::collections::BTreeMap<String, f64>>,
+    /// Spikes bridged, uneven sampling (as `diagnose` says them).
+    warnings: Vec<String>,
 }
 
 pub fn fit(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
@@ -316,9 +321,13 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
             ));
         }
     }
-    let lp = Loop::new(&trial, &model, exp, settings(a))?;
-    let before = lp.fit(&[]);
+    let (lp, before, spikes) = diagnose::loop_without_spikes(&trial, &model, exp, settings(a))?;
     let after = lp.fit(&with);
+    let warnings: Vec<String> = spikes
+        .iter()
+        .map(|s| s.warning())
+        .chain(diagnose::sampling_warning(&lp))
+        .collect();
     if let Some(path) = &a.report {
         write_report(path, &report::fit_page(&before, &after, &lp.p))?;
     }
@@ -328,6 +337,7 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
         before: diagnose::nrmse_pair(&before),
         after: diagnose::nrmse_pair(&after),
         params: after.params.clone(),
+        warnings,
     };
     if a.json {
         return json_out(out, &j);
@@ -347,6 +357,9 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
     for (id, m) in &after.params {
         let ps: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {v:.4}")).collect();
         writeln!(out, "{id}: {}", ps.join(", "))?;
+    }
+    for w in &j.warnings {
+        writeln!(out, "warning: {w}")?;
     }
     Ok(())
 }

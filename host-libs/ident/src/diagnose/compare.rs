@@ -123,6 +123,7 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
     let split = (lp.experiment == Experiment::Dynamic)
         .then(|| msd::frequency_split(p, &fit.measured, &fit.predicted));
     let mut warnings = fit.warnings.clone();
+    warnings.extend(sampling_warning(lp));
     let still = |a: usize| {
         lp.experiment == Experiment::Step
             && p.force_ref_n.as_ref().is_some_and(|r| {

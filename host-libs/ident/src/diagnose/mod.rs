@@ -18,8 +18,7 @@ pub use base::{joint_stiffness_columns, pneumatic_columns, prepare_with_best_cut
 pub use compare::*;
 pub use cv::{FoldScores, FOLDS};
 pub use decide::*;
-pub use recording::SpikeReport;
-use recording::{loop_without_spikes, sampling_warning};
+pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
 pub use unexplained::*;
 

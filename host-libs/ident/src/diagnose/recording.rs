@@ -60,7 +60,7 @@ impl SpikeReport {
 }
 
 /// What the diagnosis says about the log's sampling, if it was uneven.
-pub(super) fn sampling_warning(lp: &Loop) -> Option<String> {
+pub fn sampling_warning(lp: &Loop) -> Option<String> {
     if lp.p.resampled {
         return Some(
             "the log's sampling is uneven (dropped frames?): it was resampled to its median \
@@ -87,8 +87,9 @@ pub(super) fn sampling_warning(lp: &Loop) -> Option<String> {
 }
 
 /// The loop on `trial`, or on a copy with its spikes bridged when the base's residual has
-/// any; the base fit of the loop returned, and what was bridged.
-pub(super) fn loop_without_spikes<'a>(
+/// any; the base fit of the loop returned, and what was bridged. `diagnose`, and
+/// `pamctl model compare` and `fit`, start here, so their numbers agree.
+pub fn loop_without_spikes<'a>(
     trial: &Trial,
     model: &'a RobotModel<f64>,
     experiment: Experiment,
