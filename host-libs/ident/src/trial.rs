@@ -191,7 +191,12 @@ impl Trial {
         resample_uneven: bool,
     ) -> Result<Vec<Prepared>, crate::IdentError> {
         self.validate()?;
-        if let Some(uniform) = self.resampled_if_uneven().filter(|_| resample_uneven) {
+        let uniform = if resample_uneven {
+            self.resampled_if_uneven()
+        } else {
+            None
+        };
+        if let Some(uniform) = uniform {
             let mut each = uniform.prepare_each(model, filters)?;
             for p in &mut each {
                 p.resampled = true;
