@@ -16,7 +16,7 @@ use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
-use pam_synth::{generate, CaseSpec, Experiment};
+use pam_synth::{generate, CaseSpec, Experiment, NuisancePlan};
 
 const CASES: usize = 80;
 /// Measured 97.5 % right and 0/20 false alarms (seventh session: the fold test's level
@@ -70,9 +70,9 @@ fn run_case(spec: &CaseSpec) -> CaseResult {
     }
 }
 
-#[test]
-fn loop_names_the_hidden_effect_of_independent_logs() {
-    let specs: Vec<CaseSpec> = judge::plan(CASES, SEED0, None)
+/// The plan's cases from `seed0` (of `experiment`, or both), cut to short logs.
+fn short_plan(cases: usize, seed0: u64, experiment: Option<Experiment>) -> Vec<CaseSpec> {
+    judge::plan(cases, seed0, experiment)
         .into_iter()
         .map(|mut c| {
             c.duration_s = c
@@ -82,7 +82,11 @@ fn loop_names_the_hidden_effect_of_independent_logs() {
                 .round();
             c
         })
-        .collect();
+        .collect()
+}
+
+/// Runs the cases on both cores, prints them and the matrix, and asserts the floor.
+fn hold_the_floor(specs: &[CaseSpec], floor_accuracy: f64, ceiling_false_alarms: f64) {
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<CaseResult>>> = Mutex::new(vec![None; specs.len()]);
     std::thread::scope(|s| {
@@ -116,11 +120,45 @@ fn loop_names_the_hidden_effect_of_independent_logs() {
         100.0 * TARGET_FALSE_ALARMS
     );
     assert!(
-        s.accuracy() >= FLOOR_ACCURACY && s.false_alarm_rate() <= CEILING_FALSE_ALARMS + 1e-9,
+        s.accuracy() >= floor_accuracy && s.false_alarm_rate() <= ceiling_false_alarms + 1e-9,
         "accuracy {:.1} % (floor {:.0} %), false alarms {:.1} % (ceiling {:.0} %)",
         100.0 * s.accuracy(),
-        100.0 * FLOOR_ACCURACY,
+        100.0 * floor_accuracy,
         100.0 * s.false_alarm_rate(),
-        100.0 * CEILING_FALSE_ALARMS
+        100.0 * ceiling_false_alarms
     );
+}
+
+#[test]
+fn loop_names_the_hidden_effect_of_independent_logs() {
+    hold_the_floor(
+        &short_plan(CASES, SEED0, None),
+        FLOOR_ACCURACY,
+        CEILING_FALSE_ALARMS,
+    );
+}
+
+/// Step logs recorded as a rig records them: a loop whose every interval is the period
+/// ± up to 25 %, and each case's other nuisances drawn from its seed (`--nuisance random`:
+/// lost frames, heavy-tailed noise, spikes, a quantised force; docs/model-loop.md, "What the
+/// recording adds"). Short step logs have few steps, so the level is lower than on the
+/// full-length run (312/320 there).
+const CASES_RECORDED: usize = 80;
+const SEED0_RECORDED: u64 = 21_000;
+/// Measured 71/80 and 0/20 false alarms (eleventh session); the tenth session's loop, which
+/// resampled these logs to their median period, 67/80. The floor is two logs under today.
+const FLOOR_ACCURACY_RECORDED: f64 = 69.0 / 80.0;
+
+#[test]
+fn loop_names_the_hidden_effect_through_a_rigs_recording() {
+    let jitter = NuisancePlan::parse("jitter=0.25").unwrap();
+    let specs: Vec<CaseSpec> = short_plan(CASES_RECORDED, SEED0_RECORDED, Some(Experiment::Step))
+        .into_iter()
+        .map(|c| {
+            let mut n = NuisancePlan::Random.for_seed(c.seed);
+            n.jitter = jitter.for_seed(c.seed).jitter;
+            CaseSpec { nuisances: n, ..c }
+        })
+        .collect();
+    hold_the_floor(&specs, FLOOR_ACCURACY_RECORDED, CEILING_FALSE_ALARMS);
 }
