@@ -196,26 +196,15 @@ fn main() {
             })
             .collect(),
     };
-    let specs: Vec<CaseSpec> = match a.nuisance {
-        None => specs,
-        Some(plan) => specs
-            .into_iter()
-            .map(|s| CaseSpec {
-                nuisances: plan.for_seed(s.seed),
-                ..s
-            })
-            .collect(),
-    };
-    let specs: Vec<CaseSpec> = match a.step_order {
-        None => specs,
-        Some(order) => specs
-            .into_iter()
-            .map(|s| CaseSpec {
-                step_order: order,
-                ..s
-            })
-            .collect(),
-    };
+    // the recording's nuisances and the step order, where asked for, over the plan's draw
+    let specs: Vec<CaseSpec> = specs
+        .into_iter()
+        .map(|s| CaseSpec {
+            nuisances: a.nuisance.map_or(s.nuisances, |plan| plan.for_seed(s.seed)),
+            step_order: a.step_order.unwrap_or(s.step_order),
+            ..s
+        })
+        .collect();
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<CaseResult>>> = Mutex::new(vec![None; specs.len()]);

@@ -293,19 +293,7 @@ impl Trial {
         let t0 = self.t_s[0];
         let m = ((self.t_s[n - 1] - t0) / med + 1e-6).floor() as usize + 1;
         let grid: Vec<f64> = (0..m).map(|k| t0 + k as f64 * med).collect();
-        let interp = |v: &[f64]| -> Vec<f64> {
-            let mut j = 0;
-            grid.iter()
-                .map(|&t| {
-                    while j + 2 < n && self.t_s[j + 1] < t {
-                        j += 1;
-                    }
-                    let (ta, tb) = (self.t_s[j], self.t_s[j + 1]);
-                    let f = ((t - ta) / (tb - ta)).clamp(0.0, 1.0);
-                    v[j] + f * (v[j + 1] - v[j])
-                })
-                .collect()
-        };
+        let interp = |v: &[f64]| linear_at(&self.t_s, v, &grid);
         Some(Trial {
             t_s: grid.clone(),
             alpha_rad: [interp(&self.alpha_rad[0]), interp(&self.alpha_rad[1])],
@@ -321,6 +309,37 @@ impl Trial {
                 .map(|c| [0, 1, 2, 3].map(|k| hold(&self.t_s, &c[k], &grid))),
         })
     }
+}
+
+/// An interval may depart from the mean period by this share and the sampling still counts
+/// as even (a printed time's rounding is far below).
+pub const UNEVEN_SHARE: f64 = 0.01;
+
+/// Whether some interval of `t_s` departs from the mean period `dt_s` by more than
+/// [`UNEVEN_SHARE`].
+pub fn is_uneven(t_s: &[f64], dt_s: f64) -> bool {
+    t_s.windows(2)
+        .any(|w| ((w[1] - w[0]) - dt_s).abs() > UNEVEN_SHARE * dt_s)
+}
+
+/// `v`, sampled at the increasing times `t`, linearly interpolated at the increasing times
+/// `at` (held at the ends).
+pub fn linear_at(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
+    let n = t.len().min(v.len());
+    if n < 2 {
+        return vec![v.first().copied().unwrap_or(0.0); at.len()];
+    }
+    let mut j = 0;
+    at.iter()
+        .map(|&x| {
+            while j + 2 < n && t[j + 1] < x {
+                j += 1;
+            }
+            let (ta, tb) = (t[j], t[j + 1]);
+            let f = ((x - ta) / (tb - ta)).clamp(0.0, 1.0);
+            v[j] + f * (v[j + 1] - v[j])
+        })
+        .collect()
 }
 
 fn hold(t: &[f64], v: &[f64], grid: &[f64]) -> Vec<f64> {

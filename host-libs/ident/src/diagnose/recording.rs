@@ -9,7 +9,7 @@ use serde::Serialize;
 use super::{Loop, ModelFit, Settings};
 use crate::effects::Experiment;
 use crate::spikes;
-use crate::trial::Trial;
+use crate::trial::{linear_at, Trial};
 use pam_model::RobotModel;
 
 /// Log rows from a change of the reference or the currents on that are never bridged: at
@@ -109,7 +109,7 @@ pub fn loop_without_spikes<'a>(
 /// reference or of a current and [`STEP_PROTECTED_ROWS`] from it; in a dynamic trial,
 /// [`REVERSAL_PROTECTED_ROWS`] about each reversal of the velocity on either axis (the
 /// loop's filtered velocity, interpolated to the log's rows).
-fn protected_log_rows(trial: &Trial, lp: &Loop, around: &[(usize, usize)]) -> Vec<bool> {
+fn protected_log_rows(trial: &Trial, lp: &Loop) -> Vec<bool> {
     let n = trial.len();
     let mut protected = vec![false; n];
     let mut protect = |from: usize, to: usize| {
@@ -133,20 +133,19 @@ fn protected_log_rows(trial: &Trial, lp: &Loop, around: &[(usize, usize)]) -> Ve
             }
         }
         Experiment::Dynamic => {
-            let v = &lp.p.v_m_s;
-            let grid_t = &lp.p.t_s;
-            let at = |a: usize, j: usize| {
-                let (g0, g1) = around[j];
-                let (t0, t1) = (grid_t[g0], grid_t[g1]);
-                let w = if t1 > t0 {
-                    ((trial.t_s[j] - t0) / (t1 - t0)).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                v[a][g0] + w * (v[a][g1] - v[a][g0])
-            };
+            // each axis's velocity at the log's rows, once
+            let forward: Vec<Vec<bool>> =
+                lp.p.v_m_s
+                    .iter()
+                    .map(|v| {
+                        linear_at(&lp.p.t_s, v, &trial.t_s)
+                            .into_iter()
+                            .map(|x| x > 0.0)
+                            .collect()
+                    })
+                    .collect();
             for j in 1..n {
-                if (0..2).any(|a| (at(a, j) > 0.0) != (at(a, j - 1) > 0.0)) {
+                if forward.iter().any(|f| f[j] != f[j - 1]) {
                     protect(
                         j.saturating_sub(REVERSAL_PROTECTED_ROWS + 1),
                         j + REVERSAL_PROTECTED_ROWS,
@@ -163,18 +162,7 @@ fn protected_log_rows(trial: &Trial, lp: &Loop, around: &[(usize, usize)]) -> Ve
 /// the grid's scale wherever it is not protected), so a spike between two grid rows of a
 /// 1 kHz log, or one spread by an uneven log's resampling, is found where it is.
 fn bridged(trial: &Trial, lp: &Loop, base: &ModelFit) -> Option<(Trial, SpikeReport)> {
-    let grid_t = &lp.p.t_s;
-    let last = grid_t.len().saturating_sub(1);
-    // the grid rows on either side of each log row
-    let around: Vec<(usize, usize)> = trial
-        .t_s
-        .iter()
-        .map(|&t| {
-            let g = grid_t.partition_point(|&x| x < t - 1e-9).min(last);
-            (g.saturating_sub(1), g)
-        })
-        .collect();
-    let protected = protected_log_rows(trial, lp, &around);
+    let protected = protected_log_rows(trial, lp);
     // the loop models −f in a dynamic trial and f in a step trial
     let sign = match lp.experiment {
         Experiment::Dynamic => -1.0,
@@ -184,22 +172,11 @@ fn bridged(trial: &Trial, lp: &Loop, base: &ModelFit) -> Option<(Trial, SpikeRep
     let mut largest: f64 = 0.0;
     let mut all: Vec<usize> = Vec::new();
     for &a in &base.axes {
-        let pred = &base.predicted[a];
         let measured: Vec<f64> = trial.force_n[a].iter().map(|f| sign * f).collect();
-        let residual: Vec<f64> = trial
-            .t_s
+        let residual: Vec<f64> = measured
             .iter()
-            .zip(&around)
-            .zip(&measured)
-            .map(|((&t, &(g0, g1)), m)| {
-                let (t0, t1) = (grid_t[g0], grid_t[g1]);
-                let w = if t1 > t0 {
-                    ((t - t0) / (t1 - t0)).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                m - (pred[g0] + w * (pred[g1] - pred[g0]))
-            })
+            .zip(linear_at(&lp.p.t_s, &base.predicted[a], &trial.t_s))
+            .map(|(m, p)| m - p)
             .collect();
         let rows = spikes::spikes(&measured, &residual, &|j| protected[j]);
         if rows.is_empty() {

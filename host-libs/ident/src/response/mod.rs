@@ -274,20 +274,13 @@ impl Drive {
     }
 }
 
-/// Unevenness that the simulation steps as it was: an interval more than 1 % from the mean
-/// (a printed time's rounding is far below).
-const UNEVEN: f64 = 0.01;
-
-/// Each sample's interval to the next (the last repeats the one before), when some interval
-/// departs from the mean period `dt_s` by more than [`UNEVEN`].
+/// Each sample's interval to the next (the last repeats the one before), when the sampling
+/// is uneven ([`crate::trial::is_uneven`]).
 pub(crate) fn uneven_intervals(t_s: &[f64], dt_s: f64) -> Option<Vec<f64>> {
-    if t_s.len() < 2 {
+    if t_s.len() < 2 || !crate::trial::is_uneven(t_s, dt_s) {
         return None;
     }
     let mut h: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    if h.iter().all(|&x| (x - dt_s).abs() <= UNEVEN * dt_s) {
-        return None;
-    }
     h.push(*h.last().expect("two samples or more"));
     Some(h)
 }

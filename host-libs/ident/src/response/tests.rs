@@ -70,20 +70,10 @@ fn uneven_rows_are_simulated_at_their_times() {
     let mut r = Response::base(0.42, 23.04, [1.0, 1.0]);
     r.delay_s = 0.031;
     r.rise_per_s = 40.0;
-    let zero = vec![0.0; t.len()];
-    let mut want = [vec![0.0; t.len()], vec![0.0; t.len()]];
-    simulate(&r, &fine, &t, [&zero, &zero], t.len(), &mut want);
+    let want = simulate_x(&r, &fine, &t);
     let (d, t_rows) = at_rows(&fine, &t, &rows);
     assert!(d.intervals_s.is_some());
-    let n = rows.len();
-    let zero = vec![0.0; n];
-    let mut got = [vec![0.0; n], vec![0.0; n]];
-    simulate(&r, &d, &t_rows, [&zero, &zero], n, &mut got);
-    let worst = rows
-        .iter()
-        .enumerate()
-        .map(|(k, &i)| (got[0][k] - want[0][i]).abs())
-        .fold(0.0, f64::max);
+    let worst = worst_at(&simulate_x(&r, &d, &t_rows), &want, &rows);
     // the yardstick: evenly sampled rows at the mean period, against the same reference
     // (sub-steps of 1.75–2 ms against 1 ms ones differ under a rate limit and a delay)
     let even_rows: Vec<usize> = (0..300).map(|k| 20 * k).collect();
@@ -95,25 +85,12 @@ fn uneven_rows_are_simulated_at_their_times() {
         })
         .collect();
     let (fine_even, _) = force_drive(set_even, dt);
-    let mut want_even = [vec![0.0; t.len()], vec![0.0; t.len()]];
-    let zero_fine = vec![0.0; t.len()];
-    simulate(
-        &r,
-        &fine_even,
-        &t,
-        [&zero_fine, &zero_fine],
-        t.len(),
-        &mut want_even,
-    );
     let (de, te) = at_rows(&fine_even, &t, &even_rows);
-    let zero_e = vec![0.0; 300];
-    let mut got_even = [vec![0.0; 300], vec![0.0; 300]];
-    simulate(&r, &de, &te, [&zero_e, &zero_e], 300, &mut got_even);
-    let yardstick = even_rows
-        .iter()
-        .enumerate()
-        .map(|(k, &i)| (got_even[0][k] - want_even[0][i]).abs())
-        .fold(0.0, f64::max);
+    let yardstick = worst_at(
+        &simulate_x(&r, &de, &te),
+        &simulate_x(&r, &fine_even, &t),
+        &even_rows,
+    );
     assert!(
         worst < 0.1 && worst < 2.0 * yardstick,
         "worst {worst} on steps of 10 and 14, evenly sampled {yardstick}"
@@ -123,12 +100,7 @@ fn uneven_rows_are_simulated_at_their_times() {
         intervals_s: None,
         ..d.clone()
     };
-    simulate(&r, &even, &t_rows, [&zero, &zero], n, &mut got);
-    let worst_even = rows
-        .iter()
-        .enumerate()
-        .map(|(k, &i)| (got[0][k] - want[0][i]).abs())
-        .fold(0.0, f64::max);
+    let worst_even = worst_at(&simulate_x(&r, &even, &t_rows), &want, &rows);
     assert!(worst_even > 10.0 * worst, "{worst_even} against {worst}");
     // even rows through the uneven path: the even path's numbers
     let (d, t_even) = at_rows(&fine, &t, &(0..300).map(|k| 20 * k).collect::<Vec<_>>());
@@ -137,33 +109,40 @@ fn uneven_rows_are_simulated_at_their_times() {
         intervals_s: Some(vec![0.02; 300]),
         ..d.clone()
     };
-    let zero = vec![0.0; 300];
-    let (mut a, mut b) = (
-        [vec![0.0; 300], vec![0.0; 300]],
-        [vec![0.0; 300], vec![0.0; 300]],
+    let (a, b) = (
+        simulate_x(&r, &d, &t_even),
+        simulate_x(&r, &forced, &t_even),
     );
-    simulate(&r, &d, &t_even, [&zero, &zero], 300, &mut a);
-    simulate(&r, &forced, &t_even, [&zero, &zero], 300, &mut b);
     for k in 0..300 {
-        assert!(
-            (a[0][k] - b[0][k]).abs() < 1e-6,
-            "row {k}: {} {}",
-            a[0][k],
-            b[0][k]
-        );
+        assert!((a[k] - b[k]).abs() < 1e-6, "row {k}: {} {}", a[k], b[k]);
     }
+}
+
+/// The x axis of `d` simulated under `r` at the times `t` (at rest in y and at α = 0).
+fn simulate_x(r: &Response, d: &Drive, t: &[f64]) -> Vec<f64> {
+    let n = t.len();
+    let zero = vec![0.0; n];
+    let mut out = [vec![0.0; n], vec![0.0; n]];
+    simulate(r, d, t, [&zero, &zero], n, &mut out);
+    let [x, _] = out;
+    x
+}
+
+/// The largest difference between `got` (one value per row) and `want` at those rows.
+fn worst_at(got: &[f64], want: &[f64], rows: &[usize]) -> f64 {
+    rows.iter()
+        .zip(got)
+        .map(|(&i, g)| (g - want[i]).abs())
+        .fold(0.0, f64::max)
 }
 
 /// The x-axis response of `truth` to the force drive `d` as a prepared trial (noiseless).
 fn x_axis_trial(truth: &Response, d: &Drive, t: &[f64]) -> Prepared {
-    let n = t.len();
-    let zero = vec![0.0; n];
-    let mut y = [vec![0.0; n], vec![0.0; n]];
-    simulate(truth, d, t, [&zero, &zero], n, &mut y);
+    let zero = vec![0.0; t.len()];
     let trial = crate::Trial {
         t_s: t.to_vec(),
         alpha_rad: [zero.clone(), zero.clone()],
-        force_n: [y[0].clone(), zero.clone()],
+        force_n: [simulate_x(truth, d, t), zero.clone()],
         force_ref_n: Some([d.set.iter().map(|s| s[0]).collect(), zero.clone()]),
         current_ma: None,
     };
