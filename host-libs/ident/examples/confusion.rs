@@ -4,7 +4,8 @@
 //!
 //! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
 //!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]
-//!  [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]`
+//!  [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]
+//!  [--motion sines|multisine|reach_and_hold|circles|random]`
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -17,7 +18,7 @@ use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_synth::case::StepOrder;
 use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
-use pam_synth::{generate, CaseSpec, Experiment, Family, NuisancePlan};
+use pam_synth::{generate, CaseSpec, Experiment, Family, MotionPlan, NuisancePlan};
 
 struct Args {
     logs: usize,
@@ -41,6 +42,9 @@ struct Args {
     /// What the recordings add that is not an effect (jitter, drops, heavy tails, spikes,
     /// quantisation; pam-synth's `nuisance.rs`), the same for every log or drawn per seed.
     nuisance: Option<NuisancePlan>,
+    /// How the operator moves in the dynamic logs (pam-synth's `motion.rs`), the same for
+    /// every log or drawn per seed.
+    motion: Option<MotionPlan>,
 }
 
 fn parse() -> Result<Args, String> {
@@ -57,6 +61,7 @@ fn parse() -> Result<Args, String> {
         settings: Settings::default(),
         step_order: None,
         nuisance: None,
+        motion: None,
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
@@ -81,6 +86,7 @@ fn parse() -> Result<Args, String> {
             "--nuisance" => {
                 a.nuisance = Some(NuisancePlan::parse(&v()?).map_err(|e| e.to_string())?)
             }
+            "--motion" => a.motion = Some(MotionPlan::parse(&v()?).map_err(|e| e.to_string())?),
             "--set" => {
                 let kv = v()?;
                 let (k, x) = kv
@@ -162,7 +168,7 @@ fn main() {
     let a = match parse() {
         Ok(a) => a,
         Err(e) => {
-            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y] [--nuisance none|random|LIST]");
+            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y] [--nuisance none|random|LIST] [--motion M|random]");
             std::process::exit(2);
         }
     };
@@ -196,12 +202,14 @@ fn main() {
             })
             .collect(),
     };
-    // the recording's nuisances and the step order, where asked for, over the plan's draw
+    // the recording's nuisances, the step order and the motion, where asked for, over the
+    // plan's draw
     let specs: Vec<CaseSpec> = specs
         .into_iter()
         .map(|s| CaseSpec {
             nuisances: a.nuisance.map_or(s.nuisances, |plan| plan.for_seed(s.seed)),
             step_order: a.step_order.unwrap_or(s.step_order),
+            motion: a.motion.map_or(s.motion, |plan| plan.for_seed(s.seed)),
             ..s
         })
         .collect();

@@ -143,15 +143,18 @@ pub struct Diagnosis {
 fn effect_size(base: &ModelFit, f: &ModelFit) -> f64 {
     f.axes
         .iter()
-        .map(|&a| {
-            let d: Vec<f64> = f
-                .held_out
-                .rows()
-                .map(|i| f.predicted[a][i] - base.predicted[a][i])
-                .collect();
-            rms(&d) / std_dev(&f.measured[a]).max(1e-12)
-        })
+        .map(|&a| change_rms_n(base, f, a) / std_dev(&f.measured[a]).max(1e-12))
         .fold(0.0, f64::max)
+}
+
+/// RMS of the change an effect makes to axis `a`'s held-out prediction, N.
+fn change_rms_n(base: &ModelFit, f: &ModelFit, a: usize) -> f64 {
+    let d: Vec<f64> = f
+        .held_out
+        .rows()
+        .map(|i| f.predicted[a][i] - base.predicted[a][i])
+        .collect();
+    rms(&d)
 }
 
 /// Diagnoses a trial against the standard catalog.
@@ -258,6 +261,24 @@ pub fn diagnose_observed(
         }
     };
     let base_folds = folds_of(&[], &base);
+    // the encoders' rounding in the force (frozen at every rest): a slow level change within
+    // it cannot be told from it
+    // (drawn only for a drift that would be accepted: it costs a few hundred passes)
+    let floor = std::cell::OnceCell::new();
+    let within_rounding = |e: &dyn ModelEffect, f: &ModelFit| -> Option<(f64, f64)> {
+        if !dynamic || e.family() != Some(Family::Drift) {
+            return None;
+        }
+        let fl = (*floor.get_or_init(|| encoder_floor(&lp, &base)))?;
+        // the axis where the change stands out most from the rounding
+        let (change, bound) = f
+            .axes
+            .iter()
+            .map(|&a| (change_rms_n(&base, f, a), fl.bound_n[a]))
+            .filter(|&(_, bound)| bound > 0.0)
+            .max_by(|x, y| (x.0 / x.1).total_cmp(&(y.0 / y.1)))?;
+        (change <= bound).then_some((change, bound))
+    };
     let applicable: Vec<&dyn ModelEffect> = catalog
         .iter()
         .copied()
@@ -334,8 +355,15 @@ pub fn diagnose_observed(
                 && test.fold_mean > 0.0
                 && size >= settings.min_effect_size
         };
+        // a slow change within the encoders' rounding is not told from it
+        let rounding = if accepted {
+            within_rounding(e, &f)
+        } else {
+            None
+        };
+        let accepted = accepted && rounding.is_none();
         let params = f.params.get(e.id()).cloned().unwrap_or_default();
-        let evidence = format!(
+        let mut evidence = format!(
             "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the {} error (fold gains {:.1} ± {:.1} %, t = {:.1} against {:.1}), changing the prediction by {:.2} % of the signal ({} parameter{})",
             e.signature(),
             100.0 * f.train_gain,
@@ -349,6 +377,11 @@ pub fn diagnose_observed(
             f.added_params,
             if f.added_params == 1 { "" } else { "s" },
         );
+        if let Some((change, bound)) = rounding {
+            evidence.push_str(&format!(
+                "; a slow change of {change:.3} N RMS lies within what the encoders' rounding can put in the force's level (up to {bound:.3} N RMS: it is frozen while a count is held): the log cannot tell it from their rounding"
+            ));
+        }
         tried.push(Tried {
             report: EffectReport {
                 id: e
@@ -452,7 +485,8 @@ pub fn diagnose_observed(
             fits.push(f);
         }
     }
-    let unexplained = unexplained_structure(&lp, &current_fit, &settings);
+    let structure = super::unexplained::structure(&lp, &current_fit, &settings);
+    let unexplained = structure.found;
     // the verdict names what is missing most: a structure no effect explains (a tone, a
     // wander) that carries more of the residual than the accepted effects removed of the
     // base's error outweighs them (they stay listed and accepted); a twin's few-millisecond
@@ -492,6 +526,7 @@ pub fn diagnose_observed(
         warnings.push(s.warning());
     }
     warnings.extend(sampling_warning(&lp));
+    warnings.extend(structure.set_aside);
     let base_params = base.params.get("base").cloned().unwrap_or_default();
     if dynamic {
         let delay = reports

@@ -10,6 +10,7 @@ mod cv;
 mod decide;
 mod dynamic;
 mod recording;
+mod resolution;
 mod selection;
 mod step_fit;
 mod unexplained;
@@ -19,6 +20,7 @@ pub use compare::*;
 pub use cv::{FoldScores, FOLDS};
 pub use decide::*;
 pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
+pub use resolution::{encoder_floor, encoder_step_rad, EncoderFloor};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
 pub use unexplained::*;
 

@@ -6,7 +6,20 @@ use super::*;
 /// Structure left in the residual of `fit` that no effect accounts for: narrow spectral
 /// lines that are not lines of the motion (or of the reference) itself.
 pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<UnexplainedReport> {
+    structure(lp, fit, s).found
+}
+
+/// What [`structure`] found, and what it set aside as the encoders' resolution.
+pub(super) struct Structure {
+    pub found: Vec<UnexplainedReport>,
+    /// A wander within the encoders' rounding: a warning for the user.
+    pub set_aside: Vec<String>,
+}
+
+/// [`unexplained_structure`] with what it set aside.
+pub(super) fn structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Structure {
     let p = &lp.p;
+    let mut set_aside = Vec::new();
     let mut out = Vec::new();
     let names = ["fx", "fy"];
     // spectra of the inputs: a line in the residual at a line of the input is a misfit of
@@ -77,6 +90,8 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
     } else {
         Vec::new()
     };
+    // drawn only for a wander that would be named (it costs a few hundred passes)
+    let floor = std::cell::OnceCell::new();
     for a in axes {
         let r = fit.residual(a);
         let Some(w) = wander_test(&r) else {
@@ -87,30 +102,49 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
         let signal_sd = std_dev(&p.force_n[a]);
         let material =
             w.amplitude_n >= s.min_effect_size * signal_sd && w.share >= WANDER_MIN_SHARE;
-        if (w.p_value <= WANDER_LEVEL && material) || w.share >= s.structure_min_share {
-            out.push(UnexplainedReport {
-                kind: "slow_wander".into(),
-                signal: names[a].into(),
-                frequency_hz: None,
-                amplitude_n: Some(w.amplitude_n),
-                variance_share: w.share,
-                detail: format!(
-                    "the {} residual's level wanders over the trial: its means over {} time bins vary {:.1} × as much as its own short-range correlation allows (p = {:.1e}), an amplitude of {:.2} N RMS ({:.0} % of its variance), and no catalog effect removes it",
-                    names[a],
-                    WANDER_BINS,
-                    w.variance_ratio,
-                    w.p_value,
-                    w.amplitude_n,
-                    100.0 * w.share
-                ),
-            });
+        if !((w.p_value <= WANDER_LEVEL && material) || w.share >= s.structure_min_share) {
+            continue;
         }
+        // a level that moves by less than the encoders' rounding does (frozen while the
+        // handle rests) cannot be told from it: said, not named
+        let floor = floor.get_or_init(|| encoder_floor(lp, fit));
+        if let Some(f) = floor.filter(|f| w.amplitude_n <= f.bound_n[a]) {
+            set_aside.push(format!(
+                "the {} residual's level wanders by {:.3} N RMS, within what the encoders' counts ({:.4}° and {:.4}°) put in its level through the model (expected {:.3} N RMS, up to {:.3} N at the wander test's level: the rounding is frozen while a count is held): the log cannot tell a slow effect of that size from the encoders' rounding, so none is named",
+                names[a],
+                w.amplitude_n,
+                f.step_rad[0].to_degrees(),
+                f.step_rad[1].to_degrees(),
+                f.expected_n[a],
+                f.bound_n[a]
+            ));
+            continue;
+        }
+        out.push(UnexplainedReport {
+            kind: "slow_wander".into(),
+            signal: names[a].into(),
+            frequency_hz: None,
+            amplitude_n: Some(w.amplitude_n),
+            variance_share: w.share,
+            detail: format!(
+                "the {} residual's level wanders over the trial: its means over {} time bins vary {:.1} × as much as its own short-range correlation allows (p = {:.1e}), an amplitude of {:.2} N RMS ({:.0} % of its variance), and no catalog effect removes it",
+                names[a],
+                WANDER_BINS,
+                w.variance_ratio,
+                w.p_value,
+                w.amplitude_n,
+                100.0 * w.share
+            ),
+        });
     }
-    out
+    Structure {
+        found: out,
+        set_aside,
+    }
 }
 
 /// Time bins over which a wander of the residual's level is looked for.
-const WANDER_BINS: usize = 20;
+pub(super) const WANDER_BINS: usize = 20;
 /// Batches that estimate the residual's long-run variance (its short-range correlation):
 /// ten per bin where the log is long enough, so a batch (0.2–0.6 s of a 40–120 s trial) outlasts the load cell's
 /// coloured noise and the operator's motion (≥ 1 Hz) several times over.
@@ -118,7 +152,7 @@ const WANDER_BATCHES: usize = 200;
 /// Level of the wander test (one test per axis, on trials no effect explained). Strict,
 /// because a model's misfit under an operator whose vigour changes over the trial also moves
 /// the residual's level a little, which the F distribution does not allow for.
-const WANDER_LEVEL: f64 = 1e-4;
+pub(super) const WANDER_LEVEL: f64 = 1e-4;
 /// Least share of the residual's variance a wander must carry to be named: below it, it is
 /// the misfit's own slow structure rather than something outside the model (a control of
 /// the second generator at 4 % model error showed a 2.6 % share at p = 7e-5).
@@ -131,18 +165,18 @@ const WANDER_MIN_SHARE: f64 = 0.04;
 /// distribution; a level that moves over many batches raises the bins' variance
 /// `n_bin` times more than the batches'.
 #[derive(Debug, Clone, Copy)]
-struct Wander {
+pub(super) struct Wander {
     /// Variance of the bin means over the one predicted from the batches.
     variance_ratio: f64,
     /// Probability of a ratio this large without a wander, F(bins − 1, batches − 1).
     p_value: f64,
     /// The wander's RMS amplitude with the noise's share of the bin means removed, N.
-    amplitude_n: f64,
+    pub(super) amplitude_n: f64,
     /// Share of the residual's variance carried by the bin means.
     share: f64,
 }
 
-fn wander_test(r: &[f64]) -> Option<Wander> {
+pub(super) fn wander_test(r: &[f64]) -> Option<Wander> {
     use statrs::distribution::{ContinuousCDF, FisherSnedecor};
     let n = r.len();
     // at least ten samples a batch and two batches a bin (a short, slowly sampled log has

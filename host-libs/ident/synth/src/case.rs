@@ -302,6 +302,9 @@ pub struct CaseSpec {
     /// What the recording adds that is not an effect (`nuisance.rs`); none by default.
     #[serde(default)]
     pub nuisances: crate::nuisance::Nuisances,
+    /// Dynamic: how the operator moves the handle (`motion.rs`); the first motion by default.
+    #[serde(default)]
+    pub motion: crate::motion::OperatorMotion,
 }
 
 /// The order in which a step log steps its axes.
@@ -409,6 +412,7 @@ impl CaseSpec {
             site,
             step_order: StepOrder::Alternating,
             nuisances: Default::default(),
+            motion: Default::default(),
         };
         spec.validate()?;
         Ok(spec)

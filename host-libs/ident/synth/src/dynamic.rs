@@ -1,9 +1,8 @@
 //! The dynamic trial (thesis §4.3): an operator moves the handle about one of Table 4.1's
-//! points with a band-limited random motion; the robot answers −f = M ẍ + B ẋ + K (x − x0)
-//! with the thesis's identified Cartesian matrices (perturbed); the currents hold the
-//! pressures the open-loop inverse model gives for that point and a stiffness level.
-
-use std::f64::consts::PI;
+//! points (`motion.rs`: sines, a dense band, reach-and-hold or circles); the robot answers
+//! −f = M ẍ + B ẋ + K (x − x0) with the thesis's identified Cartesian matrices (perturbed);
+//! the currents hold the pressures the open-loop inverse model gives for that point and a
+//! stiffness level.
 
 use pam_model::RobotModel;
 use rand::Rng;
@@ -11,6 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::case::CaseSpec;
 use crate::error::SynthError;
+use crate::motion::{Path, Sines, STREAM_MOTION};
 use crate::robot::{self, is_pd, mul, M2};
 use crate::signal::{perturb, Forces};
 
@@ -41,38 +41,6 @@ pub struct DynBase {
     /// Joint stiffness the currents were computed for.
     pub joint_stiffness_nm_per_rad: [f64; 2],
     pub currents_ma: [f64; 4],
-}
-
-/// One axis of the operator's motion: a random sum of sines, 0.1–3 Hz, amplitude falling
-/// with frequency as a hand's does.
-struct Sines {
-    comps: Vec<(f64, f64, f64)>, // (amplitude, ω, phase)
-}
-
-impl Sines {
-    fn random(rng: &mut ChaCha8Rng) -> Self {
-        let n = rng.random_range(4..=8);
-        let comps = (0..n)
-            .map(|_| {
-                let f_hz = (0.1f64.ln() + rng.random::<f64>() * (3.0f64.ln() - 0.1f64.ln())).exp();
-                let amp = rng.random_range(0.3..1.0) * f_hz.powf(-0.6);
-                (amp, 2.0 * PI * f_hz, rng.random_range(0.0..2.0 * PI))
-            })
-            .collect();
-        Sines { comps }
-    }
-
-    /// Value and first two derivatives.
-    fn eval(&self, t: f64) -> [f64; 3] {
-        let mut out = [0.0; 3];
-        for &(a, w, p) in &self.comps {
-            let (s, c) = (w * t + p).sin_cos();
-            out[0] += a * s;
-            out[1] += a * w * c;
-            out[2] -= a * w * w * s;
-        }
-        out
-    }
 }
 
 /// The quintic fade-in and its two derivatives.
@@ -129,15 +97,18 @@ pub fn build(
     let b = perturb_pd(rng, &robot::B_THESIS, 0.2);
     let m = perturb_pd(rng, &robot::M_THESIS, 0.2);
 
-    let axes = [Sines::random(rng), Sines::random(rng)];
+    let first = [Sines::random(rng), Sines::random(rng)];
+    let mut rng_motion = crate::rng(spec.seed, STREAM_MOTION);
+    let path = Path::new(spec.motion, first, &mut rng_motion, spec.duration_s);
     let mut amp_m = [rng.random_range(0.01..0.05), rng.random_range(0.01..0.05)];
     let n = (spec.duration_s / FINE_S).round() as usize + 1;
     let t_s: Vec<f64> = (0..n).map(|i| i as f64 * FINE_S).collect();
     // normalise each axis to its peak on the grid
     let mut peak = [1e-12f64; 2];
     for &t in &t_s {
+        let p = path.eval(t);
         for ax in 0..2 {
-            peak[ax] = peak[ax].max(axes[ax].eval(t)[0].abs());
+            peak[ax] = peak[ax].max(p[ax][0].abs());
         }
     }
     let limits = |j: usize| {
@@ -167,8 +138,9 @@ pub fn build(
             let mut dx = [0.0; 2];
             let mut v = [0.0; 2];
             let mut a = [0.0; 2];
+            let p = path.eval(t);
             for ax in 0..2 {
-                let s = axes[ax].eval(t);
+                let s = p[ax];
                 let g = amp_m[ax] / peak[ax];
                 dx[ax] = g * w[0] * s[0];
                 v[ax] = g * (w[1] * s[0] + w[0] * s[1]);

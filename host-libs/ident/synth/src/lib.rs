@@ -16,6 +16,7 @@ mod dynamic;
 mod effect;
 pub mod error;
 pub mod judge;
+pub mod motion;
 pub mod nuisance;
 mod robot;
 mod sensor;
@@ -25,6 +26,7 @@ pub mod truth;
 
 pub use case::{CaseSpec, Experiment, Family, Shape};
 pub use error::SynthError;
+pub use motion::{MotionPlan, OperatorMotion};
 pub use nuisance::{NuisancePlan, Nuisances};
 pub use truth::Truth;
 
@@ -211,6 +213,7 @@ fn finish(
         samples: n,
         step_order: spec.step_order,
         nuisances: spec.nuisances,
+        motion: spec.motion,
         noise_n: spec.noise_n,
         coloured_noise_n: coloured_n,
         site: spec.site,

@@ -1,18 +1,20 @@
 //! `pam-synth --seed N [--experiment dynamic|step] [--family F] [--shape S] [--period-s DT] [--duration-s S]
 //! [--step-order alternating|x_then_y] [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]
-//! --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
+//! [--motion sines|multisine|reach_and_hold|circles|random] --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use pam_synth::case::StepOrder;
 use pam_synth::{
-    generate, write_files, CaseSpec, Experiment, Family, NuisancePlan, Shape, SynthError,
+    generate, write_files, CaseSpec, Experiment, Family, MotionPlan, NuisancePlan, Shape,
+    SynthError,
 };
 
 const USAGE: &str = "usage: pam-synth --seed N [--experiment dynamic|step] [--family F] \
 [--shape S] [--period-s DT] [--duration-s S] [--step-order alternating|x_then_y] \
-[--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N] --out FILE.csv | --list";
+[--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N] \
+[--motion sines|multisine|reach_and_hold|circles|random] --out FILE.csv | --list";
 
 fn list() {
     for e in Experiment::ALL {
@@ -29,6 +31,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let mut duration: Option<f64> = None;
     let mut step_order = None;
     let mut nuisance = None;
+    let mut motion = None;
     let (mut experiment, mut family, mut shape, mut period, mut out) =
         (None, None, None, None, None);
     let mut it = args.iter();
@@ -53,6 +56,7 @@ fn run(args: &[String]) -> Result<(), String> {
             "--out" => out = Some(PathBuf::from(value()?)),
             "--step-order" => step_order = Some(StepOrder::parse(&value()?).map_err(e)?),
             "--nuisance" => nuisance = Some(NuisancePlan::parse(&value()?).map_err(e)?),
+            "--motion" => motion = Some(MotionPlan::parse(&value()?).map_err(e)?),
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
         }
@@ -71,6 +75,9 @@ fn run(args: &[String]) -> Result<(), String> {
     if let Some(plan) = nuisance {
         spec.nuisances = plan.for_seed(seed);
     }
+    if let Some(plan) = motion {
+        spec.motion = plan.for_seed(seed);
+    }
     if let Some(dt) = period {
         spec.dt_s = dt;
         spec.duration_s = spec
@@ -86,7 +93,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let g = generate(&spec).map_err(|e| e.to_string())?;
     write_files(&g, &out).map_err(|e| e.to_string())?;
     eprintln!(
-        "{}: {} {} / {}, {} samples at {} s, relative size {:.3}, nuisances {}",
+        "{}: {} {} / {}, {} samples at {} s, relative size {:.3}, nuisances {}, motion {}",
         out.display(),
         g.truth.experiment.name(),
         g.truth.family.name(),
@@ -94,7 +101,8 @@ fn run(args: &[String]) -> Result<(), String> {
         g.truth.samples,
         g.truth.dt_s,
         g.truth.relative_size,
-        g.truth.nuisances.describe()
+        g.truth.nuisances.describe(),
+        g.truth.motion.name()
     );
     Ok(())
 }

@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use crate::case::{Experiment, Family, Shape, StepOrder};
+use crate::motion::OperatorMotion;
 use crate::nuisance::Nuisances;
 
 /// The ground truth of one generated log.
@@ -25,6 +26,9 @@ pub struct Truth {
     /// What the recording added that is not an effect (none by default).
     #[serde(default)]
     pub nuisances: Nuisances,
+    /// The operator's motion of a dynamic log (a step log's is the default and means nothing).
+    #[serde(default)]
+    pub motion: OperatorMotion,
     /// Load-cell white noise per axis (N) and the coloured part's standard deviation.
     pub noise_n: f64,
     pub coloured_noise_n: f64,
