@@ -5,7 +5,8 @@
 //! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
 //!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]
 //!  [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]
-//!  [--motion sines|multisine|reach_and_hold|circles|random]`
+//!  [--motion sines|multisine|reach_and_hold|circles|random]
+//!  [--step-levels lattice|continuous|diagonal|random]`
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -16,7 +17,7 @@ use pam_ident::diagnose::{diagnose, Settings};
 use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
-use pam_synth::case::StepOrder;
+use pam_synth::case::{StepLevelsPlan, StepOrder};
 use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
 use pam_synth::{generate, CaseSpec, Experiment, Family, MotionPlan, NuisancePlan};
 
@@ -45,6 +46,9 @@ struct Args {
     /// How the operator moves in the dynamic logs (pam-synth's `motion.rs`), the same for
     /// every log or drawn per seed.
     motion: Option<MotionPlan>,
+    /// Where the step logs' levels lie (pam-synth's `StepLevels`), the same for every log or
+    /// drawn per seed.
+    step_levels: Option<StepLevelsPlan>,
 }
 
 fn parse() -> Result<Args, String> {
@@ -62,6 +66,7 @@ fn parse() -> Result<Args, String> {
         step_order: None,
         nuisance: None,
         motion: None,
+        step_levels: None,
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
@@ -87,6 +92,9 @@ fn parse() -> Result<Args, String> {
                 a.nuisance = Some(NuisancePlan::parse(&v()?).map_err(|e| e.to_string())?)
             }
             "--motion" => a.motion = Some(MotionPlan::parse(&v()?).map_err(|e| e.to_string())?),
+            "--step-levels" => {
+                a.step_levels = Some(StepLevelsPlan::parse(&v()?).map_err(|e| e.to_string())?)
+            }
             "--set" => {
                 let kv = v()?;
                 let (k, x) = kv
@@ -168,7 +176,7 @@ fn main() {
     let a = match parse() {
         Ok(a) => a,
         Err(e) => {
-            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y] [--nuisance none|random|LIST] [--motion M|random]");
+            eprintln!("{e}\nusage: confusion --logs N --seed0 S [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y] [--nuisance none|random|LIST] [--motion M|random] [--step-levels L|random]");
             std::process::exit(2);
         }
     };
@@ -210,6 +218,9 @@ fn main() {
             nuisances: a.nuisance.map_or(s.nuisances, |plan| plan.for_seed(s.seed)),
             step_order: a.step_order.unwrap_or(s.step_order),
             motion: a.motion.map_or(s.motion, |plan| plan.for_seed(s.seed)),
+            step_levels: a
+                .step_levels
+                .map_or(s.step_levels, |plan| plan.for_seed(s.seed)),
             ..s
         })
         .collect();

@@ -13,7 +13,7 @@ use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_synth::judge::plan;
-use pam_synth::{generate, CaseSpec, Experiment, OperatorMotion, Shape};
+use pam_synth::{generate, CaseSpec, Experiment, Family, OperatorMotion, Shape};
 
 const SEED0: u64 = 500000;
 
@@ -133,4 +133,57 @@ fn the_floor_is_the_count_through_the_stiffness() {
         loop_without_spikes(&off, &model, LoopExperiment::Dynamic, Settings::default()).unwrap();
     let floor = encoder_floor(&lp, &base).expect("joint 2 still counted");
     assert_eq!(floor.step_rad[0], 0.0, "joint 1 is off its lattice");
+}
+
+/// Controls under reach-and-hold, short (45 s) and at the generator's mixed sampling: the
+/// eleventh session's loop named a wander or a drift on about a quarter of them.
+#[test]
+fn controls_under_reach_and_hold_raise_few_alarms() {
+    const CONTROLS: u64 = 24;
+    let model = RobotModel::<f64>::thesis();
+    let alarms: Vec<String> = (0..CONTROLS)
+        .map(|k| {
+            let mut spec =
+                CaseSpec::random(610_000 + k, Some(Experiment::Dynamic), Some(Family::None))
+                    .unwrap();
+            spec.motion = OperatorMotion::ReachAndHold;
+            spec.duration_s = spec.duration_s.min(45.0).min(25_000.0 * spec.dt_s).round();
+            spec
+        })
+        .collect::<Vec<_>>()
+        .chunks(12)
+        .flat_map(|chunk| {
+            std::thread::scope(|s| {
+                let handles: Vec<_> = chunk
+                    .iter()
+                    .map(|spec| {
+                        let model = &model;
+                        s.spawn(move || {
+                            let d = diagnose(
+                                &trial(spec),
+                                model,
+                                LoopExperiment::Dynamic,
+                                Settings::default(),
+                            )
+                            .unwrap()
+                            .0;
+                            (spec.seed, named(&d))
+                        })
+                    })
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap())
+                    .collect::<Vec<_>>()
+            })
+        })
+        .filter(|(_, said)| said != "none")
+        .map(|(seed, said)| format!("control {seed} named {said}"))
+        .collect();
+    println!("{alarms:#?}");
+    assert!(
+        alarms.len() <= 1,
+        "{} of {CONTROLS}: {alarms:#?}",
+        alarms.len()
+    );
 }

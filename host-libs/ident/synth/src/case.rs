@@ -305,6 +305,78 @@ pub struct CaseSpec {
     /// Dynamic: how the operator moves the handle (`motion.rs`); the first motion by default.
     #[serde(default)]
     pub motion: crate::motion::OperatorMotion,
+    /// Step: where the reference's levels lie.
+    #[serde(default)]
+    pub step_levels: StepLevels,
+}
+
+/// Where a step log's reference levels lie. A rig's users do not all run §5.2's lattice.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StepLevels {
+    /// Whole steps of ±1–3 × the log's step on one axis at a time (the generator's first
+    /// schedule; §5.2's levels are such a lattice).
+    #[default]
+    Lattice,
+    /// Any level within ±3 steps on one axis at a time, at least half a step from the last.
+    Continuous,
+    /// Both axes step at once, to whole levels of ±2 steps that both differ from the last.
+    Diagonal,
+}
+
+impl StepLevels {
+    pub const ALL: [StepLevels; 3] = [
+        StepLevels::Lattice,
+        StepLevels::Continuous,
+        StepLevels::Diagonal,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            StepLevels::Lattice => "lattice",
+            StepLevels::Continuous => "continuous",
+            StepLevels::Diagonal => "diagonal",
+        }
+    }
+}
+
+/// The step levels of each log: one for all, or drawn per seed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepLevelsPlan {
+    Fixed(StepLevels),
+    /// Uniform over [`StepLevels::ALL`], from the seed's own stream.
+    Random,
+}
+
+/// The random stream the levels' draw and the levels themselves use (the schedule's
+/// holds keep the base stream's draws).
+pub const STREAM_LEVELS: u64 = 6;
+
+impl StepLevelsPlan {
+    pub fn parse(s: &str) -> Result<Self, SynthError> {
+        if s == "random" {
+            return Ok(StepLevelsPlan::Random);
+        }
+        StepLevels::ALL
+            .into_iter()
+            .find(|l| l.name() == s)
+            .map(StepLevelsPlan::Fixed)
+            .ok_or_else(|| SynthError::UnknownName {
+                what: "step levels",
+                name: s.to_string(),
+                choices: "lattice, continuous, diagonal, random".to_string(),
+            })
+    }
+
+    pub fn for_seed(self, seed: u64) -> StepLevels {
+        match self {
+            StepLevelsPlan::Fixed(l) => l,
+            StepLevelsPlan::Random => {
+                let mut rng = crate::rng(seed, STREAM_LEVELS + 16);
+                StepLevels::ALL[rng.random_range(0..StepLevels::ALL.len())]
+            }
+        }
+    }
 }
 
 /// The order in which a step log steps its axes.
@@ -413,6 +485,7 @@ impl CaseSpec {
             step_order: StepOrder::Alternating,
             nuisances: Default::default(),
             motion: Default::default(),
+            step_levels: Default::default(),
         };
         spec.validate()?;
         Ok(spec)

@@ -214,6 +214,7 @@ fn finish(
         step_order: spec.step_order,
         nuisances: spec.nuisances,
         motion: spec.motion,
+        step_levels: spec.step_levels,
         noise_n: spec.noise_n,
         coloured_noise_n: coloured_n,
         site: spec.site,

@@ -1,11 +1,12 @@
 //! `pam-synth --seed N [--experiment dynamic|step] [--family F] [--shape S] [--period-s DT] [--duration-s S]
 //! [--step-order alternating|x_then_y] [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]
-//! [--motion sines|multisine|reach_and_hold|circles|random] --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
+//! [--motion sines|multisine|reach_and_hold|circles|random]
+//! [--step-levels lattice|continuous|diagonal|random] --out FILE.csv`: writes one log and `FILE.truth.json`; `--list` lists the shapes.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use pam_synth::case::StepOrder;
+use pam_synth::case::{StepLevelsPlan, StepOrder};
 use pam_synth::{
     generate, write_files, CaseSpec, Experiment, Family, MotionPlan, NuisancePlan, Shape,
     SynthError,
@@ -14,7 +15,8 @@ use pam_synth::{
 const USAGE: &str = "usage: pam-synth --seed N [--experiment dynamic|step] [--family F] \
 [--shape S] [--period-s DT] [--duration-s S] [--step-order alternating|x_then_y] \
 [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N] \
-[--motion sines|multisine|reach_and_hold|circles|random] --out FILE.csv | --list";
+[--motion sines|multisine|reach_and_hold|circles|random] \
+[--step-levels lattice|continuous|diagonal|random] --out FILE.csv | --list";
 
 fn list() {
     for e in Experiment::ALL {
@@ -32,6 +34,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let mut step_order = None;
     let mut nuisance = None;
     let mut motion = None;
+    let mut levels = None;
     let (mut experiment, mut family, mut shape, mut period, mut out) =
         (None, None, None, None, None);
     let mut it = args.iter();
@@ -57,6 +60,7 @@ fn run(args: &[String]) -> Result<(), String> {
             "--step-order" => step_order = Some(StepOrder::parse(&value()?).map_err(e)?),
             "--nuisance" => nuisance = Some(NuisancePlan::parse(&value()?).map_err(e)?),
             "--motion" => motion = Some(MotionPlan::parse(&value()?).map_err(e)?),
+            "--step-levels" => levels = Some(StepLevelsPlan::parse(&value()?).map_err(e)?),
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
         }
@@ -78,6 +82,9 @@ fn run(args: &[String]) -> Result<(), String> {
     if let Some(plan) = motion {
         spec.motion = plan.for_seed(seed);
     }
+    if let Some(plan) = levels {
+        spec.step_levels = plan.for_seed(seed);
+    }
     if let Some(dt) = period {
         spec.dt_s = dt;
         spec.duration_s = spec
@@ -93,7 +100,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let g = generate(&spec).map_err(|e| e.to_string())?;
     write_files(&g, &out).map_err(|e| e.to_string())?;
     eprintln!(
-        "{}: {} {} / {}, {} samples at {} s, relative size {:.3}, nuisances {}, motion {}",
+        "{}: {} {} / {}, {} samples at {} s, relative size {:.3}, nuisances {}, motion {}, step levels {}",
         out.display(),
         g.truth.experiment.name(),
         g.truth.family.name(),
@@ -102,7 +109,8 @@ fn run(args: &[String]) -> Result<(), String> {
         g.truth.dt_s,
         g.truth.relative_size,
         g.truth.nuisances.describe(),
-        g.truth.motion.name()
+        g.truth.motion.name(),
+        g.truth.step_levels.name()
     );
     Ok(())
 }

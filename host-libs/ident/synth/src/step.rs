@@ -7,7 +7,7 @@ use pam_model::RobotModel;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::case::{CaseSpec, Shape, StepOrder};
+use crate::case::{CaseSpec, Shape, StepLevels, StepOrder, STREAM_LEVELS};
 use crate::effect::{named, EffectModel};
 use crate::robot;
 use crate::signal::{first_order_lag, interp, perturb, play, Forces, SecondOrder};
@@ -129,6 +129,8 @@ pub fn build(
         StepOrder::XThenY => 0,
     };
     let mut level = 0i32;
+    let mut rng_levels = crate::rng(spec.seed, STREAM_LEVELS);
+    let mut last_ref = [0.0; 2];
     let mut moves = 0;
     let mut planned = rng.random_range(4..9);
     while t < spec.duration_s - 1.0 {
@@ -144,6 +146,13 @@ pub fn build(
         };
         let mut r = [0.0; 2];
         r[axis] = next as f64 * step_n;
+        if next != 0 {
+            let reachable = |f: [f64; 2]| !robot::force_pressures(model, alpha, f, stiffness).1;
+            r = other_levels(spec.step_levels, &mut rng_levels, r, last_ref, axis, step_n)
+                .find(|f| reachable(*f))
+                .unwrap_or(r);
+        }
+        last_ref = r;
         segs.push((t, r));
         level = next;
         moves += 1;
@@ -203,6 +212,32 @@ pub fn build(
     };
     base.force_n = base.respond(&base.ref_n);
     base
+}
+
+/// The next level where the levels are not the lattice: drawn from `rng` (tried a few times
+/// for one the model reaches, else the lattice's `lattice`). `None` on the lattice.
+fn other_levels(
+    levels: StepLevels,
+    rng: &mut ChaCha8Rng,
+    lattice: [f64; 2],
+    last: [f64; 2],
+    axis: usize,
+    step_n: f64,
+) -> impl Iterator<Item = [f64; 2]> + '_ {
+    (0..50).filter_map(move |_| match levels {
+        StepLevels::Lattice => None,
+        StepLevels::Continuous => {
+            let l = rng.random_range(-3.0..3.0) * step_n;
+            let mut r = lattice;
+            r[axis] = l;
+            ((l - last[axis]).abs() >= 0.5 * step_n).then_some(r)
+        }
+        StepLevels::Diagonal => {
+            let r = [0, 1].map(|_| rng.random_range(-2..=2i32) as f64 * step_n);
+            let moved = (0..2).all(|a| (r[a] - last[a]).abs() > 1e-9);
+            (moved && r != [0.0; 2]).then_some(r)
+        }
+    })
 }
 
 pub fn base_params(b: &StepBase) -> Vec<(String, f64)> {

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::case::{Experiment, Family, Shape, StepOrder};
+use crate::case::{Experiment, Family, Shape, StepLevels, StepOrder};
 use crate::motion::OperatorMotion;
 use crate::nuisance::Nuisances;
 
@@ -29,6 +29,9 @@ pub struct Truth {
     /// The operator's motion of a dynamic log (a step log's is the default and means nothing).
     #[serde(default)]
     pub motion: OperatorMotion,
+    /// Where a step log's levels lie (a dynamic log's is the default and means nothing).
+    #[serde(default)]
+    pub step_levels: StepLevels,
     /// Load-cell white noise per axis (N) and the coloured part's standard deviation.
     pub noise_n: f64,
     pub coloured_noise_n: f64,

@@ -123,3 +123,61 @@ fn log_reads_back_with_the_rig_columns_and_no_truth() {
         }
     }
 }
+
+/// The reference's levels, one per hold, from a step log.
+fn reference_levels(spec: &CaseSpec) -> Vec<[f64; 2]> {
+    let log = pam_log::read_str(&generate(spec).unwrap().log_text, None).unwrap();
+    let (x, y) = (
+        log.column(pam_log::col::FX_REF_N).unwrap(),
+        log.column(pam_log::col::FY_REF_N).unwrap(),
+    );
+    let mut out: Vec<[f64; 2]> = Vec::new();
+    for (a, b) in x.iter().zip(y) {
+        if out.last() != Some(&[*a, *b]) {
+            out.push([*a, *b]);
+        }
+    }
+    out
+}
+
+/// The step levels do what they say: the lattice one axis at a time in whole steps; any
+/// level (mostly off the lattice) one axis at a time; both axes at once. Neither the motion
+/// nor the levels move a step log's other draws: the lattice is the first schedule.
+#[test]
+fn step_levels_lie_where_they_say() {
+    use pam_synth::case::StepLevels;
+    let spec = CaseSpec::random(77, Some(Experiment::Step), Some(Family::None)).unwrap();
+    let step_n = generate(&spec).unwrap().truth.base["step_n"];
+    let whole = |v: f64| ((v / step_n) - (v / step_n).round()).abs() < 1e-9;
+    let lattice = reference_levels(&spec);
+    assert!(lattice.len() > 8);
+    assert!(lattice
+        .iter()
+        .all(|l| whole(l[0]) && whole(l[1]) && l[0] * l[1] == 0.0));
+    let levels = |l: StepLevels| {
+        reference_levels(&CaseSpec {
+            step_levels: l,
+            ..spec.clone()
+        })
+    };
+    let continuous = levels(StepLevels::Continuous);
+    assert!(continuous.iter().all(|l| l[0] * l[1] == 0.0));
+    let off = continuous.iter().filter(|l| !whole(l[0] + l[1])).count();
+    assert!(off * 2 > continuous.len(), "{continuous:?}");
+    let diagonal = levels(StepLevels::Diagonal);
+    let both = diagonal
+        .iter()
+        .filter(|l| l[0] != 0.0 && l[1] != 0.0)
+        .count();
+    assert!(both * 3 > diagonal.len(), "{diagonal:?}");
+    // the holds are the lattice's: the same number of changes at the same times
+    assert_eq!(continuous.len(), lattice.len());
+    let moved = CaseSpec {
+        motion: pam_synth::OperatorMotion::Circles,
+        ..spec.clone()
+    };
+    assert_eq!(
+        generate(&moved).unwrap().log_text,
+        generate(&spec).unwrap().log_text
+    );
+}
