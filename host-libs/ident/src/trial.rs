@@ -63,8 +63,18 @@ pub struct Prepared {
     /// The log's sampling was uneven (dropped frames, jitter) and it was resampled to its
     /// median period by linear interpolation.
     pub resampled: bool,
+    /// The encoder angles as logged, at the logged times, when the log was resampled (the
+    /// encoders' counts are on a lattice there, not in the interpolated angles).
+    pub logged_angles: Option<LoggedAngles>,
     /// Cutoff of the derivative filter actually used (≤ 0.45 × the sampling rate).
     pub cutoff_hz: f64,
+}
+
+/// Encoder angles at the log's own rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoggedAngles {
+    pub t_s: Vec<f64>,
+    pub alpha_rad: [Vec<f64>; 2],
 }
 
 impl Trial {
@@ -198,8 +208,13 @@ impl Trial {
         };
         if let Some(uniform) = uniform {
             let mut each = uniform.prepare_each(model, filters)?;
+            let logged = LoggedAngles {
+                t_s: self.t_s.clone(),
+                alpha_rad: self.alpha_rad.clone(),
+            };
             for p in &mut each {
                 p.resampled = true;
+                p.logged_angles = Some(logged.clone());
             }
             return Ok(each);
         }
@@ -274,6 +289,7 @@ impl Trial {
             current_ma: self.current_ma.clone(),
             held_out: HeldOut::last_fifth(n),
             resampled: false,
+            logged_angles: None,
             cutoff_hz: cutoff,
         })
     }
@@ -408,6 +424,7 @@ impl Prepared {
             current_ma: self.current_ma.as_ref().map(|c| c.each_ref().map(command)),
             held_out: HeldOut::last_fifth(n),
             resampled: self.resampled,
+            logged_angles: self.logged_angles.clone(),
             cutoff_hz: self.cutoff_hz,
         }
     }

@@ -379,7 +379,8 @@ pub fn diagnose_observed(
         );
         if let Some((change, bound)) = rounding {
             evidence.push_str(&format!(
-                "; a slow change of {change:.3} N RMS lies within what the encoders' rounding can put in the force's level (up to {bound:.3} N RMS: it is frozen while a count is held): the log cannot tell it from their rounding"
+                "; a slow change of {change:.3} N RMS lies within what the encoders' rounding can put in the force's level (up to {bound:.3} N RMS in {draws} draws of it: it is frozen while a count is held): the log cannot tell it from their rounding",
+                draws = super::resolution::DRAWS
             ));
         }
         tried.push(Tried {

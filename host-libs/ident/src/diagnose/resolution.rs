@@ -16,12 +16,12 @@ use super::*;
 const MIN_MOVES: usize = 50;
 /// A move must be a whole number of counts to within this share of a count...
 const LATTICE_TOLERANCE: f64 = 0.05;
-/// ...in this share of the moves (a resampled or interpolated angle is not on a lattice).
+/// ...in this share of the moves (an interpolated angle is not on a lattice).
 const LATTICE_SHARE: f64 = 0.98;
 
 /// The count of an encoder whose angles lie on a lattice, rad: the largest step whose
 /// whole multiples are (nearly) all the log's moves. `None` when the angle does not move
-/// often enough to tell, or is not quantised (interpolated, resampled, a simulation's
+/// often enough to tell, or is not quantised (an interpolating encoder, a simulation's
 /// exact angle).
 pub fn encoder_step_rad(alpha_rad: &[f64]) -> Option<f64> {
     let moves: Vec<f64> = alpha_rad
@@ -48,7 +48,7 @@ pub fn encoder_step_rad(alpha_rad: &[f64]) -> Option<f64> {
 
 /// Draws of the rounding behind [`EncoderFloor::bound_n`]: its largest is about the
 /// 99.5 % quantile of the wander the rounding alone gives.
-const DRAWS: usize = 200;
+pub(super) const DRAWS: usize = 200;
 /// The draws' seed: the same log gets the same floor.
 const DRAW_SEED: u64 = 0x5eed_0fc0_u64;
 
@@ -97,10 +97,14 @@ pub fn encoder_floor(lp: &Loop, fit: &ModelFit) -> Option<EncoderFloor> {
         return None;
     }
     let p = &lp.p;
-    if p.resampled {
-        return None;
-    }
-    let step_rad = [0, 1].map(|j| encoder_step_rad(&p.alpha_rad[j]).unwrap_or(0.0));
+    // the encoders' counts are in the angles as logged: a resampled trial keeps them aside,
+    // and the rounding drawn at the logged rows is interpolated to the trial's as its
+    // angles were
+    let (rows_t_s, rows_alpha) = match &p.logged_angles {
+        Some(l) => (Some(&l.t_s), &l.alpha_rad),
+        None => (None, &p.alpha_rad),
+    };
+    let step_rad = [0, 1].map(|j| encoder_step_rad(&rows_alpha[j]).unwrap_or(0.0));
     if step_rad.iter().all(|q| *q == 0.0) {
         return None;
     }
@@ -130,11 +134,12 @@ pub fn encoder_floor(lp: &Loop, fit: &ModelFit) -> Option<EncoderFloor> {
     if !count_force_n.iter().flatten().all(|f| f.is_finite()) {
         return None;
     }
-    let runs = [0, 1].map(|j| held_runs(&p.alpha_rad[j]));
+    let runs = [0, 1].map(|j| held_runs(&rows_alpha[j]));
+    let rows = rows_alpha[0].len();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(DRAW_SEED);
     let mut sum_sq = [0.0; 2];
     let mut bound_n = [0.0f64; 2];
-    let mut r = vec![0.0; n];
+    let mut r = vec![0.0; rows];
     for _ in 0..DRAWS {
         // one error per held run of each joint, in counts
         let errors = [0, 1].map(|j| {
@@ -146,7 +151,9 @@ pub fn encoder_floor(lp: &Loop, fit: &ModelFit) -> Option<EncoderFloor> {
             for (i, ri) in r.iter_mut().enumerate() {
                 *ri = row[0] * errors[0][runs[0].0[i]] + row[1] * errors[1][runs[1].0[i]];
             }
-            let amp = super::unexplained::wander_test(&r).map_or(0.0, |w| w.amplitude_n);
+            let on_trial = rows_t_s.map(|t| crate::trial::linear_at(t, &r, &p.t_s));
+            let amp = super::unexplained::wander_test(on_trial.as_deref().unwrap_or(&r))
+                .map_or(0.0, |w| w.amplitude_n);
             sum_sq[a] += amp * amp;
             bound_n[a] = bound_n[a].max(amp);
         }

@@ -110,13 +110,14 @@ pub(super) fn structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Structure {
         let floor = floor.get_or_init(|| encoder_floor(lp, fit));
         if let Some(f) = floor.filter(|f| w.amplitude_n <= f.bound_n[a]) {
             set_aside.push(format!(
-                "the {} residual's level wanders by {:.3} N RMS, within what the encoders' counts ({:.4}° and {:.4}°) put in its level through the model (expected {:.3} N RMS, up to {:.3} N at the wander test's level: the rounding is frozen while a count is held): the log cannot tell a slow effect of that size from the encoders' rounding, so none is named",
+                "the {} residual's level wanders by {:.3} N RMS, within what the encoders' counts ({:.4}° and {:.4}°) put in its level through the model (expected {:.3} N RMS, up to {:.3} N in {} draws of it: the rounding is frozen while a count is held): the log cannot tell a slow effect of that size from the encoders' rounding, so none is named",
                 names[a],
                 w.amplitude_n,
                 f.step_rad[0].to_degrees(),
                 f.step_rad[1].to_degrees(),
                 f.expected_n[a],
-                f.bound_n[a]
+                f.bound_n[a],
+                super::resolution::DRAWS
             ));
             continue;
         }
