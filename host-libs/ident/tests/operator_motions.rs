@@ -8,7 +8,9 @@
 //! (`diagnose::encoder_floor`), a wander or a drift within that rounding is said and not
 //! named. Real slow effects of 2–3 % under the same motion must still be named.
 
-use pam_ident::diagnose::{diagnose, encoder_floor, loop_without_spikes, Diagnosis, Settings};
+use pam_ident::diagnose::{
+    compare, diagnose, encoder_floor, loop_without_spikes, Diagnosis, Settings,
+};
 use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
@@ -125,6 +127,12 @@ fn the_floor_is_the_count_through_the_stiffness() {
     let (lp, base, _) =
         loop_without_spikes(&t, &model, LoopExperiment::Dynamic, Settings::default()).unwrap();
     let floor = encoder_floor(&lp, &base).expect("a floor on counted angles");
+    // `pamctl model compare` says it too
+    let said = compare(&lp, &base).warnings;
+    assert!(
+        said.iter().any(|w| w.contains("encoders' rounding")),
+        "{said:?}"
+    );
     let count = 2.0 * std::f64::consts::PI / 8000.0;
     for q in floor.step_rad {
         assert!((q / count - 1.0).abs() < 1e-6, "count {q} rad");

@@ -119,11 +119,12 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
         peak_min_share: 0.01,
         ..lp.settings
     };
-    let peaks = unexplained_structure(lp, fit, &loose);
+    let structure = super::unexplained::structure(lp, fit, &loose);
     let split = (lp.experiment == Experiment::Dynamic)
         .then(|| msd::frequency_split(p, &fit.measured, &fit.predicted));
     let mut warnings = fit.warnings.clone();
     warnings.extend(sampling_warning(lp));
+    warnings.extend(structure.set_aside);
     let still = |a: usize| {
         lp.experiment == Experiment::Step
             && p.force_ref_n.as_ref().is_some_and(|r| {
@@ -153,7 +154,7 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
         params: fit.params.clone(),
         worst_windows: windows,
         frequency_split: split,
-        residual_peaks: peaks,
+        residual_peaks: structure.found,
         error_by_speed: by_speed,
         error_by_position: by_pos,
         warnings,
