@@ -341,41 +341,18 @@ impl StepLevels {
 }
 
 /// The step levels of each log: one for all, or drawn per seed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StepLevelsPlan {
-    Fixed(StepLevels),
-    /// Uniform over [`StepLevels::ALL`], from the seed's own stream.
-    Random,
-}
+pub type StepLevelsPlan = crate::plan::Plan<StepLevels>;
 
 /// The random stream the levels' draw and the levels themselves use (the schedule's
 /// holds keep the base stream's draws).
 pub const STREAM_LEVELS: u64 = 6;
 
-impl StepLevelsPlan {
-    pub fn parse(s: &str) -> Result<Self, SynthError> {
-        if s == "random" {
-            return Ok(StepLevelsPlan::Random);
-        }
-        StepLevels::ALL
-            .into_iter()
-            .find(|l| l.name() == s)
-            .map(StepLevelsPlan::Fixed)
-            .ok_or_else(|| SynthError::UnknownName {
-                what: "step levels",
-                name: s.to_string(),
-                choices: "lattice, continuous, diagonal, random".to_string(),
-            })
-    }
-
-    pub fn for_seed(self, seed: u64) -> StepLevels {
-        match self {
-            StepLevelsPlan::Fixed(l) => l,
-            StepLevelsPlan::Random => {
-                let mut rng = crate::rng(seed, STREAM_LEVELS + 16);
-                StepLevels::ALL[rng.random_range(0..StepLevels::ALL.len())]
-            }
-        }
+impl crate::plan::Choice for StepLevels {
+    const ALL: &'static [Self] = &StepLevels::ALL;
+    const WHAT: &'static str = "step levels";
+    const STREAM: u64 = STREAM_LEVELS;
+    fn name(self) -> &'static str {
+        StepLevels::name(self)
     }
 }
 

@@ -18,6 +18,7 @@ pub mod error;
 pub mod judge;
 pub mod motion;
 pub mod nuisance;
+pub mod plan;
 mod robot;
 mod sensor;
 pub mod signal;

@@ -11,8 +11,6 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::error::SynthError;
-
 /// How the operator moves the handle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -50,41 +48,18 @@ impl OperatorMotion {
 }
 
 /// The motion of each log: one for all, or drawn per seed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MotionPlan {
-    Fixed(OperatorMotion),
-    /// Uniform over [`OperatorMotion::ALL`], from the seed's own stream.
-    Random,
-}
+pub type MotionPlan = crate::plan::Plan<OperatorMotion>;
 
 /// The random stream the motion's draw and its path use (the base, the effect, the noise
 /// and the nuisances keep theirs, so a seed's other draws do not change with the motion).
 pub const STREAM_MOTION: u64 = 5;
 
-impl MotionPlan {
-    pub fn parse(s: &str) -> Result<Self, SynthError> {
-        if s == "random" {
-            return Ok(MotionPlan::Random);
-        }
-        OperatorMotion::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .map(MotionPlan::Fixed)
-            .ok_or_else(|| SynthError::UnknownName {
-                what: "operator motion",
-                name: s.to_string(),
-                choices: "sines, multisine, reach_and_hold, circles, random".to_string(),
-            })
-    }
-
-    pub fn for_seed(self, seed: u64) -> OperatorMotion {
-        match self {
-            MotionPlan::Fixed(m) => m,
-            MotionPlan::Random => {
-                let mut rng = crate::rng(seed, STREAM_MOTION + 16);
-                OperatorMotion::ALL[rng.random_range(0..OperatorMotion::ALL.len())]
-            }
-        }
+impl crate::plan::Choice for OperatorMotion {
+    const ALL: &'static [Self] = &OperatorMotion::ALL;
+    const WHAT: &'static str = "operator motion";
+    const STREAM: u64 = STREAM_MOTION;
+    fn name(self) -> &'static str {
+        OperatorMotion::name(self)
     }
 }
 
