@@ -60,12 +60,11 @@ pub struct Prepared {
     /// The rows fits are scored on and not fitted to: the last 20 %, or in a step trial
     /// with enough steps every fifth step ([`HeldOut`]).
     pub held_out: HeldOut,
-    /// The log's sampling was uneven (dropped frames, jitter) and it was resampled to its
-    /// median period by linear interpolation.
-    pub resampled: bool,
-    /// The encoder angles as logged, at the logged times, when the log was resampled (the
-    /// encoders' counts are on a lattice there, not in the interpolated angles).
-    pub logged_angles: Option<LoggedAngles>,
+    /// The encoder angles as logged, at the logged times, when the log's sampling was
+    /// uneven (dropped frames, jitter) and it was resampled to its median period by linear
+    /// interpolation ([`Prepared::resampled`]; the encoders' counts are on a lattice there,
+    /// not in the interpolated angles).
+    pub logged_angles: Option<std::sync::Arc<LoggedAngles>>,
     /// Cutoff of the derivative filter actually used (≤ 0.45 × the sampling rate).
     pub cutoff_hz: f64,
 }
@@ -208,12 +207,12 @@ impl Trial {
         };
         if let Some(uniform) = uniform {
             let mut each = uniform.prepare_each(model, filters)?;
-            let logged = LoggedAngles {
+            // shared by every preparation (one per filter setting tried)
+            let logged = std::sync::Arc::new(LoggedAngles {
                 t_s: self.t_s.clone(),
                 alpha_rad: self.alpha_rad.clone(),
-            };
+            });
             for p in &mut each {
-                p.resampled = true;
                 p.logged_angles = Some(logged.clone());
             }
             return Ok(each);
@@ -288,7 +287,6 @@ impl Trial {
             alpha0_rad,
             current_ma: self.current_ma.clone(),
             held_out: HeldOut::last_fifth(n),
-            resampled: false,
             logged_angles: None,
             cutoff_hz: cutoff,
         })
@@ -371,6 +369,11 @@ fn hold(t: &[f64], v: &[f64], grid: &[f64]) -> Vec<f64> {
 }
 
 impl Prepared {
+    /// The log's sampling was uneven and it was resampled to its median period.
+    pub fn resampled(&self) -> bool {
+        self.logged_angles.is_some()
+    }
+
     pub fn len(&self) -> usize {
         self.t_s.len()
     }
@@ -423,7 +426,6 @@ impl Prepared {
             alpha0_rad: self.alpha0_rad,
             current_ma: self.current_ma.as_ref().map(|c| c.each_ref().map(command)),
             held_out: HeldOut::last_fifth(n),
-            resampled: self.resampled,
             logged_angles: self.logged_angles.clone(),
             cutoff_hz: self.cutoff_hz,
         }
@@ -516,11 +518,9 @@ mod tests {
             assert!((f - i as f64 * 0.01).abs() < 1e-9);
         }
         let model = RobotModel::<f64>::thesis();
-        assert!(
-            uneven
-                .prepare(&model, FilterSettings::default())
-                .unwrap()
-                .resampled
-        );
+        assert!(uneven
+            .prepare(&model, FilterSettings::default())
+            .unwrap()
+            .resampled());
     }
 }

@@ -14,28 +14,23 @@ use pam_ident::diagnose::{
 use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
-use pam_synth::judge::plan;
-use pam_synth::{generate, CaseSpec, Experiment, Family, NuisancePlan, OperatorMotion, Shape};
+use pam_synth::{CaseSpec, Experiment, Family, NuisancePlan, OperatorMotion, Shape};
 
 const SEED0: u64 = 500000;
+
+mod synth_cases;
+use synth_cases::{named, plan_case, trial_of};
 
 /// The dynamic case with `seed` of the plan, checked to be the case it was, with the
 /// operator's motion `motion`.
 fn case(seed: u64, shape: Shape, motion: OperatorMotion) -> CaseSpec {
-    let n = (seed - SEED0 + 1) as usize;
-    let mut spec = plan(n, SEED0, Some(Experiment::Dynamic))
-        .into_iter()
-        .find(|s| s.seed == seed)
-        .expect("the seed is in the plan");
-    assert_eq!(spec.shape, shape, "the plan changed");
+    let mut spec = plan_case(SEED0, seed, Some(Experiment::Dynamic), shape);
     spec.motion = motion;
     spec
 }
 
 fn trial(spec: &CaseSpec) -> Trial {
-    let g = generate(spec).unwrap();
-    let log = pam_log::read_str(&g.log_text, None).unwrap();
-    Trial::from_log(&log).unwrap()
+    trial_of(spec).0
 }
 
 fn diagnosed(spec: &CaseSpec) -> Diagnosis {
@@ -44,17 +39,6 @@ fn diagnosed(spec: &CaseSpec) -> Diagnosis {
     diagnose(&trial(spec), &model, LoopExperiment::Dynamic, settings)
         .unwrap()
         .0
-}
-
-fn named(d: &Diagnosis) -> String {
-    match d.verdict.name() {
-        "effect" => d
-            .effects
-            .first()
-            .and_then(|e| e.family.map(|f| f.name().to_string()))
-            .unwrap_or_default(),
-        other => other.to_string(),
-    }
 }
 
 #[test]

@@ -14,42 +14,26 @@ use pam_ident::diagnose::{diagnose, loop_without_spikes, Diagnosis, Settings};
 use pam_ident::effects::Experiment as LoopExperiment;
 use pam_ident::Trial;
 use pam_model::RobotModel;
-use pam_synth::judge::plan;
 use pam_synth::{generate, CaseSpec, Experiment, Family, NuisancePlan, Shape};
 
 const SEED0: u64 = 430000;
 
+mod synth_cases;
+use synth_cases::{named, plan_case, trial_of};
+
 /// The case with `seed` of the plan (step logs only, or both experiments), checked to be the
 /// case it was, with the nuisances of `nuisance`.
 fn case(seed: u64, step_only: bool, shape: Shape, nuisance: &str) -> CaseSpec {
-    let experiment = step_only.then_some(Experiment::Step);
-    let n = (seed - SEED0 + 1) as usize;
-    let mut spec = plan(n, SEED0, experiment)
-        .into_iter()
-        .find(|s| s.seed == seed)
-        .expect("the seed is in the plan");
-    assert_eq!(spec.shape, shape, "the plan changed");
+    let mut spec = plan_case(SEED0, seed, step_only.then_some(Experiment::Step), shape);
     spec.nuisances = NuisancePlan::parse(nuisance).unwrap().for_seed(seed);
     spec
 }
 
 fn diagnosed(spec: &CaseSpec) -> (Diagnosis, String) {
-    let g = generate(spec).unwrap();
-    let log = pam_log::read_str(&g.log_text, None).unwrap();
-    let trial = Trial::from_log(&log).unwrap();
+    let (trial, text) = trial_of(spec);
     let model = RobotModel::<f64>::thesis();
     let (d, _) = diagnose(&trial, &model, LoopExperiment::Step, Settings::default()).unwrap();
-    (d, g.log_text)
-}
-
-fn named(d: &Diagnosis) -> Option<String> {
-    match d.verdict.name() {
-        "effect" => d
-            .effects
-            .first()
-            .and_then(|e| e.family.map(|f| f.name().to_string())),
-        other => Some(other.to_string()),
-    }
+    (d, text)
 }
 
 #[test]
@@ -64,7 +48,7 @@ fn a_jittered_step_log_is_simulated_at_its_logged_times() {
     for (seed, shape, nuisance, want) in cases {
         let spec = case(seed, true, shape, nuisance);
         let (d, _) = diagnosed(&spec);
-        if named(&d).as_deref() != Some(want) {
+        if named(&d) != want {
             wrong.push(format!(
                 "seed {seed} with {nuisance}: {:?} / {:?}, not {want}",
                 d.verdict,
@@ -84,12 +68,7 @@ fn a_jittered_step_log_is_simulated_at_its_logged_times() {
 fn spikes_are_bridged_and_the_drift_behind_them_is_named() {
     let spec = case(430041, false, Shape::OffsetExponential, "spikes=0.002");
     let (d, spiked) = diagnosed(&spec);
-    assert_eq!(
-        named(&d).as_deref(),
-        Some(Family::Drift.name()),
-        "{:?}",
-        d.verdict
-    );
+    assert_eq!(named(&d), Family::Drift.name(), "{:?}", d.verdict);
     // the rows the nuisance spiked: where the log differs from the same seed's without it
     // (the nuisances draw from their own stream)
     let clean = generate(&CaseSpec {
@@ -133,5 +112,5 @@ fn spikes_are_bridged_and_the_drift_behind_them_is_named() {
         ..spec
     });
     assert!(d.spikes.is_none());
-    assert_eq!(named(&d).as_deref(), Some(Family::Drift.name()));
+    assert_eq!(named(&d), Family::Drift.name());
 }

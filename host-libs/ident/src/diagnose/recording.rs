@@ -61,7 +61,7 @@ impl SpikeReport {
 
 /// What the diagnosis says about the log's sampling, if it was uneven.
 pub fn sampling_warning(lp: &Loop) -> Option<String> {
-    if lp.p.resampled {
+    if lp.p.resampled() {
         return Some(
             "the log's sampling is uneven (dropped frames?): it was resampled to its median \
              period"

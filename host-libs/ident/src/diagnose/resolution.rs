@@ -118,12 +118,15 @@ pub fn encoder_floor(lp: &Loop, fit: &ModelFit) -> Option<EncoderFloor> {
         &|i| p.a_m_s2[1][i],
         &|_| 1.0,
     ];
-    let x = DMatrix::from_fn(n, cols.len(), |i, c| cols[c](i));
-    // scale the columns so the solver's tolerance means the same for all of them
+    // scaled to unit norm, so the solver's tolerance means the same for every column
+    let mut xs = DMatrix::from_fn(n, cols.len(), |i, c| cols[c](i));
     let norms: Vec<f64> = (0..cols.len())
-        .map(|c| x.column(c).norm().max(1e-300))
+        .map(|c| {
+            let norm = xs.column(c).norm().max(1e-300);
+            xs.column_mut(c).scale_mut(1.0 / norm);
+            norm
+        })
         .collect();
-    let xs = DMatrix::from_fn(n, cols.len(), |i, c| x[(i, c)] / norms[c]);
     let svd = xs.svd(true, true);
     let mut count_force_n = [[0.0; 2]; 2];
     for (a, row) in count_force_n.iter_mut().enumerate() {
