@@ -15,6 +15,7 @@
 //! | Heartbeat LED (LD2)              | GPIO              | PA5                           | Arduino D13      |
 //! | Emergency stop (NC contact)      | EXTI0, GPIO in    | PB0, pull-up; high = stop     | Arduino A3       |
 //! | Output buffers enable (OUT_EN#)  | GPIO out          | PB1, low = enabled            | morpho           |
+//! | Board revision straps 0, 1       | GPIO in, pull-up  | PC10, PC11 (read at boot)     | morpho CN7       |
 //! | embassy-time driver              | TIM15             | none                          | —                |
 //! | Control-loop executor            | UART4 IRQ vector  | none (UART4 unused)           | —                |
 //! | Loop watchdog                    | IWDG (LSI clock)  | none                          | —                |
@@ -40,8 +41,8 @@ use embassy_stm32::gpio::Pull;
 use embassy_stm32::interrupt::Priority;
 use embassy_stm32::pac;
 use embassy_stm32::peripherals::{
-    ADC1, ADC2, FLASH, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0, PC1,
-    PC12, PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
+    ADC1, ADC2, FLASH, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0,
+    PC1, PC10, PC11, PC12, PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
 };
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{Peri, Peripherals};
@@ -97,6 +98,10 @@ pub const ESTOP_EXTI_PORT: u8 = 1;
 pub const ESTOP_PULL: Pull = Pull::Up;
 /// Above the control loop (it must pre-empt a step in progress), below the time driver.
 pub const ESTOP_PRIORITY: Priority = Priority::P1;
+/// The device's lock masks the interrupts up to the control loop's priority and no further
+/// (`pam_fault_paths::ceiling`): the E-stop and the time driver pre-empt a step or a request
+/// in progress. NVIC priority byte of `CONTROL_PRIORITY`.
+pub const DEVICE_LOCK_CEILING: u8 = CONTROL_PRIORITY as u8;
 /// Priority of the peripheral interrupts the low-priority tasks use (USB).
 pub const LINK_PRIORITY: Priority = Priority::P6;
 
@@ -109,8 +114,7 @@ pub const WATCHDOG_TIMEOUT_US: u32 = 50_000;
 /// then on the device's safety configuration sets it (`SafetyConfig::overrun_fault_periods`,
 /// default 3, 1–100, kept in flash with the other limits). One or two can be a debugger or a
 /// long USB critical section; three in a row is a loop that no longer keeps its rate.
-pub const LOOP_OVERRUN_FAULT_PERIODS_AT_BOOT: u32 =
-    pam_control::DEFAULT_OVERRUN_FAULT_PERIODS;
+pub const LOOP_OVERRUN_FAULT_PERIODS_AT_BOOT: u32 = pam_control::DEFAULT_OVERRUN_FAULT_PERIODS;
 
 /// Free stack below which `Faults::STACK_LOW` latches (the painted stack's high-water
 /// mark, checked once per second). The stack is the RAM above the statics (≈ 120 KiB); a
@@ -159,9 +163,29 @@ pub const LOAD_CELL_ADC_COMMON: pac::adccommon::AdcCommon = pac::ADC12_COMMON;
 /// PWM frequency of the four outputs: 170 MHz / 20 kHz = 8500 counts per period
 /// (2.8 µA per count at the stage's 24.2 mA full scale).
 pub const OUTPUT_PWM_HZ: Hertz = Hertz(20_000);
+/// Counts per PWM period (prescaler 1): the driver sets the timer's period to it, so the
+/// compare constants below hold by construction.
+pub const OUTPUT_PERIOD_COUNTS: u16 = (SYSCLK_HZ / OUTPUT_PWM_HZ.0) as u16;
+const _: () =
+    assert!(SYSCLK_HZ.is_multiple_of(OUTPUT_PWM_HZ.0) && SYSCLK_HZ / OUTPUT_PWM_HZ.0 <= 65_535);
 /// Loop current at 100 % duty with the nominal parts of `docs/output-stage.md`:
 /// 10 × 3.000 V / 1.24 kΩ (XTR111 gain 10, PWM high level from a 3.000 V reference).
 pub const OUTPUT_FULL_SCALE_MA: f32 = 10.0 * 3.000 / 1.24;
+/// The vent current: the I/P converters' floor. A constant of the firmware, never a setting.
+pub const OUTPUT_SAFE_MA: f32 = 4.0;
+/// The compare value of the vent current (1405 counts), computed by the compiler: the
+/// fault paths and the E-stop write it without reading anything from RAM.
+pub const OUTPUT_SAFE_COMPARE: u16 = pam_firmware_logic::current_loop::nominal_counts(
+    OUTPUT_SAFE_MA,
+    OUTPUT_FULL_SCALE_MA,
+    OUTPUT_PERIOD_COUNTS,
+);
+const _: () = assert!(OUTPUT_SAFE_COMPARE == 1405);
+/// The largest compare value the driver ever writes (7202 counts, 20.50 mA): NAMUR NE43
+/// keeps loop currents above 21 mA for failure signalling, and 100 % duty would be 24.19 mA.
+pub const OUTPUT_CEILING_COMPARE: u16 =
+    pam_firmware_logic::current_loop::ceiling_counts(OUTPUT_FULL_SCALE_MA, OUTPUT_PERIOD_COUNTS);
+const _: () = assert!(OUTPUT_CEILING_COMPARE == 7202);
 /// The stage's nominal mA → duty law (0 mA at 0 %, full scale at 100 %).
 pub fn output_nominal_law() -> pam_firmware_logic::current_loop::ChannelLaw {
     pam_firmware_logic::current_loop::ChannelLaw::proportional(OUTPUT_FULL_SCALE_MA)
@@ -172,8 +196,25 @@ pub const OUTPUT_ERROR_FLAG_PULL: Pull = Pull::Up;
 /// with the emulator).
 pub const OUTPUT_ERROR_DEBOUNCE_PERIODS: u16 =
     pam_firmware_logic::current_loop::OUTPUT_ERROR_DEBOUNCE_PERIODS;
-/// The output timer, written directly by the panic handler.
+/// The output timer, written directly by the fault paths and the E-stop.
 pub const OUTPUT_TIMER_REGS: pac::timer::TimGp16 = pac::TIM3;
+/// OUT_EN# (PB1): its port and pin, set high (outputs off) directly by the fault paths.
+pub const OUTPUT_ENABLE_PORT: pac::gpio::Gpio = pac::GPIOB;
+pub const OUTPUT_ENABLE_PIN: usize = 1;
+
+// ---------------------------------------------------------------------------------------
+// Board revision and the flash areas the NMI handler knows
+
+/// The straps are read with pull-ups: open reads high (`pam_firmware_logic::board_revision`).
+pub const BOARD_STRAP_PULL: Pull = Pull::Up;
+/// The configuration record's pages for the NMI handler: bank 2's last two 2 KiB pages
+/// (memory.x's CONFIG, `config_flash::CONFIG_FLASH_OFFSET`), as offsets in the 256 KiB bank.
+pub const CONFIG_PAGES: pam_firmware_logic::nmi::ConfigPages =
+    pam_firmware_logic::nmi::ConfigPages {
+        bank2_offset: 0x3_F000,
+        bytes: 2 * 2048,
+        bank_bytes: 256 * 1024,
+    };
 
 // ---------------------------------------------------------------------------------------
 // Peripheral ownership
@@ -253,6 +294,9 @@ pub struct Board {
     pub output_enable: Peri<'static, PB1>,
     /// The configuration record's pages (`config_flash`).
     pub flash: Peri<'static, FLASH>,
+    /// The board revision's straps (read once at boot).
+    pub strap0: Peri<'static, PC10>,
+    pub strap1: Peri<'static, PC11>,
 }
 
 impl Board {
@@ -295,6 +339,8 @@ impl Board {
             estop: p.PB0,
             output_enable: p.PB1,
             flash: p.FLASH,
+            strap0: p.PC10,
+            strap1: p.PC11,
         }
     }
 }

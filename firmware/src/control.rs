@@ -3,24 +3,27 @@
 //! executor. It is the only feeder of the watchdog, the only writer of the outputs, and it
 //! never waits on anything but its ticker (the ADC wait is a bounded poll of ≈1.4 µs).
 //!
-//! Sharing: the device lives in a critical-section mutex so that the link task (thread
-//! mode) can apply host requests between two steps. The link's critical sections are one
-//! request long; the step's is one step long, which is what the DWT execution time reports.
+//! Sharing: the device lives behind a priority-ceiling lock (BASEPRI at the control loop's
+//! priority, `pam_fault_paths::ceiling`) so that the link task (thread mode) can apply host
+//! requests between two steps. The lock is held for one request or one step (what the DWT
+//! execution time reports); the E-stop's interrupt and the time driver stay above it and
+//! pre-empt both.
 //! Telemetry and fault events leave through channels with `try_send`: when the link lags
 //! (or no host is connected) samples are dropped and counted, the loop never blocks.
 
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, RawMutex};
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::channel::Channel;
 use embassy_time::{Duration, Instant, Ticker};
 use pam_control::Faults;
 use pam_device::{BoardHealth, Device, RawSensors, StepTiming};
+use pam_firmware_logic::board_revision::BoardRevision;
 use pam_firmware_logic::vdda;
-use pam_protocol::{BOARD_CHECK_ADC_DUAL, BOARD_CHECK_VDDA};
 use pam_protocol::{FaultEvent, Telemetry};
+use pam_protocol::{BOARD_CHECK_ADC_DUAL, BOARD_CHECK_OUTPUT_STAGE, BOARD_CHECK_VDDA};
 
 use crate::board;
 use crate::current_output::{CurrentLoopOutputs, CHANNELS, LOOP_MIN_MA};
@@ -30,16 +33,30 @@ use crate::load_cell_adc::LoadCellAdc;
 use crate::loop_timing::{self, CycleMeter};
 use crate::watchdog::LoopWatchdog;
 
+/// Masks the interrupts up to `board::DEVICE_LOCK_CEILING` (the control loop and everything
+/// below it) while held; the E-stop and the time driver keep running.
+pub struct DeviceLock;
+
+// SAFETY: every context that takes the lock runs at or below the ceiling, where BASEPRI
+// excludes all the others; a context above it gets a full critical section instead
+// (`with_ceiling`). Single core.
+unsafe impl RawMutex for DeviceLock {
+    const INIT: Self = DeviceLock;
+
+    fn lock<R>(&self, f: impl FnOnce() -> R) -> R {
+        pam_fault_paths::ceiling::with_ceiling(board::DEVICE_LOCK_CEILING, f)
+    }
+}
+
 /// The device service, shared with the link task. `None` only before `main` installs it.
-static DEVICE: Mutex<CriticalSectionRawMutex, RefCell<Option<Device>>> =
-    Mutex::new(RefCell::new(None));
+static DEVICE: Mutex<DeviceLock, RefCell<Option<Device>>> = Mutex::new(RefCell::new(None));
 
 /// Installs the device (once, in `main`, before the tasks start).
 pub fn install_device(device: Device) {
     DEVICE.lock(|cell| cell.replace(Some(device)));
 }
 
-/// Runs `f` on the device inside a critical section. `None` if no device is installed (or,
+/// Runs `f` on the device under the device lock. `None` if no device is installed (or,
 /// impossible with interrupts masked, if it were already borrowed): never panics.
 pub fn with_device<R>(f: impl FnOnce(&mut Device) -> R) -> Option<R> {
     DEVICE.lock(|cell| {
@@ -67,6 +84,9 @@ pub struct ControlHardware {
     pub estop: EStop,
     pub watchdog: LoopWatchdog,
     pub meter: CycleMeter,
+    /// Read from the straps at boot: a board whose outputs are not safe in reset is never
+    /// armed (`BOARD_CHECK_OUTPUT_STAGE` keeps `SELF_CHECK` raised).
+    pub board_revision: BoardRevision,
 }
 
 /// The device's period kept inside the 1–10 ms the firmware supports (the device's own
@@ -83,9 +103,13 @@ fn saturating_us(cycles: u32) -> u16 {
     (loop_timing::ns(cycles) / 1_000).min(u32::from(u16::MAX)) as u16
 }
 
-/// The board checks failing now: dual mode not set, or a VDDA measured out of range.
-fn board_checks(dual_mode_ok: bool, vdda_v: Option<f32>) -> u8 {
+/// The board checks failing now: an output stage that is not safe in reset, dual mode not
+/// set, or a VDDA measured out of range.
+fn board_checks(revision: BoardRevision, dual_mode_ok: bool, vdda_v: Option<f32>) -> u8 {
     let mut checks = 0;
+    if !revision.outputs_safe_in_reset() {
+        checks |= BOARD_CHECK_OUTPUT_STAGE;
+    }
     if !dual_mode_ok {
         checks |= BOARD_CHECK_ADC_DUAL;
     }
@@ -112,7 +136,7 @@ pub async fn control_task(mut hw: ControlHardware) {
         let adc = hw.load_cell.read();
         hw.load_cell.vdda_tick();
         let vdda_v = hw.load_cell.vdda_v();
-        let board_checks = board_checks(hw.load_cell.dual_mode_ok(), vdda_v);
+        let board_checks = board_checks(hw.board_revision, hw.load_cell.dual_mode_ok(), vdda_v);
         let open_loop = hw.outputs.poll_open_loop();
         let stopped = hw.estop.poll();
         let (loadcell_volts, saturated) = match adc {
@@ -155,12 +179,15 @@ pub async fn control_task(mut hw: ControlHardware) {
         });
 
         match &stepped {
-            // a press during the step wins over its result (the handler has vented already)
-            Some(_) if estop::tripped() => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
             Some((result, _, _)) => hw.outputs.write_ma(result.current_ma),
             // No device (cannot happen once main has run): hold the safe state.
             None => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
         };
+        // A press during the step or during the write wins over the step's result: the
+        // handler has written the safe compares already, perhaps before the write above.
+        if estop::tripped() {
+            hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]);
+        }
         hw.watchdog.feed();
         if let Some(&(_, _, overrun_fault_periods)) = stepped.as_ref() {
             hw.meter.set_overrun_fault_periods(overrun_fault_periods);

@@ -6,21 +6,23 @@
 //!   period), given at construction (the circuit's nominal law from `board`). The rig's
 //!   measured per-channel trim is `pam_protocol::OutputCalibration`, set by the host and
 //!   applied by `pam-device` before the current reaches this driver: one place for it.
-//! * Every request is clamped to 4–20 mA (NaN → 4 mA) before it reaches the timer.
+//! * Every request is clamped to 4–20 mA (NaN → 4 mA) before it reaches the timer, and no
+//!   compare value beyond `board::OUTPUT_CEILING_COMPARE` (20.5 mA, NAMUR NE43) is ever
+//!   written, whatever the law.
 //! * Open-loop detection: each XTR111 pulls its EF pin low when it cannot drive the loop
 //!   (broken wire, I/P converter unplugged, no compliance). A flag low for
 //!   `OUTPUT_ERROR_DEBOUNCE_PERIODS` consecutive reads is an open loop.
-//! * Safe state (vent): 4 mA on every channel. The compare values that give it are
-//!   published in atomics, so the panic handler can restore them with plain register
-//!   writes ([`drive_safe_from_panic`]). Before the timer is set up (reset, early boot) the
-//!   PWM pins float, the filter's pull-down holds the XTR111 input at 0 V and the loop
-//!   carries 0 mA: the I/P converters vent as well.
+//! * Safe state (vent): 4 mA on every channel. Its compare value is a constant computed by
+//!   the compiler (`board::OUTPUT_SAFE_COMPARE`), which the fault paths and the E-stop write
+//!   with plain register stores ([`drive_safe_compares`]): nothing is read from RAM. The
+//!   timer's period is set to `board::OUTPUT_PERIOD_COUNTS`, so the constant is right by
+//!   construction. Before the timer is set up (reset, early boot) the PWM pins float, the
+//!   filter's pull-down holds the XTR111 input at 0 V and the loop carries 0 mA: the I/P
+//!   converters vent as well.
 //!
 //! The law, the clamp and the debounce are `pam_firmware_logic` (host-tested). The
 //! per-period write goes straight to the compare registers (one store per channel, no
 //! assertion on the control path); the HAL does the setup.
-
-use core::sync::atomic::{AtomicU16, Ordering};
 
 use embassy_stm32::gpio::{Input, OutputType};
 use embassy_stm32::timer::low_level::CountingMode;
@@ -32,10 +34,6 @@ use pam_firmware_logic::debounce::Debounce;
 use crate::board;
 
 pub const CHANNELS: usize = 4;
-
-/// Compare values giving 4 mA on each channel, for the panic handler. 0 (0 mA, also a
-/// vent) until the driver has been set up.
-static SAFE_COMPARE: [AtomicU16; CHANNELS] = [const { AtomicU16::new(0) }; CHANNELS];
 
 /// What one write put on the loops.
 #[derive(Clone, Copy, Debug, PartialEq, defmt::Format)]
@@ -52,8 +50,6 @@ pub struct CurrentLoopOutputs {
     error_flags: [Input<'static>; CHANNELS],
     open_loop: [Debounce; CHANNELS],
     law: [ChannelLaw; CHANNELS],
-    /// Compare value of 100 % duty (= timer period in counts).
-    full_duty_counts: u16,
 }
 
 impl CurrentLoopOutputs {
@@ -69,8 +65,12 @@ impl CurrentLoopOutputs {
             board::OUTPUT_PWM_HZ,
             CountingMode::EdgeAlignedUp,
         );
-        // A 16-bit timer's period always fits (8500 counts at 20 kHz).
-        let full_duty_counts = pwm.max_duty_cycle().min(u32::from(u16::MAX)) as u16;
+        // The period the compare constants assume (the HAL's choice for 20 kHz at 170 MHz,
+        // written again so that it cannot differ).
+        let regs = board::OUTPUT_TIMER_REGS;
+        regs.psc().write_value(0);
+        regs.arr()
+            .write(|w| w.set_arr(board::OUTPUT_PERIOD_COUNTS - 1));
         let pull = board::OUTPUT_ERROR_FLAG_PULL;
         let mut this = Self {
             error_flags: [
@@ -87,15 +87,8 @@ impl CurrentLoopOutputs {
                     board::output_nominal_law()
                 }
             }),
-            full_duty_counts,
             pwm,
         };
-        for (c, slot) in SAFE_COMPARE.iter().enumerate() {
-            slot.store(
-                this.law[c].compare(LOOP_MIN_MA, full_duty_counts),
-                Ordering::Relaxed,
-            );
-        }
         this.write_ma([LOOP_MIN_MA; CHANNELS]);
         // The compares are preloaded: force an update so the 4 mA values are live before
         // the pins start driving.
@@ -116,7 +109,9 @@ impl CurrentLoopOutputs {
             let (ma, changed) = clamp_loop_ma(request);
             clamped |= changed;
             applied[c] = ma;
-            let compare = law.compare(ma, self.full_duty_counts);
+            let compare = law
+                .compare(ma, board::OUTPUT_PERIOD_COUNTS)
+                .min(board::OUTPUT_CEILING_COMPARE);
             board::OUTPUT_TIMER_REGS
                 .ccr(c)
                 .write(|w| w.set_ccr(compare));
@@ -143,13 +138,21 @@ impl CurrentLoopOutputs {
     }
 }
 
-/// Puts every channel back to its 4 mA compare value with plain register stores: no lock,
-/// no allocation, nothing that another context could be holding. For the panic handler.
-pub fn drive_safe_from_panic() {
-    for (c, slot) in SAFE_COMPARE.iter().enumerate() {
-        let compare = slot.load(Ordering::Relaxed);
+/// Puts every channel at the vent current's compare value, a constant: plain register
+/// stores, no lock, no RAM read, nothing another context could be holding. For the E-stop's
+/// interrupt and the fault paths.
+pub fn drive_safe_compares() {
+    for c in 0..CHANNELS {
         board::OUTPUT_TIMER_REGS
             .ccr(c)
-            .write(|w| w.set_ccr(compare));
+            .write(|w| w.set_ccr(board::OUTPUT_SAFE_COMPARE));
     }
+}
+
+/// OUT_EN# high: the output buffers off, the loops at 0 mA on the revised board. For the
+/// fault paths, which end in a reset (after which the board's pull-up holds it high).
+pub fn disable_output_stage() {
+    board::OUTPUT_ENABLE_PORT
+        .bsrr()
+        .write(|w| w.set_bs(board::OUTPUT_ENABLE_PIN, true));
 }

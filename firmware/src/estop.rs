@@ -1,10 +1,14 @@
 //! The emergency-stop input. The button's normally-closed contact holds PB0 at ground; a
 //! press (or a cut wire) lets the pull-up take it high. The rising edge interrupts on EXTI0
-//! above the control loop: the handler writes the 4 mA compares at once (the same plain
-//! stores as the panic handler) and latches. The control task then raises `Faults::ESTOP`
-//! every period while the latch or the pin says so, so the device stays vented until the
-//! button is released and the host clears the fault. In hardware the same contact disables
-//! the XTR111 outputs without the MCU (docs/output-stage.md); this is the software half.
+//! at a priority above the device lock's ceiling (`board::DEVICE_LOCK_CEILING`, a BASEPRI
+//! lock, not a critical section): the handler pre-empts a control step or a host request in
+//! progress and writes the 4 mA compares at once (constants, the same plain stores as the
+//! fault paths), then latches. The control task writes its outputs and then looks at the
+//! latch again, so a press during a step is never overwritten by that step's result; it
+//! raises `Faults::ESTOP` every period while the latch or the pin says so, so the device
+//! stays vented until the button is released and the host clears the fault. In hardware the
+//! same contact disables the XTR111 outputs without the MCU (docs/output-stage.md); this is
+//! the software half.
 
 use core::sync::atomic::{AtomicBool, Ordering};
 
@@ -23,12 +27,12 @@ use crate::current_output;
 static TRIPPED: AtomicBool = AtomicBool::new(false);
 
 fn trip() {
-    current_output::drive_safe_from_panic();
+    current_output::drive_safe_compares();
     TRIPPED.store(true, Ordering::Release);
 }
 
-/// The stop has tripped since the control task last looked (read just before the outputs
-/// are written, so that a press during a step still wins).
+/// The stop has tripped since the control task last looked (read after the outputs are
+/// written, so that a press during a step still wins).
 pub fn tripped() -> bool {
     TRIPPED.load(Ordering::Acquire)
 }

@@ -22,10 +22,10 @@ mod control;
 mod current_output;
 mod encoder;
 mod estop;
+mod fault_board;
 mod link;
 mod load_cell_adc;
 mod loop_timing;
-mod panic;
 mod watchdog;
 
 use core::sync::atomic::Ordering;
@@ -34,7 +34,7 @@ use cortex_m_rt::entry;
 use defmt::{info, unwrap, warn};
 use defmt_rtt as _;
 use embassy_executor::{Executor, InterruptExecutor};
-use embassy_stm32::gpio::{Level, Output, Speed};
+use embassy_stm32::gpio::{Input, Level, Output, Speed};
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::InterruptExt;
 use embassy_stm32::usb::Driver;
@@ -42,6 +42,7 @@ use embassy_time::Timer;
 use embassy_usb::class::cdc_acm::{CdcAcmClass, State};
 use pam_control::{Faults, SafetyConfig};
 use pam_device::{BoardHealth, Device, DeviceOptions};
+use pam_firmware_logic::board_revision::BoardRevision;
 use pam_model::RobotParams;
 use pam_protocol::Version;
 use static_cell::StaticCell;
@@ -100,14 +101,14 @@ async fn heartbeat(mut led: Output<'static>) {
 async fn status_log() {
     loop {
         Timer::after_secs(1).await;
-        let stack = panic::stack_usage();
+        let stack = fault_board::stack_usage();
         control::with_device(|d| {
             if stack.free_min_bytes() < board::STACK_MIN_FREE_BYTES {
                 d.raise(Faults::STACK_LOW);
             }
             // for `pamctl status`
             d.set_board_health(BoardHealth {
-                stack: Some(stack.into()),
+                stack: Some(fault_board::wire_stack(stack)),
                 ..d.board_health()
             });
         });
@@ -129,31 +130,50 @@ async fn status_log() {
     }
 }
 
+/// The interface board's revision from its straps (pull-ups; read once, then released).
+fn read_board_revision(
+    strap0: embassy_stm32::Peri<'static, embassy_stm32::peripherals::PC10>,
+    strap1: embassy_stm32::Peri<'static, embassy_stm32::peripherals::PC11>,
+) -> BoardRevision {
+    let s0 = Input::new(strap0, board::BOARD_STRAP_PULL);
+    let s1 = Input::new(strap1, board::BOARD_STRAP_PULL);
+    // the pull-ups charge the pins' capacitance in well under a microsecond
+    cortex_m::asm::delay(1_000);
+    BoardRevision::from_straps(s0.is_high(), s1.is_high())
+}
+
 #[entry]
 fn main() -> ! {
     // Before anything can reset again: why did the last reset happen, and did a CPU fault
     // handler leave a record?
     let reset_cause = ResetCause::take();
-    let cpu_fault = panic::FaultRecord::take();
+    let cpu_fault = fault_board::take_fault_record();
     let mut core = unwrap!(cortex_m::Peripherals::take());
-    panic::enable_fault_exceptions(&mut core.SCB);
-    let stack_guard = panic::enable_stack_guard(&mut core.MPU);
+    fault_board::enable_fault_exceptions(&mut core.SCB);
+    let stack_guard = fault_board::enable_stack_guard(&mut core.MPU, board::STACK_MIN_FREE_BYTES);
     let board = Board::new(embassy_stm32::init(board::clock_config()));
 
     // Outputs first: from here the loops carry 4 mA (vent) until the controller says more.
     let outputs = CurrentLoopOutputs::new(board.outputs, [board::output_nominal_law(); CHANNELS]);
     // the buffers drive VIN only from here on, at the 4 mA compare (revised output stage;
-    // on the first board /OE is tied low and the pin is unconnected). Never dropped.
+    // on the first board /OE is tied low and the pin is unconnected). Never dropped; the
+    // fault paths set it high with a plain store.
     core::mem::forget(Output::new(board.output_enable, Level::Low, Speed::Low));
     // the stop's handler writes the outputs' safe compares: after they exist
     let estop = estop::EStop::new(board.estop);
-    panic::paint_stack();
+    let board_revision = read_board_revision(board.strap0, board.strap1);
+    fault_board::paint_stack();
     info!(
-        "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}, stack guard {}",
+        "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}, stack guard {}, board revision {} (outputs safe in reset: {})",
         env!("CARGO_PKG_VERSION"),
         reset_cause,
-        stack_guard
+        stack_guard,
+        board_revision.number(),
+        board_revision.outputs_safe_in_reset()
     );
+    if !board_revision.outputs_safe_in_reset() {
+        warn!("this board's output stage can drive current while the MCU is in reset: arming refused (SELF_CHECK, board check OUTPUT_STAGE)");
+    }
 
     let encoder1 = QuadratureEncoder::new(
         board.encoder1.timer,
@@ -191,12 +211,16 @@ fn main() -> ! {
     }
     if let Some(record) = cpu_fault {
         warn!(
-            "the last run ended in a CPU fault: latched CPU_FAULT ({})",
-            record
+            "the last run ended in a fault path: latched CPU_FAULT ({=str}, pc {=u32:#010x}, cfsr {=u32:#010x}, hfsr {=u32:#010x}, address {=u32:#010x})",
+            record.kind.name(),
+            record.pc,
+            record.cfsr,
+            record.hfsr,
+            record.address
         );
         device.raise(Faults::CPU_FAULT);
         device.set_board_health(BoardHealth {
-            last_cpu_fault: Some(record.into()),
+            last_cpu_fault: fault_board::wire_record(record),
             ..device.board_health()
         });
     }
@@ -241,6 +265,7 @@ fn main() -> ! {
         estop,
         watchdog,
         meter,
+        board_revision,
     };
 
     board::CONTROL_IRQ.set_priority(board::CONTROL_PRIORITY);

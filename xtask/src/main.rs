@@ -1,7 +1,9 @@
 //! `cargo xtask <command>`: the project's jobs, with no dependency beyond cargo.
 //!
-//! - `test`        every test: host suite, then the model checks on the Cortex-M4F in QEMU.
-//!   Prints `host: N passed, M failed` and `qemu: N passed, M failed`.
+//! - `test`        every test: host suite, then the model checks and the firmware's fault
+//!   paths on the Cortex-M4F in QEMU. Prints `host: N passed, M failed` and
+//!   `qemu: N passed, M failed`.
+//! - `qemu-fault-paths` only the firmware's fault paths in QEMU (part of `test`).
 //! - `qemu-bench`  instruction counts and f32-vs-f64 precision on the Cortex-M4F, with libm
 //!   and with micromath.
 //! - `bench`       criterion benchmarks on the host.
@@ -25,12 +27,16 @@ fn main() {
     let code = match args.first().map(String::as_str) {
         Some("test") => test(),
         Some("qemu-bench") => qemu_bench(),
+        Some("qemu-fault-paths") => match qemu_fault_paths() {
+            (p, 0) if p > 0 => 0,
+            _ => 1,
+        },
         Some("firmware") => firmware().map(|_| 0).unwrap_or(1),
         Some("bench") => run_status(cargo_in(&root()).args(["bench", "-p", "pam-model"])),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("soak") => soak(&args[1..]),
         _ => {
-            eprintln!("usage: cargo xtask <test | qemu-bench | bench | firmware | fuzz | soak>");
+            eprintln!("usage: cargo xtask <test | qemu-fault-paths | qemu-bench | bench | firmware | fuzz | soak>");
             2
         }
     };
@@ -175,8 +181,65 @@ fn ensure_debian_tool(binary: &str, package: &str, needed_for: &str) -> bool {
 /// Builds and runs the model checks in QEMU; returns (exit code, lines).
 fn run_qemu(features: &[&str]) -> (i32, Vec<String>) {
     let mut cmd = cargo_in(&root().join("qemu-tests"));
-    cmd.args(["run", "--release", "--quiet"]).args(features);
+    cmd.args(["run", "--release", "--quiet", "--bin", "pam-qemu-tests"])
+        .args(features);
     run_streaming(&mut cmd)
+}
+
+/// How long the fault-path run may take: a few seconds normally; a fault path that never
+/// resets the machine would otherwise hang QEMU forever.
+const FAULT_PATHS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
+
+/// Builds and runs the firmware's fault paths in QEMU (`qemu-tests/src/bin/fault_paths.rs`:
+/// several boots through faults and watchdog resets); returns (passed, failed). A build
+/// failure, a crash, a missing summary or a run past [`FAULT_PATHS_TIMEOUT`] counts as a
+/// failure.
+fn qemu_fault_paths() -> (u64, u64) {
+    let dir = root().join("qemu-tests");
+    if run_status(cargo_in(&dir).args(["build", "--release", "--quiet", "--bin", "fault_paths"]))
+        != 0
+    {
+        eprintln!("xtask: the fault-path tests did not build");
+        return (0, 1);
+    }
+    let mut cmd = cargo_in(&dir);
+    cmd.args(["run", "--release", "--quiet", "--bin", "fault_paths"]);
+    let mut child = match cmd.stdout(Stdio::piped()).spawn() {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("xtask: could not start the fault-path tests: {e}");
+            return (0, 1);
+        }
+    };
+    let stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut lines = Vec::new();
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            println!("{line}");
+            lines.push(line);
+        }
+        lines
+    });
+    let started = std::time::Instant::now();
+    let code = loop {
+        match child.try_wait() {
+            Ok(Some(status)) => break status.code().unwrap_or(1),
+            Ok(None) if started.elapsed() > FAULT_PATHS_TIMEOUT => {
+                eprintln!("xtask: the fault-path tests ran past {FAULT_PATHS_TIMEOUT:?}: stopped");
+                let _ = child.kill();
+                let _ = child.wait();
+                break 1;
+            }
+            Ok(None) => std::thread::sleep(std::time::Duration::from_millis(100)),
+            Err(_) => break 1,
+        }
+    };
+    let lines = reader.join().unwrap_or_default();
+    match qemu_counts(&lines) {
+        Some((p, f)) if code == 0 || f > 0 => (p, f),
+        Some((p, _)) => (p, 1),
+        None => (0, 1),
+    }
 }
 
 fn qemu_counts(lines: &[String]) -> Option<(u64, u64)> {
@@ -200,7 +263,7 @@ fn test() -> i32 {
     }
 
     println!("== qemu: model checks on Cortex-M4F (mps2-an386)");
-    let (qemu_passed, qemu_failed) = if ensure_qemu() {
+    let (mut qemu_passed, mut qemu_failed) = if ensure_qemu() {
         let (code, lines) = run_qemu(&[]);
         match qemu_counts(&lines) {
             Some((p, f)) if code == 0 || f > 0 => (p, f),
@@ -210,6 +273,14 @@ fn test() -> i32 {
     } else {
         (0, 1)
     };
+    println!("== qemu: the firmware's fault paths on Cortex-M4 (mps2-an386)");
+    let (fault_passed, fault_failed) = if ensure_qemu() {
+        qemu_fault_paths()
+    } else {
+        (0, 1)
+    };
+    qemu_passed += fault_passed;
+    qemu_failed += fault_failed;
 
     println!("== firmware: release build for the NUCLEO-G474RE");
     let firmware_ok = firmware().is_ok();

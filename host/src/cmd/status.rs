@@ -4,7 +4,7 @@ use crate::LinkArgs;
 use pam_control::{Mode, State};
 use pam_protocol::{
     ConfigOrigin, CpuFaultKind, ReplyData, RequestBody, Status, Telemetry, BOARD_CHECK_ADC_DUAL,
-    BOARD_CHECK_VDDA,
+    BOARD_CHECK_OUTPUT_STAGE, BOARD_CHECK_VDDA,
 };
 use std::io::Write;
 use std::time::Duration;
@@ -157,7 +157,10 @@ pub fn describe_board(s: &Status) -> Vec<String> {
     if s.board_checks & BOARD_CHECK_ADC_DUAL != 0 {
         checks.push("ADC dual mode not set");
     }
-    if s.board_checks & !(BOARD_CHECK_VDDA | BOARD_CHECK_ADC_DUAL) != 0 {
+    if s.board_checks & BOARD_CHECK_OUTPUT_STAGE != 0 {
+        checks.push("output stage not safe in reset (board revision)");
+    }
+    if s.board_checks & !(BOARD_CHECK_VDDA | BOARD_CHECK_ADC_DUAL | BOARD_CHECK_OUTPUT_STAGE) != 0 {
         checks.push("unknown");
     }
     if !checks.is_empty() {

@@ -3,6 +3,30 @@
 
 pub const LOOP_MIN_MA: f32 = 4.0;
 pub const LOOP_MAX_MA: f32 = 20.0;
+/// The most the output stage may ever be driven to, whatever law or request: NAMUR NE43
+/// reserves loop currents above 21 mA for signalling a failure, and 20.5 mA leaves room for
+/// the stage's tolerance (reference 0.2 %, R_SET 0.1 %: 20.56 mA at worst).
+pub const LOOP_CEILING_MA: f32 = 20.5;
+
+/// Compare value (rounded) of a loop current on a stage that delivers `full_scale_ma` at
+/// 100 % duty and 0 mA at 0 %, with `period_counts` counts per PWM period. A `const fn`, so
+/// the safe state's compare values are constants in flash, not values read from RAM.
+pub const fn nominal_counts(current_ma: f32, full_scale_ma: f32, period_counts: u16) -> u16 {
+    let counts = current_ma / full_scale_ma * period_counts as f32 + 0.5;
+    // `as` saturates: negative and NaN give 0 (0 mA, a vent as well)
+    counts as u16
+}
+
+/// The largest compare value allowed on such a stage: [`LOOP_CEILING_MA`], rounded down,
+/// and never beyond the period.
+pub const fn ceiling_counts(full_scale_ma: f32, period_counts: u16) -> u16 {
+    let counts = (LOOP_CEILING_MA / full_scale_ma * period_counts as f32) as u16;
+    if counts < period_counts {
+        counts
+    } else {
+        period_counts
+    }
+}
 
 /// mA → duty law of one output stage: duty = `duty_per_ma` · I + `duty_offset` (fractions
 /// of the PWM period).
@@ -105,6 +129,27 @@ mod tests {
             duty_offset: 0.0,
         };
         assert_eq!(broken.compare(12.0, PERIOD), 0);
+    }
+
+    #[test]
+    fn the_safe_and_the_ceiling_compares_are_constants_of_the_stage() {
+        const SAFE: u16 = nominal_counts(LOOP_MIN_MA, FULL_SCALE_MA, PERIOD);
+        const CEILING: u16 = ceiling_counts(FULL_SCALE_MA, PERIOD);
+        // the same 4 mA compare as the law's
+        assert_eq!(
+            SAFE,
+            ChannelLaw::proportional(FULL_SCALE_MA).compare(4.0, PERIOD)
+        );
+        assert_eq!(SAFE, 1405);
+        // NAMUR NE43: the full scale (24.19 mA at 100 % duty) is cut to ≤ 20.5 mA
+        let ceiling_ma = f32::from(CEILING) * FULL_SCALE_MA / f32::from(PERIOD);
+        assert!(ceiling_ma <= LOOP_CEILING_MA && ceiling_ma > LOOP_CEILING_MA - 0.003);
+        assert!(ceiling_ma * 1.003 < 21.0);
+        // 20 mA stays reachable
+        assert!(CEILING > nominal_counts(LOOP_MAX_MA, FULL_SCALE_MA, PERIOD));
+        // a stage whose full scale is below the ceiling is held at the period
+        assert_eq!(ceiling_counts(10.0, PERIOD), PERIOD);
+        assert_eq!(nominal_counts(f32::NAN, FULL_SCALE_MA, PERIOD), 0);
     }
 
     #[test]

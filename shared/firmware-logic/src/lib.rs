@@ -5,9 +5,11 @@
 #![forbid(unsafe_code)]
 
 pub mod adc_scale;
+pub mod board_revision;
 pub mod counter;
 pub mod current_loop;
 pub mod cycle_stats;
 pub mod debounce;
+pub mod nmi;
 pub mod stack_guard;
 pub mod vdda;

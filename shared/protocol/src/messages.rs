@@ -244,6 +244,10 @@ wire_struct! {
 pub const BOARD_CHECK_VDDA: u8 = 1 << 0;
 /// [`Status::board_checks`]: ADC1/ADC2 dual mode did not read back as set.
 pub const BOARD_CHECK_ADC_DUAL: u8 = 1 << 1;
+/// [`Status::board_checks`]: the interface board's output stage can drive current while
+/// the MCU is in reset (the first revision, or a board that does not identify itself):
+/// arming is refused on it.
+pub const BOARD_CHECK_OUTPUT_STAGE: u8 = 1 << 2;
 
 wire_enum! {
     /// Where the configuration in use came from. Every `Defaults…` is the thesis's values;
