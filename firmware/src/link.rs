@@ -17,6 +17,7 @@ use embassy_sync::channel::Channel;
 use embassy_usb::class::cdc_acm::{CdcAcmClass, Receiver, Sender};
 use embassy_usb::driver::EndpointError;
 use embassy_usb::UsbDevice;
+use pam_control::Faults;
 use pam_protocol::{encode_frame, DeviceMessage, FrameDecoder, Reply, Request, MAX_FRAME};
 
 use crate::board::UsbPeripheral;
@@ -43,10 +44,7 @@ pub async fn usb_task(mut usb: UsbDevice<'static, UsbDriver>) -> ! {
 
 /// Serves one host session after another.
 #[embassy_executor::task]
-pub async fn link_task(
-    class: CdcAcmClass<'static, UsbDriver>,
-    mut store: Option<Store>,
-) -> ! {
+pub async fn link_task(class: CdcAcmClass<'static, UsbDriver>, mut store: Option<Store>) -> ! {
     let (mut tx, mut rx) = class.split();
     loop {
         rx.wait_connection().await;
@@ -83,7 +81,17 @@ async fn read_requests(
                     Ok(request) => config_flash::handle(store.as_deref_mut(), request),
                     Err(_) => None,
                 }
-                .or_else(|| with_device(|device| device.handle_frame(frame)));
+                .or_else(|| {
+                    with_device(|device| {
+                        // A failing board check (an output stage unsafe in reset, …) is
+                        // latched again before every request: a `clear` followed by `arm`
+                        // between two control steps cannot arm such a board.
+                        if device.board_health().board_checks != 0 {
+                            device.raise(Faults::SELF_CHECK);
+                        }
+                        device.handle_frame(frame)
+                    })
+                });
                 if let Some(reply) = reply {
                     REPLIES.send(reply).await;
                 }

@@ -224,6 +224,14 @@ fn main() -> ! {
             ..device.board_health()
         });
     }
+    if !board_revision.outputs_safe_in_reset() {
+        // from the first request on, not only from the first control step
+        device.set_board_health(BoardHealth {
+            board_checks: pam_protocol::BOARD_CHECK_OUTPUT_STAGE,
+            ..device.board_health()
+        });
+        device.raise(Faults::SELF_CHECK);
+    }
     let period_us = device.period_us();
     control::install_device(device);
 

@@ -240,7 +240,7 @@ fn main() -> ! {
     let per_step = (step_ticks.saturating_sub(heartbeat_ticks)) as f32 * insn_per_tick / n;
     let armed_through_bench = dev.controller().state() == State::Armed;
     hprintln!("bench control step (pam-device: raw counts/volts in -> output currents out, force mode + feed-forward + supervisor + telemetry), f32/{}: {:.0} instructions per step; state {:?}, faults {:#x}", math, per_step, dev.controller().state(), dev.controller().faults().0);
-    // The same step in closed-loop force mode (issue 14): reference model, converter-inverse
+    // The same step in closed-loop force mode: reference model, converter-inverse
     // feed-forward, PID with anti-windup, guard, then the gain plane and the same force path.
     // The target is near the dithering load cell's reading so the guard stays quiet (a
     // faulted device would take the short path).
@@ -320,7 +320,7 @@ fn main() -> ! {
         failed += 1;
         hprintln!("FAIL bench: the device left the armed state during the impedance benchmark");
     }
-    // issue 4/14 budget of one control step
+    // the budget of one control step
     const STEP_BUDGET_INSTRUCTIONS: f32 = 5000.0;
     if per_step_cl > STEP_BUDGET_INSTRUCTIONS
         || per_step > STEP_BUDGET_INSTRUCTIONS

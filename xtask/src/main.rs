@@ -342,7 +342,7 @@ fn qemu_bench() -> i32 {
     0
 }
 
-/// Flash and static-RAM budget of the firmware (issue 4).
+/// Flash and static-RAM budget of the firmware.
 const FLASH_LIMIT_BYTES: u64 = 128 * 1024;
 const RAM_LIMIT_BYTES: u64 = 32 * 1024;
 
