@@ -98,7 +98,6 @@ pub fn enable_fault_exceptions(scb: &mut SCB) {
 }
 
 /// Flash double-bit ECC errors in the configuration pages seen (and survived) since boot.
-#[allow(dead_code)]
 pub fn tolerated_ecc_errors() -> u32 {
     pam_fault_paths::tolerated_ecc_errors()
 }

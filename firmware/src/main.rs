@@ -115,7 +115,7 @@ async fn status_log() {
         let t = loop_timing::snapshot();
         let state = control::with_device(|d| (d.controller().state(), d.controller().faults().0));
         info!(
-            "loop: {} cycles, exec {} ns (max {}), jitter max {} ns, overruns {}; stack {} of {} B used (max); telemetry dropped {}, fault events dropped {}; state {}",
+            "loop: {} cycles, exec {} ns (max {}), jitter max {} ns, overruns {}; stack {} of {} B used (max); telemetry dropped {}, fault events dropped {}; config-page ECC errors survived {}; state {}",
             t.cycles,
             loop_timing::ns(t.exec_last_cycles),
             loop_timing::ns(t.exec_max_cycles),
@@ -125,6 +125,7 @@ async fn status_log() {
             stack.size_bytes,
             TELEMETRY_DROPPED.load(Ordering::Relaxed),
             FAULT_EVENTS_DROPPED.load(Ordering::Relaxed),
+            fault_board::tolerated_ecc_errors(),
             state.map(|(s, f)| (s as u8, f)),
         );
     }

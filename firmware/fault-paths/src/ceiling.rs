@@ -11,9 +11,9 @@ use core::sync::atomic::{compiler_fence, Ordering};
 
 use cortex_m::register::{basepri, basepri_max};
 
-/// The priority byte of the running exception, `None` in thread mode. Negative priorities
-/// (NMI, HardFault) are below every byte: `Some(0)` would understate them, so they are
-/// reported as `Some(0)` too, which is above any ceiling the lock accepts (≥ 1).
+/// The priority byte of the running exception, `None` in thread mode. NMI and HardFault
+/// (fixed negative priorities, more urgent than any byte) are reported as 0, the most
+/// urgent byte, which is above every ceiling the lock accepts (≥ 1).
 fn running_priority() -> Option<u8> {
     let exception = cortex_m::peripheral::SCB::vect_active();
     use cortex_m::peripheral::scb::VectActive;

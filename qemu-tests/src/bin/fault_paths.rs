@@ -14,6 +14,10 @@
 //! 3. an NMI with a double-bit ECC error in the program's flash;
 //! 4. an NMI with no ECC error (any other source);
 //! 5. an interrupt without a handler;
+//! 6. an undefined instruction (UsageFault: the record holds its address);
+//! 7. the same with UsageFault disabled (escalated to HardFault);
+//! 8. a stack overflow with MemManage disabled (HardFault with the stack pointer in the
+//!    guard: the handler runs on its own stack);
 //!
 //! and the last boot prints `qemu: N passed, M failed` and exits through semihosting.
 #![no_std]
@@ -326,12 +330,36 @@ fn pend_nmi() {
     cortex_m::asm::isb();
 }
 
+// An undefined instruction at a known address (the stacked PC of its fault).
+core::arch::global_asm!(
+    ".pushsection .text.pam_test_udf,\"ax\",%progbits",
+    ".global pam_test_udf",
+    ".type pam_test_udf,%function",
+    ".thumb_func",
+    "pam_test_udf:",
+    "udf #0",
+    "bx lr",
+    ".popsection",
+);
+extern "C" {
+    fn pam_test_udf();
+}
+
+fn udf_address() -> u32 {
+    (pam_test_udf as *const () as u32) & !1
+}
+
 #[inline(never)]
 #[allow(unconditional_recursion)]
 fn recurse(depth: u32) -> u32 {
     let frame = [depth; 32];
     black_box(&frame);
     recurse(black_box(depth + 1)).wrapping_add(frame[7])
+}
+
+fn in_guard(record: Option<FaultRecord>) -> bool {
+    pam_fault_paths::guard::guard_bounds()
+        .is_some_and(|(base, floor)| record.is_some_and(|r| r.address >= base && r.address < floor))
 }
 
 fn next_stage(stage: u32) {
@@ -379,7 +407,7 @@ fn main() -> ! {
     core.SCB.enable(Exception::MemoryManagement);
     core.SCB.enable(Exception::BusFault);
     core.SCB.enable(Exception::UsageFault);
-    if get!(boots) > 8 {
+    if get!(boots) > 12 {
         check("the fault sequence ends", false);
         finish();
     }
@@ -419,10 +447,7 @@ fn main() -> ! {
                 record,
                 &[FaultKind::MemManage, FaultKind::HardFault],
             );
-            let in_guard = pam_fault_paths::guard::guard_bounds().is_some_and(|(base, floor)| {
-                record.is_some_and(|r| r.address >= base && r.address < floor)
-            });
-            check("the record names an address in the guard", in_guard);
+            check("the record names an address in the guard", in_guard(record));
             next_stage(2);
             set!(panic_line, line!() + 1);
             panic!("a deliberate panic");
@@ -474,6 +499,44 @@ fn main() -> ! {
                 "the record holds the IRQ number",
                 record.is_some_and(|r| r.address == 5),
             );
+            next_stage(6);
+            hprintln!("     an undefined instruction at {:#010x}", udf_address());
+            // SAFETY: faults; the fault path never returns
+            unsafe { pam_test_udf() };
+        }
+        6 => {
+            check_after_reset("UsageFault", record, &[FaultKind::UsageFault]);
+            check(
+                "the record holds the faulting instruction's address (stacked PC) and UNDEFINSTR",
+                record.is_some_and(|r| r.pc == udf_address() && r.cfsr & (1 << 16) != 0),
+            );
+            next_stage(7);
+            hprintln!("     the same with UsageFault disabled: escalated to HardFault");
+            core.SCB.disable(Exception::UsageFault);
+            // SAFETY: as above
+            unsafe { pam_test_udf() };
+        }
+        7 => {
+            check_after_reset("HardFault", record, &[FaultKind::HardFault]);
+            check(
+                "the record holds the stacked PC and HFSR.FORCED",
+                record.is_some_and(|r| r.pc == udf_address() && r.hfsr & (1 << 30) != 0),
+            );
+            let guard = pam_fault_paths::guard::enable_stack_guard(&mut core.MPU, 8 * 1024);
+            next_stage(8);
+            core.SCB.disable(Exception::MemoryManagement);
+            hprintln!("     stack overflow with MemManage disabled");
+            if guard {
+                black_box(recurse(0));
+            }
+        }
+        8 => {
+            check_after_reset(
+                "stack overflow (HardFault)",
+                record,
+                &[FaultKind::HardFault],
+            );
+            check("the record names an address in the guard", in_guard(record));
             finish();
         }
         _ => {
