@@ -9,22 +9,21 @@
 
 use core::sync::atomic::{compiler_fence, Ordering};
 
+use cortex_m::peripheral::scb::{Exception, VectActive};
+use cortex_m::peripheral::{NVIC, SCB};
 use cortex_m::register::{basepri, basepri_max};
 
 /// The priority byte of the running exception, `None` in thread mode. NMI and HardFault
 /// (fixed negative priorities, more urgent than any byte) are reported as 0, the most
 /// urgent byte, which is above every ceiling the lock accepts (≥ 1).
 fn running_priority() -> Option<u8> {
-    let exception = cortex_m::peripheral::SCB::vect_active();
-    use cortex_m::peripheral::scb::VectActive;
-    match exception {
+    match SCB::vect_active() {
         VectActive::ThreadMode => None,
         VectActive::Exception(e) => match e {
-            cortex_m::peripheral::scb::Exception::NonMaskableInt
-            | cortex_m::peripheral::scb::Exception::HardFault => Some(0),
+            Exception::NonMaskableInt | Exception::HardFault => Some(0),
             other => {
                 // SAFETY: a read of the SCB's SHPR bytes at their fixed address
-                let scb = unsafe { &*cortex_m::peripheral::SCB::PTR };
+                let scb = unsafe { &*SCB::PTR };
                 let index = match other.irqn() {
                     // SHPR1..3 hold exceptions 4..15 (irqn −12..−1)
                     n if n < 0 => (n + 12) as usize,
@@ -35,17 +34,19 @@ fn running_priority() -> Option<u8> {
         },
         VectActive::Interrupt { irqn } => {
             // SAFETY: a read of one NVIC priority byte at its fixed address
-            let nvic = unsafe { &*cortex_m::peripheral::NVIC::PTR };
+            let nvic = unsafe { &*NVIC::PTR };
             Some(nvic.ipr[usize::from(irqn)].read())
         }
     }
 }
 
 /// Runs `f` with every interrupt whose priority byte is `ceiling` or larger (as urgent or
-/// less) masked. `ceiling` must be non-zero (BASEPRI = 0 masks nothing).
+/// less) masked. A ceiling of 0 (BASEPRI = 0 masks nothing) gives a critical section.
 pub fn with_ceiling<R>(ceiling: u8, f: impl FnOnce() -> R) -> R {
     match running_priority() {
-        // more urgent than the ceiling: BASEPRI cannot exclude this context's equals
+        _ if ceiling == 0 => cortex_m::interrupt::free(|_| f()),
+        // more urgent than the ceiling: contexts more urgent still could pre-empt it, and
+        // BASEPRI at the ceiling would not keep them out
         Some(p) if p < ceiling => cortex_m::interrupt::free(|_| f()),
         _ => {
             let before = basepri::read();
