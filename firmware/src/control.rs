@@ -179,12 +179,14 @@ pub async fn control_task(mut hw: ControlHardware) {
         });
 
         match &stepped {
+            // a press during the step wins over its result (the handler has vented already)
+            Some(_) if estop::tripped() => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
             Some((result, _, _)) => hw.outputs.write_ma(result.current_ma),
             // No device (cannot happen once main has run): hold the safe state.
             None => hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]),
         };
-        // A press during the step or during the write wins over the step's result: the
-        // handler has written the safe compares already, perhaps before the write above.
+        // A press during the write above may have been overwritten by it: look again (the
+        // compares are preloaded, so within a PWM period the loops never see the result).
         if estop::tripped() {
             hw.outputs.write_ma([LOOP_MIN_MA; CHANNELS]);
         }
