@@ -96,6 +96,16 @@ fn check_messages(what: &str, datagrams: &[(Instant, Vec<u8>)]) -> Vec<Value> {
     messages
 }
 
+/// The curve names of the saved layout (`<curve name="/alpha_deg/j1" …/>`).
+fn layout_curves() -> Vec<String> {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/plotjuggler.xml");
+    let xml = std::fs::read_to_string(path).expect("docs/plotjuggler.xml");
+    xml.split("<curve name=\"")
+        .skip(1)
+        .map(|rest| rest.split('"').next().unwrap_or_default().to_string())
+        .collect()
+}
+
 /// Messages per second by their timestamps (the device's clock).
 fn rate_by_timestamp(m: &[Value]) -> f64 {
     let first = m[0]["timestamp"].as_f64().unwrap();
@@ -159,6 +169,17 @@ fn watch_and_record_stream_plotjuggler_json_at_the_asked_rate() {
     assert!(messages
         .iter()
         .all(|m| m["state"] == 0.0 && m["faults"] == 0));
+    // every curve of the saved layout is a series of the stream (the force target only
+    // exists in the force modes)
+    let curves = layout_curves();
+    assert!(curves.len() >= 16, "layout: {curves:?}");
+    for c in &curves {
+        assert!(
+            messages[0].pointer(c).is_some() || c.starts_with("/force_ref_n/"),
+            "layout curve {c} is not in the stream: {}",
+            messages[0]
+        );
+    }
     let last_watch_ts = messages.last().unwrap()["timestamp"].as_f64().unwrap();
 
     // record: 1 s at 50 Hz; the log keeps every sample
