@@ -31,7 +31,7 @@ pub const MAX_DATAGRAM_BYTES: usize = 2048;
 #[derive(Args, Debug, Clone, Default)]
 pub struct PlotJugglerArgs {
     /// Also stream the telemetry to PlotJuggler's UDP Server (JSON) at HOST:PORT, e.g.
-    /// 127.0.0.1:9870 (docs/plotjuggler.md).
+    /// 127.0.0.1:9870 (docs/bring-up.md, live plots).
     #[arg(long, value_name = "HOST:PORT")]
     pub plotjuggler: Option<String>,
     /// Samples per second sent to PlotJuggler (decimated on the device's clock).
