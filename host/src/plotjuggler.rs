@@ -128,10 +128,15 @@ fn unix_now_s() -> f64 {
         .unwrap_or(0.0)
 }
 
-/// A number for JSON; a non-finite value (never sent by a sane device) is 0, as in the log.
+/// A number for JSON, with the f32's shortest decimal form (0.1, not 0.10000000149011612);
+/// a non-finite value (never sent by a sane device) is 0, as in the log.
 fn num(x: f32) -> Value {
-    let x = x as f64;
-    json!(if x.is_finite() { x } else { 0.0 })
+    let x: f64 = if x.is_finite() {
+        x.to_string().parse().unwrap_or(0.0)
+    } else {
+        0.0
+    };
+    json!(x)
 }
 
 fn channels(prefix: &str, v: [f32; 4]) -> Value {
@@ -200,6 +205,7 @@ mod tests {
         assert_eq!(m["force_n"]["x"], 1.5);
         assert_eq!(m["force_n"]["y"], 0.0, "a NaN is sent as 0, not null");
         assert_eq!(m["pressure_bar"]["ch4"], 1.5);
+        assert_eq!(m["pressure_bar"]["ch1"], 0.1, "the f32's shortest form");
         assert_eq!(m["current_ma"]["ch1"], 4.0);
         assert_eq!(m["force_ref_n"]["x"], 10.0);
         assert_eq!(
