@@ -2,6 +2,7 @@
 //! Logic lives here, one module per subcommand; `main.rs` only parses and reports.
 
 pub mod cmd;
+pub mod plotjuggler;
 pub mod report;
 
 use clap::{Args, Parser, Subcommand};

@@ -2,7 +2,8 @@
 //!
 //! Rows are written whole (pam-log's writer), the file is flushed at least every
 //! 0.5 s and on every way out, so an interrupted recording is a valid log holding every
-//! sample received.
+//! sample received. With `--plotjuggler HOST:PORT` the samples written also stream to
+//! PlotJuggler (`crate::plotjuggler`).
 
 use crate::LinkArgs;
 use anyhow::Context;
@@ -37,6 +38,8 @@ pub struct RecordArgs {
     /// USB full-speed CDC).
     #[arg(long)]
     pub stats: bool,
+    #[command(flatten)]
+    pub plotjuggler: crate::plotjuggler::PlotJugglerArgs,
 }
 
 /// Columns written, in order: the required ones, the force target when the recording
@@ -68,7 +71,7 @@ pub fn state_code(s: State) -> f64 {
     }
 }
 
-fn mode_code(m: ModeKind) -> f64 {
+pub fn mode_code(m: ModeKind) -> f64 {
     match m {
         ModeKind::Idle => 0.0,
         ModeKind::Pressures => 1.0,
@@ -220,6 +223,7 @@ pub fn record(
         .iter()
         .map(|(k, v)| (k.as_str(), v.as_str()))
         .collect();
+    let mut plot = args.plotjuggler.open()?;
     let cols = columns(with_force_ref);
     let mut writer = LogWriter::create(&args.file, &cols, &meta)
         .with_context(|| format!("cannot create {}", args.file.display()))?;
@@ -270,6 +274,9 @@ pub fn record(
                     continue;
                 }
                 last_t = t_s;
+                if let Some(p) = plot.as_mut() {
+                    p.offer(&t);
+                }
                 if let Err(e) = writer.write_row(&row(&t, t_s, with_force_ref)) {
                     result = Err(anyhow::anyhow!("cannot write {}: {e}", args.file.display()));
                     break;

@@ -4,7 +4,8 @@
 //! On a terminal it is a ratatui screen (`watch/tui.rs`; Ctrl-C, q or Esc stop it);
 //! otherwise, or with `--plain`, it prints one summary line per refresh; `--once` prints the
 //! full view once as text.
-//! It keeps the link alive (heartbeats), like `record`.
+//! It keeps the link alive (heartbeats), like `record`. With `--plotjuggler HOST:PORT` it
+//! also streams the telemetry to PlotJuggler (`crate::plotjuggler`).
 
 use super::status::state_name;
 use crate::LinkArgs;
@@ -37,6 +38,8 @@ pub struct WatchArgs {
     /// Seconds of history in the plots.
     #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
     pub window: f64,
+    #[command(flatten)]
+    pub plotjuggler: crate::plotjuggler::PlotJugglerArgs,
 }
 
 /// Width of a plot in characters.
@@ -333,6 +336,7 @@ pub fn watch(
         }
     }
     let mut view = View::new(args.window);
+    let mut plot = args.plotjuggler.open()?;
     client.start_telemetry();
     let limit = if args.once { Some(0.5) } else { args.seconds };
     let refresh = Duration::from_millis(args.refresh_ms.max(10));
@@ -346,6 +350,9 @@ pub fn watch(
         }
         while let Some(t) = client.next_telemetry(Duration::from_millis(5))? {
             view.push(&t);
+            if let Some(p) = plot.as_mut() {
+                p.offer(&t);
+            }
             if last_beat.elapsed() >= Duration::from_millis(25) {
                 break;
             }
