@@ -1,4 +1,4 @@
-//! Closed-loop handle force (issue 14): a two-degree-of-freedom controller around the
+//! Closed-loop handle force: a two-degree-of-freedom controller around the
 //! open-loop force path (gain plane, τ = Jᵀ F, inverse model).
 //!
 //! - **Reference**: the target is rate-limited (`force_rate_n_per_s`), then follows a
