@@ -28,6 +28,7 @@
 
 pub mod faults;
 pub mod force_loop;
+pub mod guard;
 pub mod impedance;
 pub mod mode;
 pub mod motion;

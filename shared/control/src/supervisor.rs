@@ -79,6 +79,16 @@ impl Controller {
     pub fn faults(&self) -> Faults {
         self.faults
     }
+    /// Whether the outputs are the safe state, exactly [`crate::VENT_CURRENT_MA`] on every
+    /// channel: disarmed, or faulted by anything but a lone command timeout (whose ramp
+    /// ends there within [`crate::safety::ceiling::TIMEOUT_RAMP_MAX_S`]).
+    pub fn outputs_vented(&self) -> bool {
+        match self.state {
+            State::Disarmed => true,
+            State::Faulted => self.faults != Faults::COMMAND_TIMEOUT,
+            State::Armed => false,
+        }
+    }
     pub fn safety(&self) -> &SafetyConfig {
         &self.safety
     }

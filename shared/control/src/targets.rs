@@ -3,7 +3,7 @@
 use pam_model::{Limited, Vec2};
 
 use crate::faults::Faults;
-use crate::force_loop::ForceLoopConfig;
+use crate::force_loop::{ForceLoopConfig, GuardTrip};
 use crate::impedance::{
     arm_inertia_force_n, impedance_force_n, reachable_impedance_force_n, Impedance,
     VirtualImpedance, IMPEDANCE_INTEGRAL_SCALE,
@@ -84,8 +84,8 @@ impl Controller {
                 kind: CommandKind::Vent,
             },
         };
-        // the force loop's guard faults inside the armed branch: vent this very period
-        if self.faults.contains(Faults::CONTROL_UNSTABLE) {
+        // a closed loop's guard faults inside the armed branch: vent this very period
+        if self.state != State::Armed && command.kind == CommandKind::Mode {
             command.target_bar = [vent; 4];
             command.kind = CommandKind::Vent;
         }
@@ -164,7 +164,10 @@ impl Controller {
         // the patient let go while the loop pushes: the reference model asks for a force
         // the load cell no longer reads, and the handle runs
         let released = self.impedance.released(fl.model_n, pose.force_user_n, dt);
-        if fl.trip.is_some() || too_fast || released {
+        if fl.trip == Some(GuardTrip::ImplausibleLoadCell) {
+            self.faults = self.faults.with(Faults::LOADCELL_STUCK);
+            self.state = State::Faulted;
+        } else if fl.trip.is_some() || too_fast || released {
             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
             self.state = State::Faulted;
         }

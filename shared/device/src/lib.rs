@@ -193,7 +193,7 @@ impl Device {
 
         // the safe state is the fixed vent current, untrimmed; a trimmed command stays
         // within the loop range (clamp_to cannot panic and maps NaN to the low end)
-        let vent = out.state != State::Armed;
+        let vent = self.controller.outputs_vented();
         let current_ma: [f32; 4] = core::array::from_fn(|c| {
             let cal = self.output_calibration[c];
             if vent || out.current_ma[c] <= VENT_CURRENT_MA {
