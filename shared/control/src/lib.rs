@@ -51,6 +51,10 @@ pub const MAX_LOOP_CURRENT_MA: f32 = 20.0;
 pub mod checks;
 #[cfg(any(test, feature = "checks"))]
 pub mod force_loop_checks;
+#[cfg(any(test, feature = "checks"))]
+pub mod motion_checks;
+#[cfg(any(test, feature = "checks"))]
+pub mod safety_checks;
 
 pub use force_loop::{ForceLoop, ForceLoopConfig, GuardTrip, MAX_GAIN_SCALE};
 pub use impedance::{

@@ -50,11 +50,12 @@ pub fn robot_params(p: &RobotParams<f32>) -> Result<(), ErrorCode> {
         ip.natural_freq_rad_s,
         ip.damping_ratio,
     ]))?;
-    // The pressure law's current range lies inside the 4–20 mA loop: it may start above the
-    // converters' floor (a converter with a higher live zero), never below it. The safe state
-    // does not depend on it: it is the fixed VENT_CURRENT_MA.
+    // The pressure law starts at the converters' floor, exactly: the law saturates a
+    // command below its first current up to it, so a floor above 4 mA would turn a low
+    // pressure command into a higher one (12 mA is ≈ 2.3 bar), and one below would leave
+    // the loop range. The safe state does not depend on it: it is the fixed VENT_CURRENT_MA.
     ok_if(
-        in_range(ip.current_min_ma, VENT_CURRENT_MA, MAX_LOOP_CURRENT_MA)
+        ip.current_min_ma == VENT_CURRENT_MA
             && in_range(ip.current_max_ma, VENT_CURRENT_MA, MAX_LOOP_CURRENT_MA)
             && ip.current_min_ma < ip.current_max_ma,
     )?;

@@ -173,3 +173,48 @@ pub fn limits_are_validated_and_the_period_is_fixed_while_armed() -> CheckResult
         RequestBody::SetConfig(Config::Limits(slower_slew.into())),
     )
 }
+
+/// The safe state is not a setting: a pressure law starting at 12 mA is refused, as are
+/// limits beyond their ceilings; armed, limits only tighten.
+pub fn no_configuration_moves_the_safe_state_or_loosens_a_limit() -> CheckResult {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    let mut held = RobotParams::<f32>::thesis();
+    held.ip.current_min_ma = 12.0;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Robot(held.into())),
+        ErrorCode::OutOfRange,
+    )?;
+    let mut off = SafetyConfig::default_1khz();
+    off.angle_margin_rad = f32::INFINITY;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(off.into())),
+        ErrorCode::OutOfRange,
+    )?;
+    let mut crawl = SafetyConfig::default_1khz();
+    crawl.timeout_ramp_bar_per_s = 1e-6;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(crawl.into())),
+        ErrorCode::OutOfRange,
+    )?;
+    done(&mut d, RequestBody::Home)?;
+    done(&mut d, RequestBody::Arm)?;
+    let mut tighter = SafetyConfig::default_1khz();
+    tighter.max_request_force_n = 40.0;
+    done(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(tighter.into())),
+    )?;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz().into())),
+        ErrorCode::WrongState,
+    )?;
+    holds(
+        "the tighter limit in force",
+        d.controller().safety().max_request_force_n == 40.0,
+    )
+}
