@@ -195,7 +195,7 @@ pub fn a_slow_limit_cycle_trips_the_guard() -> CheckResult {
                 break;
             }
         }
-        if !tripped.is_some_and(|k| k < 8_000) {
+        if tripped.is_none_or(|k| k >= 8_000) {
             return Err(pam_model::checks::Failure {
                 what: "a ±20 N limit cycle trips the guard within 8 s",
                 got: tripped.map_or(-1.0, |k| k as f64),
