@@ -32,4 +32,3 @@ pub use emulator::Emulator;
 pub use error::EmulatorError;
 pub use inject::{Injection, Scheduled};
 pub use stats::LoopStats;
-mod scratch;
