@@ -2,7 +2,7 @@
 //! `Faults::CONTROL_UNSTABLE` (the supervisor vents).
 
 use crate::force_loop::ForceLoopConfig;
-use pam_model::{Real, Vec2};
+use pam_model::Vec2;
 
 /// Why the guard tripped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,40 +41,50 @@ pub const SLOW_OSCILLATION_TAU_S: f32 = 4.0;
 /// trips after ≈ 5 s; ±20 N at 1 Hz trips in ≈ 2 s.
 pub const SLOW_OSCILLATION_FLIPS: f32 = 3.0;
 
-/// A leaky count of the error's sign flips across ±`band`, per axis.
+/// Leaky counts of the error's sign flips per axis, across two bands at once: the fast
+/// count (band `guard_band_n`, time constant 1 s) and the slow one (band
+/// [`SLOW_OSCILLATION_BAND_N`], time constant [`SLOW_OSCILLATION_TAU_S`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct FlipCount {
-    sign: [i8; 2],
-    flips: [f32; 2],
+    /// The last sign beyond each band, per axis: [fast, slow].
+    sign: [[i8; 2]; 2],
+    flips: [[f32; 2]; 2],
 }
 
 impl FlipCount {
     const fn new() -> Self {
         FlipCount {
-            sign: [0; 2],
-            flips: [0.0; 2],
+            sign: [[0; 2]; 2],
+            flips: [[0.0; 2]; 2],
         }
     }
 
-    /// One period: decay by `leak`, count a flip across ±`band`; whether an axis passes
-    /// `limit`.
-    fn update(&mut self, error_n: Vec2<f32>, band: f32, leak: f32, limit: f32) -> bool {
-        for a in 0..2 {
-            self.flips[a] *= 1.0 - leak;
-            let e = error_n[a];
-            let s = if e > band {
-                1
-            } else if e < -band {
-                -1
-            } else {
-                self.sign[a]
-            };
-            if s != self.sign[a] && self.sign[a] != 0 {
-                self.flips[a] += 1.0;
+    /// One period: decay, count a flip across each band; whether a count passes its limit.
+    fn update(&mut self, error_n: Vec2<f32>, cfg: &ForceLoopConfig, dt_s: f32) -> bool {
+        let bands = [cfg.guard_band_n, SLOW_OSCILLATION_BAND_N];
+        let leaks = [dt_s, dt_s * (1.0 / SLOW_OSCILLATION_TAU_S)];
+        let limits = [cfg.guard_flips, SLOW_OSCILLATION_FLIPS];
+        let mut over = false;
+        for b in 0..2 {
+            for a in 0..2 {
+                self.flips[b][a] *= 1.0 - leaks[b];
+                let e = error_n[a];
+                let last = self.sign[b][a];
+                let s = if e > bands[b] {
+                    1
+                } else if e < -bands[b] {
+                    -1
+                } else {
+                    last
+                };
+                if s != last && last != 0 {
+                    self.flips[b][a] += 1.0;
+                }
+                self.sign[b][a] = s;
+                over |= self.flips[b][a] > limits[b];
             }
-            self.sign[a] = s;
         }
-        self.flips[0] > limit || self.flips[1] > limit
+        over
     }
 }
 
@@ -82,10 +92,7 @@ impl FlipCount {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Guard {
     large_error_s: f32,
-    /// Flips across `guard_band_n`, time constant 1 s.
-    fast: FlipCount,
-    /// Flips across [`SLOW_OSCILLATION_BAND_N`], time constant [`SLOW_OSCILLATION_TAU_S`].
-    slow: FlipCount,
+    flips: FlipCount,
     /// The command, low-passed like the converters follow it, N.
     command_n: Vec2<f32>,
     implausible_s: f32,
@@ -95,15 +102,15 @@ impl Guard {
     pub(crate) const fn new() -> Self {
         Guard {
             large_error_s: 0.0,
-            fast: FlipCount::new(),
-            slow: FlipCount::new(),
+            flips: FlipCount::new(),
             command_n: [0.0; 2],
             implausible_s: 0.0,
         }
     }
 
-    /// The load cell against the force the loop commands: a command (low-passed) beyond
-    /// [`CELL_PLAUSIBILITY_FLOOR_N`] + [`CELL_PLAUSIBILITY_RATIO`] × the measured force for
+    /// The load cell against the force the loop commands: a command (low-passed, its larger
+    /// axis) beyond [`CELL_PLAUSIBILITY_FLOOR_N`] + [`CELL_PLAUSIBILITY_RATIO`] × the
+    /// measured force (its larger axis) for
     /// [`CELL_PLAUSIBILITY_TIME_S`] is a cell that does not see what the muscles do.
     pub(crate) fn cell_implausible(
         &mut self,
@@ -111,14 +118,13 @@ impl Guard {
         measured_n: Vec2<f32>,
         dt_s: f32,
     ) -> bool {
-        let k = (dt_s / CELL_PLAUSIBILITY_FILTER_S).min(1.0);
+        let k = (dt_s * (1.0 / CELL_PLAUSIBILITY_FILTER_S)).min(1.0);
         for a in 0..2 {
             self.command_n[a] += k * (command_n[a] - self.command_n[a]);
         }
-        let c = self.command_n;
-        let m = measured_n;
-        let command = <f32 as Real>::sqrt(c[0] * c[0] + c[1] * c[1]);
-        let measured = <f32 as Real>::sqrt(m[0] * m[0] + m[1] * m[1]);
+        // the larger axis of each (no square root on the control path)
+        let command = self.command_n[0].abs().max(self.command_n[1].abs());
+        let measured = measured_n[0].abs().max(measured_n[1].abs());
         if command > CELL_PLAUSIBILITY_FLOOR_N + CELL_PLAUSIBILITY_RATIO * measured {
             self.implausible_s += dt_s;
         } else {
@@ -140,21 +146,13 @@ impl Guard {
         } else {
             self.large_error_s = 0.0;
         }
-        let fast = self
-            .fast
-            .update(error_n, cfg.guard_band_n, dt_s, cfg.guard_flips);
-        let slow = self.slow.update(
-            error_n,
-            SLOW_OSCILLATION_BAND_N,
-            dt_s / SLOW_OSCILLATION_TAU_S,
-            SLOW_OSCILLATION_FLIPS,
-        );
+        let oscillating = self.flips.update(error_n, cfg, dt_s);
         // NaN included: nothing downstream may act on a non-finite error
         if !(err_sq <= cfg.guard_error_max_n * cfg.guard_error_max_n) {
             Some(GuardTrip::ErrorBound)
         } else if self.large_error_s >= cfg.guard_time_s {
             Some(GuardTrip::PersistentError)
-        } else if fast || slow {
+        } else if oscillating {
             Some(GuardTrip::Oscillation)
         } else {
             None

@@ -167,11 +167,12 @@ impl SpeedMonitor {
     /// One sample (finite angles); returns whether a joint moves faster than
     /// [`MOTION_SPEED_MAX_RAD_S`].
     pub fn update(&mut self, alpha_rad: Vec2<f32>, dt: f32) -> bool {
-        let k = (dt / SPEED_FILTER_S).min(1.0);
+        let k = (dt * (1.0 / SPEED_FILTER_S)).min(1.0);
+        let inv_dt = 1.0 / dt;
         let mut fast = false;
         if let Some(last) = self.last_rad {
             for j in 0..2 {
-                let v = (alpha_rad[j] - last[j]) / dt;
+                let v = (alpha_rad[j] - last[j]) * inv_dt;
                 self.speed_rad_s[j] += k * (v - self.speed_rad_s[j]);
                 fast |= !(self.speed_rad_s[j].abs() <= MOTION_SPEED_MAX_RAD_S);
             }

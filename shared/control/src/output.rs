@@ -13,6 +13,7 @@ use crate::VENT_CURRENT_MA;
 impl Controller {
     /// Limits `command` channel by channel and returns the step's outputs. Not armed or
     /// faulted, every channel ends at [`VENT_CURRENT_MA`] (the link-loss ramp ends there).
+    #[inline(always)]
     pub(crate) fn limit(&mut self, command: Command, force_user_n: Vec2<f32>) -> StepOutput {
         let ip = &self.model.params.ip;
         let vent = ip.output_min_bar;

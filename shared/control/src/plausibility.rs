@@ -34,7 +34,7 @@
 //! on the angle in joint and pressures mode).
 
 use crate::supervisor::Sensors;
-use pam_model::kinematics::Kinematics;
+use pam_model::kinematics::{Kinematics, PoseTrig};
 use pam_model::{RobotModel, Vec2};
 
 /// How long the joint must be still, with steady commanded pressures, before it is judged.
@@ -59,12 +59,24 @@ pub fn imbalance_nm(
     pressure_bar: [f32; 4],
 ) -> Vec2<f32> {
     let alpha = sensors.alpha_rad;
-    let torque = model.direct(alpha, model.joint_pressures_bar(pressure_bar));
     let trig = model.kinematics.trig(alpha);
     let force_user = Kinematics::sensor_to_user_at(&trig, sensors.force_sensor_n);
+    imbalance_at_nm(model, alpha, &trig, force_user, pressure_bar)
+}
+
+/// [`imbalance_nm`] on a pose whose trigonometry and user-frame handle force the caller has
+/// already computed (the control step has both).
+pub fn imbalance_at_nm(
+    model: &RobotModel<f32>,
+    alpha: Vec2<f32>,
+    trig: &PoseTrig<f32>,
+    force_user: Vec2<f32>,
+    pressure_bar: [f32; 4],
+) -> Vec2<f32> {
+    let torque = model.direct(alpha, model.joint_pressures_bar(pressure_bar));
     let held = model
         .kinematics
-        .jacobian_at(&trig)
+        .jacobian_at(trig)
         .transpose()
         .mul_vec(force_user);
     [torque[0].0 - held[0], torque[1].0 - held[1]]
@@ -115,7 +127,25 @@ impl BalanceMonitor {
         sensors: &Sensors,
         pressure_bar: [f32; 4],
     ) -> bool {
-        let alpha = sensors.alpha_rad;
+        let trig = model.kinematics.trig(sensors.alpha_rad);
+        let force_user = Kinematics::sensor_to_user_at(&trig, sensors.force_sensor_n);
+        self.update_at(
+            model,
+            period_s,
+            (sensors.alpha_rad, &trig, force_user),
+            pressure_bar,
+        )
+    }
+
+    /// [`BalanceMonitor::update`] on the pose (angles, their trigonometry, the user-frame
+    /// handle force) the control step has already computed.
+    pub fn update_at(
+        &mut self,
+        model: &RobotModel<f32>,
+        period_s: f32,
+        (alpha, trig, force_user): (Vec2<f32>, &PoseTrig<f32>, Vec2<f32>),
+        pressure_bar: [f32; 4],
+    ) -> bool {
         let steered = !self.started
             || (0..4)
                 .any(|c| (pressure_bar[c] - self.anchor_pressure_bar[c]).abs() > PRESSURE_BAND_BAR);
@@ -127,7 +157,7 @@ impl BalanceMonitor {
             return false;
         }
         let window_periods = (BALANCE_WINDOW_S / period_s + 0.5) as u32;
-        let r = imbalance_nm(model, sensors, pressure_bar);
+        let r = imbalance_at_nm(model, alpha, trig, force_user, pressure_bar);
         let tol = tolerance_nm(alpha);
         let mut fault = false;
         // each joint has its own window: the other joint may still be settling

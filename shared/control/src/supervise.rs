@@ -4,7 +4,7 @@ use pam_model::kinematics::{Kinematics, PoseTrig};
 use pam_model::Vec2;
 
 use crate::faults::Faults;
-use crate::mode::{Sensors, State};
+use crate::mode::{Mode, Sensors, State};
 use crate::safety::LOADCELL_AMPLIFIER_FULL_SCALE_V;
 use crate::supervisor::Controller;
 
@@ -65,8 +65,10 @@ impl Controller {
 
     /// Judges one period's sensors and timing: the sample's own faults, a frozen load
     /// cell, the static balance, the joint speed (every mode), the command timeout. New
-    /// faults latch and fault the controller; returns this period's.
-    pub(crate) fn supervise(&mut self, sensors: &Sensors) -> Faults {
+    /// faults latch and fault the controller. Returns the measured pose, computed once for
+    /// every stage.
+    #[inline(always)]
+    pub(crate) fn supervise(&mut self, sensors: &Sensors) -> Pose {
         let mut faults = self.sensor_faults(sensors, true);
         // stuck load cell: bit-identical samples while armed (a live ADC always dithers)
         if sensors.force_sensor_n == self.last_force_raw {
@@ -83,21 +85,31 @@ impl Controller {
         if finite {
             self.last_alpha_rad = Some(sensors.alpha_rad);
         }
+        let pose = self.pose(sensors, finite);
         // static balance against the pressures the converters have been commanded
         if armed && finite {
+            let at = (pose.alpha_rad, &pose.trig, pose.force_user_n);
             let period_s = self.safety.period_s;
             if self
                 .balance
-                .update(&self.model, period_s, sensors, self.pressure_bar)
+                .update_at(&self.model, period_s, at, self.pressure_bar)
             {
                 faults = faults.with(Faults::STATIC_IMBALANCE);
             }
         } else {
             self.balance.reset();
         }
-        // the arm moving faster than any mode may move it, whatever the mode; a jump is
-        // the encoder's fault, not a motion
-        if armed && faults.is_none() && self.speed.update(sensors.alpha_rad, self.safety.period_s) {
+        // the arm moving faster than any mode may move it; a jump is the encoder's fault,
+        // not a motion. The closed loops watch the handle's speed themselves (a tighter
+        // bound: 0.5 m/s is ≈ 0.7 rad/s at joint 1's lever), so there the joint speed
+        // history restarts instead.
+        let own_guard = matches!(
+            self.mode,
+            Mode::ForceClosedLoop { .. } | Mode::Impedance { .. }
+        );
+        if !armed || own_guard {
+            self.speed.reset();
+        } else if faults.is_none() && self.speed.update(sensors.alpha_rad, self.safety.period_s) {
             faults = faults.with(Faults::CONTROL_UNSTABLE);
         }
         self.periods_since_command = self.periods_since_command.saturating_add(1);
@@ -109,12 +121,12 @@ impl Controller {
             self.faults = self.faults.with(faults);
             self.state = State::Faulted;
         }
-        faults
+        pose
     }
 
     /// The measured pose's trigonometry and the handle force in the user frame.
-    pub(crate) fn pose(&self, sensors: &Sensors, faults: Faults) -> Pose {
-        let finite = !faults.contains(Faults::NON_FINITE);
+    #[inline(always)]
+    pub(crate) fn pose(&self, sensors: &Sensors, finite: bool) -> Pose {
         let alpha_rad = sensors.alpha_rad;
         let trig = self
             .model

@@ -327,8 +327,7 @@ impl Controller {
     /// the limits, and return the outputs to write. Never panics; every path ends in finite
     /// outputs inside the converters' range.
     pub fn step(&mut self, sensors: &Sensors) -> StepOutput {
-        let new_faults = self.supervise(sensors);
-        let pose = self.pose(sensors, new_faults);
+        let pose = self.supervise(sensors);
         let command = self.mode_target(&pose);
         self.limit(command, pose.force_user_n)
     }

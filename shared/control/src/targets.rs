@@ -35,6 +35,7 @@ pub(crate) enum CommandKind {
 impl Controller {
     /// The command of the present state and mode. A fault latched by a closed loop's
     /// guard during this stage vents in the same period.
+    #[inline(always)]
     pub(crate) fn mode_target(&mut self, pose: &Pose) -> Command {
         let vent = self.model.params.ip.output_min_bar;
         let mut command = match self.state {
@@ -94,6 +95,7 @@ impl Controller {
 
     /// Joint mode: the target shaped from where the arm is (rate and acceleration
     /// limited), kept inside the soft limits, through the inverse model.
+    #[inline(always)]
     fn joint_target(
         &mut self,
         pose: &Pose,
@@ -124,6 +126,7 @@ impl Controller {
         (self.model.channel_pressures_bar(p), limited)
     }
 
+    #[inline(always)]
     fn closed_loop_target(&mut self, pose: &Pose) -> ([f32; 4], Limited) {
         let Mode::ForceClosedLoop {
             force_n,
@@ -197,6 +200,7 @@ impl Controller {
         (self.model.channel_pressures_bar(p), limited)
     }
 
+    #[inline(always)]
     fn impedance_target(&mut self, pose: &Pose) -> ([f32; 4], Limited) {
         let Mode::Impedance {
             target_user_m,
