@@ -199,10 +199,58 @@ pub fn pressures_mode_bounds_co_contraction_and_imbalance() -> CheckResult {
     )
 }
 
+/// In impedance mode a stuck encoder blinds the speed guard and the released-handle
+/// detector: the handle force changing by 20 N while an angle stays bit-identical faults
+/// and vents; the same force change with the angle following does not.
+pub fn a_stuck_encoder_faults_in_impedance_mode() -> CheckResult {
+    let mode = Mode::Impedance {
+        target_user_m: [0.0; 2],
+        stiffness_n_per_m: [0.0; 2],
+        damping_n_s_per_m: [0.0; 2],
+        mass_kg: [0.0; 2],
+    };
+    let push = |k: u32| [0.5 + 20.0 * (k as f32 / 500.0).min(1.0), -0.3];
+    // followed: the handle gives way as the force grows
+    let mut c = armed(mode)?;
+    for k in 0..600u32 {
+        c.heartbeat();
+        let a = 1e-4 * (k as f32 / 5.0).min(100.0);
+        c.step(&Sensors {
+            alpha_rad: [a, -a],
+            force_sensor_n: push(k),
+        });
+    }
+    holds(
+        "a moving handle is no stuck encoder",
+        !c.faults().contains(Faults::STATIC_IMBALANCE),
+    )?;
+    let mut c = armed(mode)?;
+    let mut out = c.step(&at([0.0; 2], 0));
+    for k in 1..600u32 {
+        c.heartbeat();
+        out = c.step(&Sensors {
+            alpha_rad: [0.0; 2],
+            force_sensor_n: push(k),
+        });
+        if out.state != State::Armed {
+            break;
+        }
+    }
+    holds(
+        "stuck: faulted",
+        out.faults.contains(Faults::STATIC_IMBALANCE),
+    )?;
+    holds(
+        "vented",
+        out.current_ma.iter().all(|&i| i == VENT_CURRENT_MA),
+    )
+}
+
 pam_model::register_checks!(
     a_joint_target_is_approached_from_where_the_arm_is,
     the_joint_reference_is_rate_and_acceleration_limited,
     a_joint_target_stays_inside_the_soft_limits,
     the_joint_speed_is_supervised_in_every_mode,
     pressures_mode_bounds_co_contraction_and_imbalance,
+    a_stuck_encoder_faults_in_impedance_mode,
 );

@@ -16,7 +16,7 @@ use crate::impedance::{
     MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
 };
 use crate::motion::{pressures_within_limits, JointShaper, SpeedMonitor};
-use crate::plausibility::BalanceMonitor;
+use crate::plausibility::{BalanceMonitor, EncoderWatch};
 
 /// The control step's state. One period is three stages, each in its own module:
 /// `supervise` (sensor and timing faults, latched), `targets` (the mode's command) and
@@ -42,6 +42,8 @@ pub struct Controller {
     pub(crate) shaper: JointShaper,
     /// The joint speed supervision of every mode.
     pub(crate) speed: SpeedMonitor,
+    /// The encoders' plausibility in impedance mode.
+    pub(crate) encoders: EncoderWatch,
     /// The last command was clamped on its way out (the force loop's anti-windup).
     pub(crate) last_saturated: bool,
 }
@@ -66,6 +68,7 @@ impl Controller {
             impedance: Impedance::new(),
             shaper: JointShaper::new(),
             speed: SpeedMonitor::new(),
+            encoders: EncoderWatch::new(),
             last_saturated: false,
         }
     }
@@ -130,6 +133,7 @@ impl Controller {
             State::Disarmed if self.faults.is_none() => {
                 self.state = State::Armed;
                 self.force_loop.reset();
+                self.encoders.reset();
                 self.impedance.reset();
                 self.shaper.reset();
                 self.speed.reset();
@@ -257,6 +261,7 @@ impl Controller {
         ) {
             self.force_loop.reset();
             self.impedance.reset();
+            self.encoders.reset();
         }
         // a new joint target continues from the shaped reference; entering starts at the arm
         if !matches!((self.mode, mode), (Mode::Joint { .. }, Mode::Joint { .. })) {

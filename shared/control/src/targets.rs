@@ -247,6 +247,12 @@ impl Controller {
             self.faults = self.faults.with(Faults::CONTROL_UNSTABLE);
             self.state = State::Faulted;
         }
+        // the speed guard and the released-handle detector read the encoders: a stuck one
+        // blinds both, and shows as a handle force that changes while the angle does not
+        if self.encoders.update(alpha, pose.force_user_n) {
+            self.faults = self.faults.with(Faults::STATIC_IMBALANCE);
+            self.state = State::Faulted;
+        }
         let command_n = [fl.command_n[0] + inertia[0], fl.command_n[1] + inertia[1]];
         // stiffness 0: the inverse model gives the least the muscles can
         let cmd = self
