@@ -64,10 +64,6 @@ fn closed_loop_force_beyond_the_muscles_is_scaled_in_its_direction() {
     target.prepare(1.0);
     let d = target.address.as_str();
     ok(d, &["arm"]);
-    // the muscles tensioned first (0.3 s), so that the next target's telemetry says at once
-    // what the loop does with it
-    ok(d, &["set", "force", "--force-n", "0,0", "--closed-loop"]);
-    std::thread::sleep(std::time::Duration::from_millis(500));
     let out = ok(d, &["set", "force", "--force-n", "95,0", "--closed-loop"]);
     assert!(out.contains("scaled it down"), "{out}");
     let log = record(d, "closed_loop_beyond", "1.5");
