@@ -16,12 +16,7 @@
 //! The joint speed is supervised in every mode while armed: a low-passed speed above
 //! [`MOTION_SPEED_MAX_RAD_S`] latches `CONTROL_UNSTABLE` and the supervisor vents.
 
-use pam_model::{Real, RobotModel, Vec2};
-
-/// How long the muscles take from the vent to their pretension before a mode's target
-/// applies, s: both muscles of a joint rise together, at one common cable force, so the
-/// joint's torque stays ≈ 0 at the angle the arm is at and the handle does not move.
-pub const ARM_RAMP_S: f32 = 0.3;
+use pam_model::{Real, Vec2};
 
 /// A joint target is kept this far inside each end of the joint's range, rad (≈ 3°).
 pub const SOFT_LIMIT_RAD: f32 = 0.05;
@@ -54,66 +49,6 @@ pub fn pressures_within_limits(pressure_bar: &[f32; 4], pairs: [[u8; 2]; 2]) -> 
         (a - b).abs() <= PRESSURES_IMBALANCE_MAX_BAR
             && 0.5 * (a + b) <= PRESSURES_COCONTRACTION_MAX_BAR
     })
-}
-
-/// The tensioning ramp that precedes every mode (from arming, or from idle), at the angle
-/// the ramp started at: per joint, both muscles reach the pressure where their cable turns
-/// taut at the same instant (half of [`ARM_RAMP_S`]), then carry one common cable force up
-/// to the anti-slack force (the other half).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ArmRamp {
-    elapsed_s: f32,
-    alpha_rad: Option<Vec2<f32>>,
-}
-
-impl Default for ArmRamp {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl ArmRamp {
-    pub const fn new() -> Self {
-        ArmRamp {
-            elapsed_s: 0.0,
-            alpha_rad: None,
-        }
-    }
-
-    /// Start again (armed, or idle: vented).
-    pub fn reset(&mut self) {
-        *self = Self::new();
-    }
-
-    /// Whether the ramp is over.
-    pub fn done(&self) -> bool {
-        self.elapsed_s >= ARM_RAMP_S
-    }
-
-    /// One period of the ramp: the channel pressures, bar.
-    pub fn step(&mut self, model: &RobotModel<f32>, measured_rad: Vec2<f32>, dt: f32) -> [f32; 4] {
-        let p = &model.params;
-        let alpha = *self.alpha_rad.get_or_insert(measured_rad);
-        self.elapsed_s += dt;
-        let s = (self.elapsed_s * (2.0 / ARM_RAMP_S)).min(2.0);
-        let (lo, hi) = (p.ip.output_min_bar, p.pressure.max_bar);
-        let joint = |j: usize| {
-            let jp = &p.joints[j];
-            let a = alpha[j].clamp_to(jp.alpha_min_rad, jp.alpha_max_rad);
-            let pose = model.pose(j, a);
-            // first half: both muscles from the vent to the pressure where their cable
-            // becomes taut, at the same instant (a slack cable pulls nothing); second half:
-            // one common cable force up to the anti-slack force
-            let taut = |m: usize| pose.muscles[m].pressure_for_force_bar(0.0).clamp_to(lo, hi);
-            if s < 1.0 {
-                [0, 1].map(|m| lo + s * (taut(m) - lo))
-            } else {
-                let f = (s - 1.0) * model.joints[j].anti_slack_force_n;
-                [0, 1].map(|m| pose.muscles[m].pressure_for_force_bar(f).clamp_to(lo, hi))
-            }
-        };
-        model.channel_pressures_bar([joint(0), joint(1)])
-    }
 }
 
 /// The joint mode's shaped reference: angle and rate per joint, and the torque request.

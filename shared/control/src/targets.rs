@@ -39,27 +39,6 @@ impl Controller {
     pub(crate) fn mode_target(&mut self, pose: &Pose) -> Command {
         let vent = self.model.params.ip.output_min_bar;
         let mut command = match self.state {
-            State::Armed if self.mode == Mode::Idle => {
-                // vented: the next mode tensions the muscles again first
-                self.arm_ramp.reset();
-                Command {
-                    target_bar: [vent; 4],
-                    limited: Limited::NONE,
-                    kind: CommandKind::Mode,
-                }
-            }
-            State::Armed if !self.arm_ramp.done() => {
-                // the mode starts where the ramp leaves the arm
-                self.shaper.reset();
-                self.force_loop.reset();
-                self.impedance.reset();
-                let dt = self.safety.period_s;
-                Command {
-                    target_bar: self.arm_ramp.step(&self.model, pose.alpha_rad, dt),
-                    limited: Limited::NONE,
-                    kind: CommandKind::Mode,
-                }
-            }
             State::Armed => {
                 let (target_bar, limited) = match self.mode {
                     Mode::Idle => ([vent; 4], Limited::NONE),

@@ -76,11 +76,10 @@ pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
             .into(),
         ),
     )?;
-    // the 0.3 s tensioning ramp first
-    let out = steps_alive(&mut d, 400, 1);
+    let out = steps_alive(&mut d, 50, 1);
     holds("pressurised", out.current_ma.iter().all(|&i| i > 9.0))?;
     done(&mut d, RequestBody::Disarm)?;
-    let out = steps(&mut d, 1, 410);
+    let out = steps(&mut d, 1, 60);
     holds("vented at once", out.current_ma.iter().all(|&i| i == 4.0))
 }
 

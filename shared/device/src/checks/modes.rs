@@ -47,8 +47,7 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
             .into(),
         ),
     )?;
-    // the 0.3 s tensioning ramp, then the pressures
-    let out = steps_alive(&mut d, 600, 1);
+    let out = steps_alive(&mut d, 200, 1);
     let t = out.telemetry.unwrap_or_else(unreachable_telemetry);
     near("channel 3 pressure", t.pressure_cmd_bar[2], 3.0, 1e-5)?;
     holds(
