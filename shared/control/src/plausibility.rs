@@ -187,15 +187,14 @@ impl BalanceMonitor {
 pub const STUCK_ENCODER_FORCE_N: f32 = 15.0;
 
 /// The encoders' plausibility where the balance check cannot judge (impedance mode: the
-/// pressures follow the handle, never steady): per joint, the handle force's range since
-/// the joint's angle last changed; beyond [`STUCK_ENCODER_FORCE_N`] on either axis the
-/// encoder is stuck.
+/// pressures follow the handle, never steady): per joint, the handle force when the joint's
+/// angle last changed; a force that has since moved by more than [`STUCK_ENCODER_FORCE_N`]
+/// on either axis, the angle still bit-identical, is a stuck encoder.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EncoderWatch {
     started: bool,
     alpha_rad: Vec2<f32>,
-    force_lo_n: [Vec2<f32>; 2],
-    force_hi_n: [Vec2<f32>; 2],
+    force_n: [Vec2<f32>; 2],
 }
 
 impl Default for EncoderWatch {
@@ -209,8 +208,7 @@ impl EncoderWatch {
         EncoderWatch {
             started: false,
             alpha_rad: [0.0; 2],
-            force_lo_n: [[0.0; 2]; 2],
-            force_hi_n: [[0.0; 2]; 2],
+            force_n: [[0.0; 2]; 2],
         }
     }
 
@@ -219,21 +217,19 @@ impl EncoderWatch {
     }
 
     /// One period (finite angles and force); whether an encoder stands still while the
-    /// handle force has changed by more than [`STUCK_ENCODER_FORCE_N`].
+    /// handle force has moved by more than [`STUCK_ENCODER_FORCE_N`].
     pub fn update(&mut self, alpha_rad: Vec2<f32>, force_user_n: Vec2<f32>) -> bool {
         let mut stuck = false;
         for j in 0..2 {
             if !self.started || alpha_rad[j] != self.alpha_rad[j] {
                 self.alpha_rad[j] = alpha_rad[j];
-                self.force_lo_n[j] = force_user_n;
-                self.force_hi_n[j] = force_user_n;
-                continue;
-            }
-            for a in 0..2 {
-                let f = force_user_n[a];
-                self.force_lo_n[j][a] = self.force_lo_n[j][a].min(f);
-                self.force_hi_n[j][a] = self.force_hi_n[j][a].max(f);
-                stuck |= self.force_hi_n[j][a] - self.force_lo_n[j][a] > STUCK_ENCODER_FORCE_N;
+                self.force_n[j] = force_user_n;
+            } else {
+                let d = [
+                    force_user_n[0] - self.force_n[j][0],
+                    force_user_n[1] - self.force_n[j][1],
+                ];
+                stuck |= d[0].abs() > STUCK_ENCODER_FORCE_N || d[1].abs() > STUCK_ENCODER_FORCE_N;
             }
         }
         self.started = true;
