@@ -125,13 +125,17 @@ fn closed_loop_force_against_a_held_handle_settles_without_ringing() {
     ok(d, &["disarm"]);
 }
 
+/// The gain scale a mode may ask for is bounded by the design's margin: at the largest
+/// the device accepts the loop against the blocked handle stays bounded and unfaulted, and
+/// beyond it (3.5, or the twenty times a typo could ask for) the device refuses. A wrong
+/// gain design beyond the margin is the guard's: `pam_control`'s checks and the twin's
+/// tests drive one and see it caught.
 #[test]
-fn bad_gains_are_caught_by_the_guard_over_the_link() {
+fn gains_beyond_the_margin_are_refused_and_the_ceiling_stays_bounded() {
     let _serial = exclusive();
     let target = Target::acquire(SIM);
     target.prepare(1.0);
     let c = target.client();
-    let (_, vent_ma) = pam_hil_tests::vent(&c);
     let closed = |force_n: [f32; 2], gain_scale: f32| {
         RequestBody::SetMode(
             Mode::ForceClosedLoop {
@@ -153,60 +157,34 @@ fn bad_gains_are_caught_by_the_guard_over_the_link() {
         std::thread::sleep(Duration::from_millis(20));
         while let Ok(Some(_)) = c.next_telemetry(Duration::ZERO) {}
     }
-    // …then step with the most the device accepts: twenty times the designed gains
+    // …then step with the most the device accepts
     c.command(closed([9.1, 0.0], MAX_GAIN_SCALE))
-        .expect("bad gains accepted");
+        .expect("the ceiling accepted");
     let mut peak_n: f32 = 0.0;
-    let mut faulted_at = None;
     let t0 = Instant::now();
     let mut last_beat = Instant::now();
     let mut last = None;
-    while t0.elapsed() < Duration::from_secs(3) {
+    while t0.elapsed() < Duration::from_secs(2) {
         if last_beat.elapsed() > Duration::from_millis(20) {
             c.heartbeat().expect("heartbeat");
             last_beat = Instant::now();
         }
         if let Ok(Some(t)) = c.next_telemetry(Duration::from_millis(10)) {
-            if t.state == State::Faulted && faulted_at.is_none() {
-                faulted_at = Some(t0.elapsed());
-            }
-            if faulted_at.is_none() {
-                peak_n = peak_n
-                    .max(t.force_user_n[0].abs())
-                    .max(t.force_user_n[1].abs());
-            }
-            let done = faulted_at.is_some_and(|f| t0.elapsed() > f + Duration::from_millis(100));
+            peak_n = peak_n
+                .max(t.force_user_n[0].abs())
+                .max(t.force_user_n[1].abs());
             last = Some(t);
-            if done {
-                break;
-            }
         }
     }
-    eprintln!("bad gains: fault after {faulted_at:?}, peak {peak_n:.1} N before it");
+    eprintln!("gain scale {MAX_GAIN_SCALE}: peak {peak_n:.1} N for 9.1 N");
     let t = last.expect("telemetry");
-    assert!(
-        faulted_at.is_some_and(|f| f < Duration::from_millis(1500)),
-        "{faulted_at:?}"
-    );
-    assert!(
-        t.faults & Faults::CONTROL_UNSTABLE.0 != 0,
-        "{:#x}",
-        t.faults
-    );
+    assert_eq!(t.state, State::Armed, "faults {:#x}", t.faults);
     assert_eq!(t.mode, ModeKind::ForceClosedLoop);
-    assert!(
-        t.current_ma.iter().all(|&i| i <= vent_ma + 1e-3),
-        "vented: {:?}",
-        t.current_ma
-    );
-    // stopped within about one swing beyond the guard's 25 N error bound
-    assert!(peak_n < 9.1 + 1.5 * 25.0, "peak {peak_n} N");
-    assert!(
-        c.fault_events()
-            .iter()
-            .any(|e| e.bits & Faults::CONTROL_UNSTABLE.0 != 0),
-        "a fault event"
-    );
+    assert!(peak_n < 1.5 * 9.1, "peak {peak_n} N");
+    for bad in [3.5f32, 20.0] {
+        let refused = c.command(closed([9.1, 0.0], bad));
+        assert!(refused.is_err(), "gain scale {bad} accepted");
+    }
     c.command(RequestBody::Disarm).expect("disarm");
     // the host refuses nothing itself: the device refuses a gain scale beyond its range
     let (code, _, stderr) = pamctl(

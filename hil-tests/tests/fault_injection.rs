@@ -169,7 +169,8 @@ fn stuck_encoder() {
         joint([0.0, 0.0]),
         Some(joint([15.0, 0.0])),
         Faults::STATIC_IMBALANCE,
-        4_000,
+        // the shaped target reaches 15° in ≈ 2.3 s (0.15 rad/s), then the 3 s still window
+        6_000,
     );
 }
 
@@ -181,7 +182,8 @@ fn unplugged_encoder() {
         joint([0.0, 0.0]),
         Some(joint([0.0, 30.0])),
         Faults::STATIC_IMBALANCE,
-        4_000,
+        // the shaped target reaches 30° in ≈ 4 s (0.15 rad/s), then the 3 s still window
+        8_000,
     );
 }
 

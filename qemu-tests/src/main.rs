@@ -83,6 +83,8 @@ fn main() -> ! {
     for (label, checks) in [
         ("control", pam_control::checks::CHECKS),
         ("control force loop", pam_control::force_loop_checks::CHECKS),
+        ("control motion", pam_control::motion_checks::CHECKS),
+        ("control safety", pam_control::safety_checks::CHECKS),
         ("device", pam_device::checks::CHECKS),
         ("config store", pam_config_store::checks::CHECKS),
     ] {

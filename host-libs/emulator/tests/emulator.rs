@@ -59,11 +59,12 @@ fn unequal_pressures_turn_the_twin_and_the_encoders_see_it() {
         "{:?}",
         still.alpha_rad
     );
-    // joint 1's pair (channels 0, 1): one muscle at 3 bar, the other vented. The free arm
-    // swings (the twin's arm is lightly damped): look at the largest excursion.
+    // joint 1's pair (channels 0, 1): one muscle at 2.1 bar, the other vented (the pressures
+    // mode's largest imbalance). The free arm swings (the twin's arm is lightly damped): look
+    // at the largest excursion.
     c.command(RequestBody::SetMode(
         Mode::Pressures {
-            pressure_bar: [3.0, 0.1, 1.5, 1.5],
+            pressure_bar: [2.1, 0.1, 1.5, 1.5],
         }
         .into(),
     ))

@@ -107,9 +107,12 @@ pub enum TuneError {
     },
 }
 
-/// The gain scales tried: 0.1 to [`pam_control::MAX_GAIN_SCALE`]'s first 5 in steps of 0.05.
+/// The gain scales tried: 0.1 to [`pam_control::MAX_GAIN_SCALE`] (what the device accepts)
+/// in steps of 0.05.
 fn grid() -> impl Iterator<Item = f64> {
-    (2..=100).map(|i| i as f64 * 0.05)
+    (2..=100)
+        .map(|i| i as f64 * 0.05)
+        .filter(|s| *s <= pam_control::MAX_GAIN_SCALE as f64)
 }
 
 impl StepPlant {

@@ -57,16 +57,23 @@ fn bad_gains_are_caught_in_the_twin_before_the_force_runs_away() {
         feed_forward: false,
         gain_scale,
     };
+    // ten times the designed gains: a wrong design, beyond any scale a mode may ask for
+    let mut design = pam_control::ForceLoopConfig::designed();
+    design.kp *= 10.0;
+    design.ki_per_s *= 10.0;
+    design.kd_s *= 10.0;
+    ctl.set_force_loop_config(design).unwrap();
     let mut m = twin.step(1e-9, [4.0; 4], &HandleCondition::Free);
     ctl.arm().unwrap();
-    ctl.set_mode(mode([0.0; 2], 1.0)).unwrap();
+    ctl.set_mode(mode([0.0; 2], 0.1)).unwrap();
     let bound = ctl.force_loop_config().guard_error_max_n as f64;
     let mut peak_n: f64 = 0.0;
     let mut faulted_at = None;
     for i in 0..5000 {
         if i == 2000 {
-            // settled at the designed gains: ten times them, and a 9.1 N step
-            ctl.set_mode(mode([9.1, 0.0], 10.0)).unwrap();
+            // settled at the designed loop (the ten-times design scaled by 0.1): the whole
+            // ten times, and a 9.1 N step
+            ctl.set_mode(mode([9.1, 0.0], 1.0)).unwrap();
         }
         ctl.heartbeat();
         let out = ctl.step(&Sensors {

@@ -1,4 +1,4 @@
-//! Closed-loop handle force (issue 14): a two-degree-of-freedom controller around the
+//! Closed-loop handle force: a two-degree-of-freedom controller around the
 //! open-loop force path (gain plane, τ = Jᵀ F, inverse model).
 //!
 //! - **Reference**: the target is rate-limited (`force_rate_n_per_s`), then follows a
@@ -29,10 +29,17 @@
 //! - **Guard**: an error beyond `guard_error_max_n`, or beyond `guard_error_n` for
 //!   `guard_time_s`, or sustained oscillation
 //!   of the error (sign flips beyond ±`guard_band_n`, a leaky count over about one second
-//!   above `guard_flips`), latches `Faults::CONTROL_UNSTABLE` and the supervisor vents.
+//!   above `guard_flips`; and, for the arm's slow swings down to 0.5 Hz, flips beyond
+//!   ±[`SLOW_OSCILLATION_BAND_N`] counted over [`SLOW_OSCILLATION_TAU_S`] above
+//!   [`SLOW_OSCILLATION_FLIPS`]: [`crate::guard`]), latches `Faults::CONTROL_UNSTABLE` and the supervisor
+//!   vents.
 //!
 //! The design, its margins and the measured tables are in docs/closed-loop.md. f32, no heap.
 
+use crate::guard::Guard;
+pub use crate::guard::{
+    GuardTrip, SLOW_OSCILLATION_BAND_N, SLOW_OSCILLATION_FLIPS, SLOW_OSCILLATION_TAU_S,
+};
 use crate::plant_gain::PlantGain;
 use pam_model::kinematics::PoseTrig;
 use pam_model::params::{GainPlane, IpConverter};
@@ -100,9 +107,10 @@ pub struct ForceLoopConfig {
 /// (the load cell's noise is 0.15 N).
 pub const COMPLIANCE_FORCE_MIN_N: f32 = 2.0;
 
-/// Largest multiplier of the designed feedback gains a mode may request: enough to
-/// demonstrate the guard, bounded so a typo cannot ask for more.
-pub const MAX_GAIN_SCALE: f32 = 20.0;
+/// Largest multiplier of the designed feedback gains a mode may request: the design's gain
+/// margin (2–3, docs/closed-loop.md), so no accepted scale is far past the edge of
+/// stability; the guard catches a loop driven to it.
+pub const MAX_GAIN_SCALE: f32 = 3.0;
 
 impl ForceLoopConfig {
     /// The design of docs/closed-loop.md for the thesis's converters (ωn 23 rad/s, ζ 0.42).
@@ -169,17 +177,6 @@ impl Default for ForceLoopConfig {
     }
 }
 
-/// Why the guard tripped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GuardTrip {
-    /// The error stayed large (growing error, or a force the plant cannot deliver).
-    PersistentError,
-    /// The error oscillates.
-    Oscillation,
-    /// The error passed `guard_error_max_n`.
-    ErrorBound,
-}
-
 /// The loop's state: reference, reference model, integral, guard.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ForceLoop {
@@ -191,9 +188,7 @@ pub struct ForceLoop {
     error_n: Vec2<f32>,
     last_measured_n: Vec2<f32>,
     measured_rate_n_s: Vec2<f32>,
-    large_error_s: f32,
-    sign: [i8; 2],
-    flips: [f32; 2],
+    guard: Guard,
     handle_seen: bool,
     handle0_m: Vec2<f32>,
     force0_n: Vec2<f32>,
@@ -245,9 +240,7 @@ impl ForceLoop {
             error_n: [0.0; 2],
             last_measured_n: [0.0; 2],
             measured_rate_n_s: [0.0; 2],
-            large_error_s: 0.0,
-            sign: [0; 2],
-            flips: [0.0; 2],
+            guard: Guard::new(),
             handle_seen: false,
             handle0_m: [0.0; 2],
             force0_n: [0.0; 2],
@@ -551,46 +544,17 @@ impl ForceLoop {
         if shaped {
             self.plant_gain.drive(command_n, wn, zeta, dt_s);
         }
-        let trip = self.guard(cfg, err_sq, dt_s);
+        let mut trip = self.guard.update(cfg, self.error_n, err_sq, dt_s);
+        // the reference model's loop (force mode) is the one a dead cell winds up; in
+        // impedance mode the force follows the handle's motion, checked by its own guards
+        if shaped && trip.is_none() && self.guard.cell_implausible(command_n, measured_n, dt_s) {
+            trip = Some(GuardTrip::ImplausibleLoadCell);
+        }
         ForceLoopOutput {
             command_n,
             feed_forward_n,
             model_n: self.model_n,
             trip,
-        }
-    }
-
-    fn guard(&mut self, cfg: &ForceLoopConfig, err_sq: f32, dt_s: f32) -> Option<GuardTrip> {
-        if err_sq > cfg.guard_error_n * cfg.guard_error_n || !err_sq.is_finite() {
-            self.large_error_s += dt_s;
-        } else {
-            self.large_error_s = 0.0;
-        }
-        // per axis, a leaky count with a 1 s time constant (first-order decay per period)
-        for a in 0..2 {
-            self.flips[a] *= 1.0 - dt_s;
-            let e = self.error_n[a];
-            let s = if e > cfg.guard_band_n {
-                1
-            } else if e < -cfg.guard_band_n {
-                -1
-            } else {
-                self.sign[a]
-            };
-            if s != self.sign[a] && self.sign[a] != 0 {
-                self.flips[a] += 1.0;
-            }
-            self.sign[a] = s;
-        }
-        // NaN included: nothing downstream may act on a non-finite error
-        if !(err_sq <= cfg.guard_error_max_n * cfg.guard_error_max_n) {
-            Some(GuardTrip::ErrorBound)
-        } else if self.large_error_s >= cfg.guard_time_s {
-            Some(GuardTrip::PersistentError)
-        } else if self.flips[0] > cfg.guard_flips || self.flips[1] > cfg.guard_flips {
-            Some(GuardTrip::Oscillation)
-        } else {
-            None
         }
     }
 }

@@ -1,4 +1,4 @@
-//! Impedance mode (issue 14): a Cartesian virtual spring-damper-mass about a target point,
+//! Impedance mode: a Cartesian virtual spring-damper-mass about a target point,
 //! rendered by the closed force loop. The force the robot should exert on the handle is
 //! F = K (x₀ − x) − B ẋ − M ẍ (user frame, diagonal K, B, M), and
 //! [`crate::ForceLoop::step_direct`] makes the load cell read it. K = 0 with a small B is the

@@ -1,4 +1,4 @@
-//! The plant's static gain, measured by the closed force loop itself (issue 14).
+//! The plant's static gain, measured by the closed force loop itself.
 //!
 //! The loop is designed for a plant g·H(s) with g = 1 (the model) and checked over
 //! g = 0.43–1.75 (docs/closed-loop.md, "Design from the identified plant"); away from 1 its

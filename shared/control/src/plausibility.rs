@@ -34,7 +34,7 @@
 //! on the angle in joint and pressures mode).
 
 use crate::supervisor::Sensors;
-use pam_model::kinematics::Kinematics;
+use pam_model::kinematics::{Kinematics, PoseTrig};
 use pam_model::{RobotModel, Vec2};
 
 /// How long the joint must be still, with steady commanded pressures, before it is judged.
@@ -59,12 +59,24 @@ pub fn imbalance_nm(
     pressure_bar: [f32; 4],
 ) -> Vec2<f32> {
     let alpha = sensors.alpha_rad;
-    let torque = model.direct(alpha, model.joint_pressures_bar(pressure_bar));
     let trig = model.kinematics.trig(alpha);
     let force_user = Kinematics::sensor_to_user_at(&trig, sensors.force_sensor_n);
+    imbalance_at_nm(model, alpha, &trig, force_user, pressure_bar)
+}
+
+/// [`imbalance_nm`] on a pose whose trigonometry and user-frame handle force the caller has
+/// already computed (the control step has both).
+pub fn imbalance_at_nm(
+    model: &RobotModel<f32>,
+    alpha: Vec2<f32>,
+    trig: &PoseTrig<f32>,
+    force_user: Vec2<f32>,
+    pressure_bar: [f32; 4],
+) -> Vec2<f32> {
+    let torque = model.direct(alpha, model.joint_pressures_bar(pressure_bar));
     let held = model
         .kinematics
-        .jacobian_at(&trig)
+        .jacobian_at(trig)
         .transpose()
         .mul_vec(force_user);
     [torque[0].0 - held[0], torque[1].0 - held[1]]
@@ -115,7 +127,25 @@ impl BalanceMonitor {
         sensors: &Sensors,
         pressure_bar: [f32; 4],
     ) -> bool {
-        let alpha = sensors.alpha_rad;
+        let trig = model.kinematics.trig(sensors.alpha_rad);
+        let force_user = Kinematics::sensor_to_user_at(&trig, sensors.force_sensor_n);
+        self.update_at(
+            model,
+            period_s,
+            (sensors.alpha_rad, &trig, force_user),
+            pressure_bar,
+        )
+    }
+
+    /// [`BalanceMonitor::update`] on the pose (angles, their trigonometry, the user-frame
+    /// handle force) the control step has already computed.
+    pub fn update_at(
+        &mut self,
+        model: &RobotModel<f32>,
+        period_s: f32,
+        (alpha, trig, force_user): (Vec2<f32>, &PoseTrig<f32>, Vec2<f32>),
+        pressure_bar: [f32; 4],
+    ) -> bool {
         let steered = !self.started
             || (0..4)
                 .any(|c| (pressure_bar[c] - self.anchor_pressure_bar[c]).abs() > PRESSURE_BAND_BAR);
@@ -127,7 +157,7 @@ impl BalanceMonitor {
             return false;
         }
         let window_periods = (BALANCE_WINDOW_S / period_s + 0.5) as u32;
-        let r = imbalance_nm(model, sensors, pressure_bar);
+        let r = imbalance_at_nm(model, alpha, trig, force_user, pressure_bar);
         let tol = tolerance_nm(alpha);
         let mut fault = false;
         // each joint has its own window: the other joint may still be settling
@@ -148,6 +178,62 @@ impl BalanceMonitor {
             fault |= self.unbalanced_periods[j] >= window_periods;
         }
         fault
+    }
+}
+
+/// A change of the handle force that an encoder must see in impedance mode, N: the muscles
+/// are at their least stiffness there, so 15 N moves the handle by millimetres even in a
+/// firm grip (tens of counts), while an encoder that stopped counting does not change at all.
+pub const STUCK_ENCODER_FORCE_N: f32 = 15.0;
+
+/// The encoders' plausibility where the balance check cannot judge (impedance mode: the
+/// pressures follow the handle, never steady): per joint, the handle force when the joint's
+/// angle last changed; a force that has since moved by more than [`STUCK_ENCODER_FORCE_N`]
+/// on either axis, the angle still bit-identical, is a stuck encoder.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EncoderWatch {
+    started: bool,
+    alpha_rad: Vec2<f32>,
+    force_n: [Vec2<f32>; 2],
+}
+
+impl Default for EncoderWatch {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl EncoderWatch {
+    pub const fn new() -> Self {
+        EncoderWatch {
+            started: false,
+            alpha_rad: [0.0; 2],
+            force_n: [[0.0; 2]; 2],
+        }
+    }
+
+    pub fn reset(&mut self) {
+        self.started = false;
+    }
+
+    /// One period (finite angles and force); whether an encoder stands still while the
+    /// handle force has moved by more than [`STUCK_ENCODER_FORCE_N`].
+    pub fn update(&mut self, alpha_rad: Vec2<f32>, force_user_n: Vec2<f32>) -> bool {
+        let mut stuck = false;
+        for j in 0..2 {
+            if !self.started || alpha_rad[j] != self.alpha_rad[j] {
+                self.alpha_rad[j] = alpha_rad[j];
+                self.force_n[j] = force_user_n;
+            } else {
+                let d = [
+                    force_user_n[0] - self.force_n[j][0],
+                    force_user_n[1] - self.force_n[j][1],
+                ];
+                stuck |= d[0].abs() > STUCK_ENCODER_FORCE_N || d[1].abs() > STUCK_ENCODER_FORCE_N;
+            }
+        }
+        self.started = true;
+        stuck
     }
 }
 
@@ -279,7 +365,7 @@ mod tests {
             force_sensor_n: [0.0; 2],
         };
         let mut faulted_at = None;
-        for k in 0..5_000u32 {
+        for k in 0..8_000u32 {
             if k % 500 == 0 {
                 c.heartbeat();
             }
@@ -293,9 +379,11 @@ mod tests {
                 break;
             }
         }
-        // pressures slew to the target (50 bar/s), then 3 s still
+        // the shaped target reaches 15° in ≈ 2.25 s (0.26 rad at 0.15 rad/s, with the
+        // acceleration and braking at 0.3 rad/s²; the pressures steady within their band
+        // a little before), then 3 s still
         let k = faulted_at.expect("no fault");
-        assert!((3_000..3_200).contains(&k), "faulted at period {k}");
+        assert!((5_000..5_300).contains(&k), "faulted at period {k}");
     }
 
     #[test]

@@ -9,8 +9,7 @@ use serde::{Deserialize, Serialize};
 /// calibration, so the limit holds whatever the gain, offset or tare.
 pub const LOADCELL_AMPLIFIER_FULL_SCALE_V: f32 = 10.0;
 
-/// Consecutive missed control periods that latch `Faults::LOOP_OVERRUN` by default (issue
-/// 12): one or two can be a debugger or a long USB critical section; three in a row is a
+/// Consecutive missed control periods that latch `Faults::LOOP_OVERRUN` by default: one or two can be a debugger or a long USB critical section; three in a row is a
 /// loop that no longer keeps its rate.
 pub const DEFAULT_OVERRUN_FAULT_PERIODS: u32 = 3;
 
@@ -27,7 +26,9 @@ pub struct SafetyConfig {
     pub command_timeout_s: f32,
     /// Per-channel slew limit of the commanded pressure.
     pub slew_bar_per_s: f32,
-    /// Ramp rate to the safe state after a command timeout.
+    /// Ramp rate to the vent after a command timeout; at least
+    /// [`ceiling::TIMEOUT_RAMP_MIN_BAR_PER_S`], so the ramp ends within
+    /// [`ceiling::TIMEOUT_RAMP_MAX_S`].
     pub timeout_ramp_bar_per_s: f32,
     /// Largest believable joint speed; a bigger step between two samples is an encoder fault.
     pub max_joint_speed_rad_s: f32,
@@ -53,6 +54,43 @@ fn default_overrun_fault_periods() -> u32 {
     DEFAULT_OVERRUN_FAULT_PERIODS
 }
 
+/// The ceilings of [`SafetyConfig`]: compile-time bounds that no configuration can pass.
+/// A configuration may only be tighter (and, while armed, only tighten further:
+/// [`SafetyConfig::may_apply_while_armed`]). Each is at or beyond the default, so the
+/// defaults are valid, and each keeps its protection on (a zero or an infinity is refused).
+pub mod ceiling {
+    /// Control period range, s (1–10 ms: the loop and its timing checks are designed for it).
+    pub const PERIOD_MIN_S: f32 = 0.001;
+    pub const PERIOD_MAX_S: f32 = 0.010;
+    /// Longest silence of the commanding host before the link-loss ramp starts, s.
+    pub const COMMAND_TIMEOUT_MAX_S: f32 = 1.0;
+    /// Fastest pressure change a mode may command, bar/s (the converters' own full-scale
+    /// fill takes 1.6–2.4 s: faster commands only strain them).
+    pub const SLEW_MAX_BAR_PER_S: f32 = 100.0;
+    /// Longest link-loss ramp from the absolute pressure limit to the vent, s.
+    pub const TIMEOUT_RAMP_MAX_S: f32 = 1.0;
+    /// Slowest link-loss ramp: from the absolute pressure limit (5 bar) to the vent within
+    /// [`TIMEOUT_RAMP_MAX_S`].
+    pub const TIMEOUT_RAMP_MIN_BAR_PER_S: f32 = 5.0 / TIMEOUT_RAMP_MAX_S;
+    /// Fastest believable joint speed between two samples (beyond: an encoder jump), rad/s.
+    pub const JOINT_SPEED_MAX_RAD_S: f32 = 20.0;
+    /// Widest margin beyond the joint range before the angle is a fault, rad (≈ 5.7°).
+    pub const ANGLE_MARGIN_MAX_RAD: f32 = 0.1;
+    /// Largest sensor-frame force before saturation is declared, N (the amplifier's full
+    /// scale of the thesis's X channel is ±111 N, Z ±167 N; the cell is rated 200 N).
+    pub const LOADCELL_LIMIT_MAX_N: f32 = 200.0;
+    /// Most identical load-cell samples before a stuck cell is declared.
+    pub const LOADCELL_STUCK_SAMPLES_MAX: u32 = 1000;
+    /// Fewest: two identical samples are not yet a frozen cell.
+    pub const LOADCELL_STUCK_SAMPLES_MIN: u32 = 2;
+    /// Largest |torque| of a joint request, N·m.
+    pub const REQUEST_TORQUE_MAX_NM: f32 = 200.0;
+    /// Largest joint stiffness of a request, N·m/rad.
+    pub const REQUEST_STIFFNESS_MAX_NM_PER_RAD: f32 = 500.0;
+    /// Largest handle force of a request, N.
+    pub const REQUEST_FORCE_MAX_N: f32 = 100.0;
+}
+
 impl SafetyConfig {
     pub const fn default_1khz() -> Self {
         SafetyConfig {
@@ -71,32 +109,51 @@ impl SafetyConfig {
         }
     }
 
-    /// Refuses configurations that would disable a protection.
+    /// Refuses configurations that would disable or loosen a protection beyond its
+    /// [`ceiling`]. NaN fails every comparison below, so it is refused too.
     pub fn validate(&self) -> Result<(), Reject> {
-        let positive = [
-            self.command_timeout_s,
-            self.slew_bar_per_s,
-            self.timeout_ramp_bar_per_s,
-            self.max_joint_speed_rad_s,
-            self.loadcell_limit_n,
-            self.max_request_torque_nm,
-            self.max_request_stiffness_nm_per_rad,
-            self.max_request_force_n,
-        ];
-        if !(self.period_s >= 0.001 && self.period_s <= 0.010) {
-            return Err(Reject::OutOfRange);
+        use ceiling::*;
+        let within = |v: f32, hi: f32| v > 0.0 && v <= hi;
+        let ok = (PERIOD_MIN_S..=PERIOD_MAX_S).contains(&self.period_s)
+            && within(self.command_timeout_s, COMMAND_TIMEOUT_MAX_S)
+            && within(self.slew_bar_per_s, SLEW_MAX_BAR_PER_S)
+            && self.timeout_ramp_bar_per_s >= TIMEOUT_RAMP_MIN_BAR_PER_S
+            && self.timeout_ramp_bar_per_s.is_finite()
+            && within(self.max_joint_speed_rad_s, JOINT_SPEED_MAX_RAD_S)
+            && (0.0..=ANGLE_MARGIN_MAX_RAD).contains(&self.angle_margin_rad)
+            && within(self.loadcell_limit_n, LOADCELL_LIMIT_MAX_N)
+            && (LOADCELL_STUCK_SAMPLES_MIN..=LOADCELL_STUCK_SAMPLES_MAX)
+                .contains(&self.loadcell_stuck_samples)
+            && within(self.max_request_torque_nm, REQUEST_TORQUE_MAX_NM)
+            && within(
+                self.max_request_stiffness_nm_per_rad,
+                REQUEST_STIFFNESS_MAX_NM_PER_RAD,
+            )
+            && within(self.max_request_force_n, REQUEST_FORCE_MAX_N)
+            && OVERRUN_FAULT_PERIODS_RANGE.contains(&self.overrun_fault_periods);
+        if ok {
+            Ok(())
+        } else {
+            Err(Reject::OutOfRange)
         }
-        if positive.iter().any(|v| !(v.is_finite() && *v > 0.0))
-            || !(self.angle_margin_rad >= 0.0)
-            || self.loadcell_stuck_samples < 2
-            || !OVERRUN_FAULT_PERIODS_RANGE.contains(&self.overrun_fault_periods)
-        {
-            return Err(Reject::OutOfRange);
-        }
-        if self.command_timeout_s > 1.0 {
-            return Err(Reject::OutOfRange);
-        }
-        Ok(())
+    }
+
+    /// Whether `new` may replace `self` while the robot is armed: the same period, and
+    /// every limit as tight or tighter (a protection may be tightened under a patient,
+    /// never loosened). `new` must also pass [`SafetyConfig::validate`].
+    pub fn may_apply_while_armed(&self, new: &SafetyConfig) -> bool {
+        new.period_s == self.period_s
+            && new.command_timeout_s <= self.command_timeout_s
+            && new.slew_bar_per_s <= self.slew_bar_per_s
+            && new.timeout_ramp_bar_per_s >= self.timeout_ramp_bar_per_s
+            && new.max_joint_speed_rad_s <= self.max_joint_speed_rad_s
+            && new.angle_margin_rad <= self.angle_margin_rad
+            && new.loadcell_limit_n <= self.loadcell_limit_n
+            && new.loadcell_stuck_samples <= self.loadcell_stuck_samples
+            && new.max_request_torque_nm <= self.max_request_torque_nm
+            && new.max_request_stiffness_nm_per_rad <= self.max_request_stiffness_nm_per_rad
+            && new.max_request_force_n <= self.max_request_force_n
+            && new.overrun_fault_periods <= self.overrun_fault_periods
     }
 }
 

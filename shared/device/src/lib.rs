@@ -41,7 +41,10 @@ pub mod checks;
 mod fuzz_seeds;
 
 use frontend::Encoders;
-use pam_control::{Controller, Faults, Mode, Reject, SafetyConfig, Sensors, State};
+use pam_control::{
+    Controller, Faults, Mode, Reject, SafetyConfig, Sensors, State, MAX_LOOP_CURRENT_MA,
+    VENT_CURRENT_MA,
+};
 use pam_model::{Real, RobotModel, RobotParams};
 use pam_protocol::{
     Calibration, Config, ConfigOrigin, ConfigSection, DecodeError, DeviceInfo, EncoderCalibration,
@@ -188,14 +191,18 @@ impl Device {
         }
         let out = self.controller.step(&sensors);
 
-        let ip = &self.controller.model().params.ip;
-        let mut current_ma = [0.0; 4];
-        for c in 0..4 {
+        // the safe state is the fixed vent current, untrimmed; a trimmed command stays
+        // within the loop range (clamp_to cannot panic and maps NaN to the low end)
+        let vent = self.controller.outputs_vented();
+        let current_ma: [f32; 4] = core::array::from_fn(|c| {
             let cal = self.output_calibration[c];
-            // clamp_to, not f32::clamp: it cannot panic and maps NaN to the low end
-            current_ma[c] = (cal.gain * out.current_ma[c] + cal.offset_ma)
-                .clamp_to(ip.current_min_ma, ip.current_max_ma);
-        }
+            if vent || out.current_ma[c] <= VENT_CURRENT_MA {
+                VENT_CURRENT_MA
+            } else {
+                (cal.gain * out.current_ma[c] + cal.offset_ma)
+                    .clamp_to(VENT_CURRENT_MA, MAX_LOOP_CURRENT_MA)
+            }
+        });
 
         let new_faults = out.faults.0 & !self.last_faults.0;
         self.last_faults = out.faults;

@@ -2,6 +2,7 @@
 //! these checks are the ones that protect the patient.
 
 use crate::ABSOLUTE_MAX_PRESSURE_BAR;
+use pam_control::{MAX_LOOP_CURRENT_MA, VENT_CURRENT_MA};
 use pam_model::RobotParams;
 use pam_protocol::{Calibration, ErrorCode};
 
@@ -49,8 +50,15 @@ pub fn robot_params(p: &RobotParams<f32>) -> Result<(), ErrorCode> {
         ip.natural_freq_rad_s,
         ip.damping_ratio,
     ]))?;
-    // 4–20 mA loops: the converters' input range, with room for a live-zero variant
-    ok_if(in_range(ip.current_min_ma, 0.0, 24.0) && in_range(ip.current_max_ma, 0.0, 24.0))?;
+    // The pressure law starts at the converters' floor, exactly: the law saturates a
+    // command below its first current up to it, so a floor above 4 mA would turn a low
+    // pressure command into a higher one (12 mA is ≈ 2.3 bar), and one below would leave
+    // the loop range. The safe state does not depend on it: it is the fixed VENT_CURRENT_MA.
+    ok_if(
+        ip.current_min_ma == VENT_CURRENT_MA
+            && in_range(ip.current_max_ma, VENT_CURRENT_MA, MAX_LOOP_CURRENT_MA)
+            && ip.current_min_ma < ip.current_max_ma,
+    )?;
     ok_if(
         in_range(p.pressure.min_bar, 0.0, ABSOLUTE_MAX_PRESSURE_BAR)
             && in_range(p.pressure.max_bar, 0.0, ABSOLUTE_MAX_PRESSURE_BAR)

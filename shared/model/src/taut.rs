@@ -1,4 +1,4 @@
-//! The inverse model with cables that cannot push (issue 14's closed loops).
+//! The inverse model with cables that cannot push (the closed loops).
 //!
 //! The capability quadrilateral (Table 3.2) is the image of the pressure box under the force
 //! law, which is affine in pressure (eq. 3.1) and takes negative values at low pressure. Its

@@ -110,7 +110,8 @@ fn random_mode(host: &mut Host) -> (&'static str, wire::Mode) {
         1 => (
             "pressures",
             wire::Mode::Pressures {
-                pressure_bar: [0; 4].map(|_| u(host, 0.5, 3.5)),
+                // 1.5–3.5 bar: a pair's imbalance and mean within the mode's ceilings
+                pressure_bar: [0; 4].map(|_| u(host, 1.5, 3.5)),
             },
         ),
         2 => (

@@ -6,8 +6,9 @@
 //! Invariants, checked after every operation:
 //! * nothing panics;
 //! * every output current is finite and inside the converter's range (4–20 mA), and it is
-//!   the 4 mA floor whenever the device is disarmed, or faulted by anything but a command
-//!   timeout (which ramps), with the output calibration at identity;
+//!   exactly `VENT_CURRENT_MA` (4 mA) whenever the device is disarmed, or faulted by
+//!   anything but a command timeout (which ramps to it), whatever the configuration and
+//!   the output calibration;
 //! * a reply carries the request's id; a malformed frame gets `Malformed`;
 //! * a refused request leaves state, mode, faults, home and the whole configuration
 //!   (robot, calibration, limits, origin) unchanged;
@@ -23,11 +24,11 @@ mod input;
 use input::*;
 use libfuzzer_sys::fuzz_target;
 use pam_config_store::{ConfigStore, RamFlash, StoredConfig};
-use pam_control::{Faults, Mode, SafetyConfig, State};
+use pam_control::{Faults, Mode, SafetyConfig, State, MAX_LOOP_CURRENT_MA, VENT_CURRENT_MA};
 use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
 use pam_model::RobotParams;
 use pam_protocol::{
-    wire, ConfigOrigin, DecodeError, ErrorCode, FrameDecoder, OutputCalibration, ReplyData,
+    wire, ConfigOrigin, DecodeError, ErrorCode, FrameDecoder, ReplyData,
     Request, RequestBody, Version,
 };
 
@@ -111,26 +112,18 @@ impl Rig {
             },
         );
         let c = self.device.controller();
-        let ip = &c.model().params.ip;
         for i in out.current_ma {
             assert!(
-                i.is_finite() && i >= ip.current_min_ma && i <= ip.current_max_ma,
-                "current {i} mA outside {}–{} mA",
-                ip.current_min_ma,
-                ip.current_max_ma
+                i.is_finite() && (VENT_CURRENT_MA..=MAX_LOOP_CURRENT_MA).contains(&i),
+                "current {i} mA outside {VENT_CURRENT_MA}–{MAX_LOOP_CURRENT_MA} mA"
             );
         }
-        let vented = match c.state() {
-            State::Disarmed => true,
-            State::Faulted => c.faults() != Faults::COMMAND_TIMEOUT,
-            State::Armed => false,
-        };
-        let identity = self.device.calibration().output == [OutputCalibration::default(); 4];
-        if vented && identity {
+        // the safe state is a constant: no configuration or calibration moves it
+        if c.outputs_vented() {
             assert_eq!(
                 out.current_ma,
-                [ip.current_min_ma; 4],
-                "not at the floor while {:?} with faults {:#06x}",
+                [VENT_CURRENT_MA; 4],
+                "not at the vent while {:?} with faults {:#06x}",
                 c.state(),
                 c.faults().0
             );

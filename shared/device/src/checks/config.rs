@@ -86,12 +86,39 @@ pub fn invalid_calibration_is_refused_and_output_calibration_applies() -> CheckR
         offset_ma: 0.0,
     };
     done(&mut d, RequestBody::SetConfig(Config::Calibration(trimmed)))?;
+    // the safe state is the fixed vent current: the trim never moves it
     let out = steps(&mut d, 1, 1);
-    near("offset trim", out.current_ma[1], 4.25, 1e-6)?;
-    // 0.9 × 4 mA = 3.6 mA is below the loop range: clamped to 4 mA
-    near("clamped to the loop range", out.current_ma[2], 4.0, 1e-6)?;
+    holds(
+        "the vent is untrimmed",
+        out.current_ma.iter().all(|&i| i == VENT_CURRENT_MA),
+    )?;
+    done(&mut d, RequestBody::Home)?;
+    done(&mut d, RequestBody::Arm)?;
+    done(
+        &mut d,
+        RequestBody::SetMode(
+            Mode::Pressures {
+                pressure_bar: [2.0; 4],
+            }
+            .into(),
+        ),
+    )?;
+    let out = steps_alive(&mut d, 200, 2);
     let t = out.telemetry.unwrap_or_else(unreachable_telemetry);
-    holds("telemetry reports the loop current", t.current_ma[1] == 4.0)
+    holds("pressurised", t.current_ma.iter().all(|&i| i > 9.0))?;
+    near(
+        "offset trim",
+        out.current_ma[1],
+        t.current_ma[1] + 0.25,
+        1e-5,
+    )?;
+    near("gain trim", out.current_ma[2], 0.9 * t.current_ma[2], 1e-5)?;
+    done(&mut d, RequestBody::Disarm)?;
+    let out = steps(&mut d, 1, 300);
+    holds(
+        "disarmed: the vent, untrimmed",
+        out.current_ma.iter().all(|&i| i == VENT_CURRENT_MA),
+    )
 }
 
 pub fn limits_are_validated_and_the_period_is_fixed_while_armed() -> CheckResult {
@@ -144,5 +171,50 @@ pub fn limits_are_validated_and_the_period_is_fixed_while_armed() -> CheckResult
     done(
         &mut d,
         RequestBody::SetConfig(Config::Limits(slower_slew.into())),
+    )
+}
+
+/// The safe state is not a setting: a pressure law starting at 12 mA is refused, as are
+/// limits beyond their ceilings; armed, limits only tighten.
+pub fn no_configuration_moves_the_safe_state_or_loosens_a_limit() -> CheckResult {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    let mut held = RobotParams::<f32>::thesis();
+    held.ip.current_min_ma = 12.0;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Robot(held.into())),
+        ErrorCode::OutOfRange,
+    )?;
+    let mut off = SafetyConfig::default_1khz();
+    off.angle_margin_rad = f32::INFINITY;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(off.into())),
+        ErrorCode::OutOfRange,
+    )?;
+    let mut crawl = SafetyConfig::default_1khz();
+    crawl.timeout_ramp_bar_per_s = 1e-6;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(crawl.into())),
+        ErrorCode::OutOfRange,
+    )?;
+    done(&mut d, RequestBody::Home)?;
+    done(&mut d, RequestBody::Arm)?;
+    let mut tighter = SafetyConfig::default_1khz();
+    tighter.max_request_force_n = 40.0;
+    done(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(tighter.into())),
+    )?;
+    refused(
+        &mut d,
+        RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz().into())),
+        ErrorCode::WrongState,
+    )?;
+    holds(
+        "the tighter limit in force",
+        d.controller().safety().max_request_force_n == 40.0,
     )
 }

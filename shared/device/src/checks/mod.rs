@@ -154,6 +154,7 @@ pam_model::register_checks!(
     invalid_robot_parameters_are_refused_and_nothing_changes,
     invalid_calibration_is_refused_and_output_calibration_applies,
     limits_are_validated_and_the_period_is_fixed_while_armed,
+    no_configuration_moves_the_safe_state_or_loosens_a_limit,
     telemetry_divider_and_sequence,
     any_request_is_a_heartbeat_and_silence_times_out,
     faults_clear_only_when_gone,
