@@ -171,8 +171,9 @@ const _: () =
 /// Loop current at 100 % duty with the nominal parts of `docs/output-stage.md`:
 /// 10 × 3.000 V / 1.24 kΩ (XTR111 gain 10, PWM high level from a 3.000 V reference).
 pub const OUTPUT_FULL_SCALE_MA: f32 = 10.0 * 3.000 / 1.24;
-/// The vent current: the I/P converters' floor. A constant of the firmware, never a setting.
-pub const OUTPUT_SAFE_MA: f32 = 4.0;
+/// The vent current: the I/P converters' floor, the control crate's own constant, so the
+/// fault paths and the control step vent to the same current. Never a setting.
+pub const OUTPUT_SAFE_MA: f32 = pam_control::VENT_CURRENT_MA;
 /// The compare value of the vent current (1405 counts), computed by the compiler: the
 /// fault paths and the E-stop write it without reading anything from RAM.
 pub const OUTPUT_SAFE_COMPARE: u16 = pam_firmware_logic::current_loop::nominal_counts(
