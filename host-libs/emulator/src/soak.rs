@@ -33,9 +33,10 @@ use crate::inject::Injection;
 use crate::plant::Plant;
 use crate::{EmulatorError, HandleMode, SimConfig};
 
+pub mod fault_table;
 mod report;
 mod script;
-pub use report::{KindFigures, SoakReport};
+pub use report::{Aftermath, Coverage, KindFigures, SoakReport};
 
 /// What a soak run does.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -8,6 +8,7 @@ use pam_protocol::{
     MAX_FRAME,
 };
 
+use super::report::Aftermath;
 use super::{injection, limits_with_overrun, Host, Kind, KINDS};
 
 /// Home at the neutral pose, where the twin starts.
@@ -160,7 +161,7 @@ fn segment(host: &mut Host, inject: bool) -> bool {
     let inject_at = inject.then(|| host.below(length));
     for k in 0..length {
         if Some(k) == inject_at {
-            inject_and_watch(host);
+            inject_and_watch(host, name);
             return false;
         }
         match host.below(1_000) {
@@ -250,8 +251,9 @@ fn noise(host: &mut Host) {
     }
 }
 
-/// Injects a random fault and watches the telemetry for the fault and the safe state.
-fn inject_and_watch(host: &mut Host) {
+/// Injects a random fault and watches the telemetry for the fault and the safe state, and
+/// the twin for what the handle does meanwhile.
+fn inject_and_watch(host: &mut Host, mode: &'static str) {
     let kind = KINDS[host.below(KINDS.len() as u64) as usize];
     let bound = kind.bound_periods(host.overrun_periods);
     let faults_before = host.plant.device.controller().faults().0;
@@ -261,8 +263,11 @@ fn inject_and_watch(host: &mut Host) {
     }
     let floor = host.floor_ma();
     let (mut to_fault, mut to_safe, mut preempted) = (None, None, false);
+    let start_m = host.plant.twin.state().handle_user_m;
+    let mut after = Aftermath::default();
     for k in 0..kind.watch_periods() {
         let t = host.period();
+        after.add(&host.plant, start_m);
         let new = t.faults & !faults_before;
         if to_fault.is_none() && new != 0 {
             to_fault = Some(k);
@@ -286,6 +291,11 @@ fn inject_and_watch(host: &mut Host) {
     if bound.is_some() && to_safe.is_none() {
         host.problem(format!("{}: never reached the safe state", kind.name()));
     }
+    host.report
+        .coverage
+        .entry((kind, mode))
+        .or_default()
+        .add(to_fault.is_some(), after);
     let f = host.report.injected.entry(kind).or_default();
     f.injected += 1;
     f.detected += to_fault.is_some() as u64;
