@@ -15,11 +15,6 @@
 //!   safe state, within its documented number of periods ([`Kind::bound_periods`]);
 //! * after every episode the device clears and re-arms.
 //!
-//! Measured after every injected fault, in its watch window ([`report::Coverage`], by fault
-//! kind and the mode it hit): whether a fault latched, and the handle's largest excursion
-//! from where it was at the injection, its largest speed and the largest force the arm put
-//! on whatever held it; each undetected fault's figures are kept one by one.
-//!
 //! `cargo xtask soak [--hours H] [--seed S]` runs it (`examples/soak.rs`); a few emulated
 //! minutes run as a test (`tests/soak.rs`).
 
@@ -38,10 +33,9 @@ use crate::inject::Injection;
 use crate::plant::Plant;
 use crate::{EmulatorError, HandleMode, SimConfig};
 
-pub mod fault_table;
 mod report;
 mod script;
-pub use report::{Aftermath, Coverage, KindFigures, SoakReport};
+pub use report::{KindFigures, SoakReport};
 
 /// What a soak run does.
 #[derive(Clone, Copy, Debug, PartialEq)]
