@@ -101,8 +101,17 @@ fn output(cmd: &mut Command) -> String {
 
 /// The short commit, `-dirty` with uncommitted changes.
 fn commit(root: &Path) -> String {
-    let hash = output(Command::new("git").current_dir(root).args(["rev-parse", "--short", "HEAD"]));
-    let dirty = !output(Command::new("git").current_dir(root).args(["status", "--porcelain"])).is_empty();
+    let hash = output(
+        Command::new("git")
+            .current_dir(root)
+            .args(["rev-parse", "--short", "HEAD"]),
+    );
+    let dirty = !output(
+        Command::new("git")
+            .current_dir(root)
+            .args(["status", "--porcelain"]),
+    )
+    .is_empty();
     if dirty {
         format!("{hash}-dirty")
     } else {

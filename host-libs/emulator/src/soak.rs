@@ -15,6 +15,12 @@
 //!   safe state, within its documented number of periods ([`Kind::bound_periods`]);
 //! * after every episode the device clears and re-arms.
 //!
+//! Measured, not checked: for each injected fault, the mode it struck in, whether a fault
+//! latched, and the handle's largest excursion, speed and force on what holds it while the
+//! fault is watched (to the end of the vent); [`SoakReport::coverage`] per fault kind and
+//! mode, [`SoakReport::undetected`] for every fault nothing answered. The twin's converters
+//! fill and exhaust at their measured rates ([`fault_table::sim_config`]).
+//!
 //! `cargo xtask soak [--hours H] [--seed S]` runs it (`examples/soak.rs`); a few emulated
 //! minutes run as a test (`tests/soak.rs`).
 

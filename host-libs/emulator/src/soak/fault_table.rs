@@ -33,6 +33,14 @@ const HAND_N_PER_M: f64 = 1000.0;
 const HAND_N_S_PER_M: f64 = 50.0;
 /// The loop current of the vent (mA).
 const VENT_MA: f64 = 4.0;
+/// The muscles brought up at the neutral pose before the mode's target, so that the
+/// target starts from the pretension and not from the converters' fill.
+const PRETENSION: wire::Mode = wire::Mode::Joint {
+    alpha_rad: [0.0, 0.0],
+    torque_nm: [0.0, 0.0],
+    stiffness_nm_per_rad: [50.0, 25.0],
+};
+const PRETENSION_S: f64 = 2.0;
 /// Heartbeat interval of the host (periods), as the soak's.
 const HEARTBEAT_PERIODS: u64 = 20;
 
@@ -88,7 +96,9 @@ impl TableMode {
                 gain_scale: 1.0,
             },
             TableMode::Impedance => wire::Mode::Impedance {
-                target_user_m: [0.01, 0.0],
+                // where the handle is: a target away from it is a hand that does not
+                // follow, which the loop's released-handle guard faults on
+                target_user_m: [0.0, 0.0],
                 stiffness_n_per_m: [200.0, 200.0],
                 damping_n_s_per_m: [20.0, 20.0],
             },
@@ -248,6 +258,7 @@ pub fn run_case(kind: Kind, mode: TableMode, hand: Hand) -> Result<Outcome, Emul
         },
         RequestBody::Home,
         RequestBody::Arm,
+        RequestBody::SetMode(PRETENSION),
         RequestBody::SetMode(mode.target()),
     ];
     for body in setup {
@@ -258,11 +269,14 @@ pub fn run_case(kind: Kind, mode: TableMode, hand: Hand) -> Result<Outcome, Emul
             out.setup_problem = Some(e);
             return Ok(out);
         }
+        if body == RequestBody::SetMode(PRETENSION) {
+            rig.run_s(PRETENSION_S);
+        }
     }
     rig.run_s(SETTLE_S);
     let before = rig.plant.device.controller().faults().0;
     if before != 0 {
-        out.setup_problem = Some(format!("faults {before:#06x} before the injection"));
+        out.setup_problem = Some(format!("not run: {before:#06x} latched before the fault"));
         return Ok(out);
     }
     watch(&mut rig, kind, &mut out);
@@ -320,7 +334,9 @@ pub fn run_all(mut progress: impl FnMut(&Outcome)) -> Result<Vec<Outcome>, Emula
 }
 
 fn ms(v: Option<f64>) -> String {
-    v.map_or(format!("> {:.0}", WATCH_S * 1e3), |s| format!("{:.0}", s * 1e3))
+    v.map_or(format!("> {:.0}", WATCH_S * 1e3), |s| {
+        format!("{:.0}", s * 1e3)
+    })
 }
 
 fn cells(o: Option<&Outcome>) -> String {
@@ -352,7 +368,8 @@ pub fn markdown(outcomes: &[Outcome]) -> String {
                     .find(|o| o.kind == kind && o.mode == mode && o.hand == hand)
             };
             let (held, free) = (find(Hand::Held), find(Hand::Free));
-            let bits = |o: Option<&Outcome>| o.map_or("—".into(), |o| format!("{:#06x}", o.faults));
+            let bits =
+                |o: Option<&Outcome>| o.map_or("—".into(), |o| format!("{:#06x}", o.faults));
             s.push_str(&format!(
                 "| {} | {} | {} / {} {}{}|\n",
                 kind.name(),

@@ -39,7 +39,10 @@ impl Default for Consequence {
 impl Consequence {
     /// One period of the twin after the injection; `start_m` is the handle at it.
     pub(crate) fn observe(&mut self, start_m: [f64; 2], s: &TrueState) {
-        let d = [s.handle_user_m[0] - start_m[0], s.handle_user_m[1] - start_m[1]];
+        let d = [
+            s.handle_user_m[0] - start_m[0],
+            s.handle_user_m[1] - start_m[1],
+        ];
         self.excursion_mm = self.excursion_mm.max(d[0].hypot(d[1]) * 1e3);
         let v = s.handle_velocity_user_m_s;
         self.speed_mm_s = self.speed_mm_s.max(v[0].hypot(v[1]) * 1e3);
@@ -251,7 +254,11 @@ fn write_coverage(f: &mut fmt::Formatter<'_>, r: &SoakReport) -> fmt::Result {
         )?;
     }
     let all = r.undetected_by_excursion();
-    writeln!(f, "undetected faults: {}; the ten largest excursions:", all.len())?;
+    writeln!(
+        f,
+        "undetected faults: {}; the ten largest excursions:",
+        all.len()
+    )?;
     for c in all.iter().take(10) {
         writeln!(
             f,

@@ -280,7 +280,13 @@ fn inject_and_watch(host: &mut Host, mode: &'static str) {
             to_safe = Some(k);
         }
         // 200 samples in the safe state, and the muscles vented: the handle has stopped
-        let vented = host.plant.twin.state().pressure_bar.iter().all(|&p| p < 0.5);
+        let vented = host
+            .plant
+            .twin
+            .state()
+            .pressure_bar
+            .iter()
+            .all(|&p| p < 0.5);
         if to_safe.is_some() && k > to_safe.unwrap_or(0) + 200 && vented {
             break;
         }
