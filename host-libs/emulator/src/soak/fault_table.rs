@@ -186,7 +186,7 @@ impl Rig {
             .step(period_us as f64 * 1e-6, at_converters, &self.hand);
         plant.t_s += period_us as f64 * 1e-6;
         self.time_us += period_us as u64;
-        if !self.silent && k % HEARTBEAT_PERIODS == 0 {
+        if !self.silent && k.is_multiple_of(HEARTBEAT_PERIODS) {
             let _ = self.request(RequestBody::Heartbeat);
         }
     }
