@@ -78,7 +78,7 @@ fn recover(host: &mut Host) {
     }
 }
 
-/// A new count of missed periods (task of issue 12), and one the device must refuse.
+/// A new count of missed periods, and one the device must refuse.
 fn change_overrun_count(host: &mut Host) {
     let n = 1 + host.below(8) as u32;
     match host.request(limits_with_overrun(n)) {
