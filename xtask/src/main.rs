@@ -11,10 +11,13 @@
 //! - `fuzz`        the cargo-fuzz targets (`cargo +nightly fuzz run`, [`fuzz`]).
 //! - `soak`        `[--hours H] [--seed S]`: hours of emulated operation with random targets
 //!   and injected faults, fast-forwarded (`pam_emulator::soak`), in a release build.
+//! - `fault-table` `[--write]`: each fault × each mode, held and free, on the twin
+//!   (`pam_emulator::soak::fault_table`); `--write` rewrites its section of hil-tests/README.md.
 //!
 //! Works from any directory and with `CARGO_TARGET_DIR` set, absolute or relative to where
 //! `cargo xtask` runs ([`target_dir`]).
 
+mod fault_table;
 mod fuzz;
 mod target_dir;
 
@@ -35,8 +38,9 @@ fn main() {
         Some("bench") => run_status(cargo_in(&root()).args(["bench", "-p", "pam-model"])),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("soak") => soak(&args[1..]),
+        Some("fault-table") => fault_table::fault_table(&args[1..]),
         _ => {
-            eprintln!("usage: cargo xtask <test | qemu-fault-paths | qemu-bench | bench | firmware | fuzz | soak>");
+            eprintln!("usage: cargo xtask <test | qemu-fault-paths | qemu-bench | bench | firmware | fuzz | soak | fault-table>");
             2
         }
     };

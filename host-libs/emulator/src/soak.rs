@@ -15,6 +15,12 @@
 //!   safe state, within its documented number of periods ([`Kind::bound_periods`]);
 //! * after every episode the device clears and re-arms.
 //!
+//! Measured, not checked: for each injected fault, the mode it struck in, whether a fault
+//! latched, and the handle's largest excursion, speed and force on what holds it while the
+//! fault is watched (to the end of the vent); [`SoakReport::coverage`] per fault kind and
+//! mode, [`SoakReport::undetected`] for every fault nothing answered. The twin's converters
+//! fill and exhaust at their measured rates ([`fault_table::sim_config`]).
+//!
 //! `cargo xtask soak [--hours H] [--seed S]` runs it (`examples/soak.rs`); a few emulated
 //! minutes run as a test (`tests/soak.rs`).
 
@@ -33,9 +39,10 @@ use crate::inject::Injection;
 use crate::plant::Plant;
 use crate::{EmulatorError, HandleMode, SimConfig};
 
+pub mod fault_table;
 mod report;
 mod script;
-pub use report::{KindFigures, SoakReport};
+pub use report::{Consequence, KindFigures, SoakReport};
 
 /// What a soak run does.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,8 +129,10 @@ impl Kind {
         match self {
             // the balance check's 3 s still window, and some
             Kind::EncoderStuck | Kind::EncoderUnplugged | Kind::ConverterStuck => 4_500,
-            Kind::LinkLoss => 1_500,
-            _ => 800,
+            // the timeout and its ramp, then the slowest exhaust (2.4 s), so that the
+            // handle's motion after the vent command is watched to its end
+            Kind::LinkLoss => 4_000,
+            _ => 3_000,
         }
     }
 }
@@ -293,6 +302,9 @@ pub fn run(
         // blocked in the force modes, free otherwise (a hand held at a random joint target
         // would pull the load cell into saturation at every new target)
         handle: HandleMode::Blocked,
+        // the converters fill and exhaust at their measured rates, each its own: the
+        // consequences of a fault are the arm's motion while the muscles vent
+        effects: fault_table::sim_config(config.seed).effects,
         seed: config.seed,
         command_timeout_s: safety().command_timeout_s,
         ..SimConfig::default()
@@ -331,26 +343,45 @@ pub fn run(
     Ok(host.report)
 }
 
-/// The injection that makes `kind` happen (link loss is the host's own doing).
+/// The injection that makes `kind` happen (link loss is the host's own doing), on a random
+/// joint and channel.
 fn injection(kind: Kind, host: &mut Host) -> Option<Injection> {
     let joint = host.below(2) as usize;
     let channel = host.below(4) as usize;
+    let sign = host.below(2);
+    let overrun = host.overrun_periods + host.below(3) as u32;
+    injection_at(kind, joint, channel + 4 * sign as usize, overrun)
+}
+
+/// The injection that makes `kind` happen on `joint` and `channel` (mod 4; a load cell on
+/// channel mod 2; an encoder miscount of +400 counts for channel < 4, −400 otherwise), with
+/// an overrun of `overrun_periods` stalled periods.
+fn injection_at(
+    kind: Kind,
+    joint: usize,
+    channel: usize,
+    overrun_periods: u32,
+) -> Option<Injection> {
     Some(match kind {
         Kind::LinkLoss => return None,
         Kind::EncoderStuck => Injection::Plant(PlantFault::EncoderStuck { joint }),
         Kind::EncoderUnplugged => Injection::Plant(PlantFault::EncoderUnplugged { joint }),
         Kind::EncoderMiscount => Injection::Plant(PlantFault::EncoderJump {
             joint,
-            counts: if host.below(2) == 0 { 400 } else { -400 },
+            counts: if channel < 4 { 400 } else { -400 },
         }),
         Kind::LoadcellSaturated => Injection::Plant(PlantFault::LoadcellSaturated {
             channel: channel % 2,
         }),
         Kind::LoadcellFrozen => Injection::Plant(PlantFault::LoadcellFrozen),
-        Kind::ConverterOpen => Injection::Plant(PlantFault::ConverterOpen { channel }),
-        Kind::ConverterStuck => Injection::Plant(PlantFault::ConverterStuck { channel }),
+        Kind::ConverterOpen => Injection::Plant(PlantFault::ConverterOpen {
+            channel: channel % 4,
+        }),
+        Kind::ConverterStuck => Injection::Plant(PlantFault::ConverterStuck {
+            channel: channel % 4,
+        }),
         Kind::LoopOverrun => Injection::Overrun {
-            periods: host.overrun_periods + host.below(3) as u32,
+            periods: overrun_periods,
         },
         Kind::EStop => Injection::EStop,
     })

@@ -23,4 +23,16 @@ fn three_emulated_minutes_without_a_lost_frame_or_an_unsafe_sample() {
     assert!(r.faults_injected() >= 10, "{r}");
     assert!(r.clears >= 5 && r.arms >= 10, "{r}");
     assert_eq!(r.modes.len(), 6, "{r}");
+    // every injected fault counted once by kind and mode, and what followed each
+    // undetected one measured
+    let by_mode: u64 = r.coverage.values().map(|c| c.injected).sum();
+    assert_eq!(by_mode, r.faults_injected(), "{r}");
+    let detected: u64 = r.coverage.values().map(|c| c.detected).sum();
+    assert_eq!(r.undetected.len() as u64, by_mode - detected, "{r}");
+    assert!(
+        r.undetected
+            .iter()
+            .all(|c| c.excursion_mm.is_finite() && c.force_n.is_finite()),
+        "{r}"
+    );
 }

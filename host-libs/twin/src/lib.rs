@@ -34,4 +34,4 @@ pub use plant::{
     HandSpring, HandleCondition, Measurement, MechanicsConfig, SensorConfig, TrueState, Twin,
     TwinConfig,
 };
-pub use pneumatics::PneumaticConfig;
+pub use pneumatics::{ConverterRates, PneumaticConfig};

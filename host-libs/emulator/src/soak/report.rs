@@ -3,7 +3,66 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
+use pam_twin::TrueState;
+
 use super::Kind;
+
+/// What the handle did after one injected fault, within the soak's watch of it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Consequence {
+    pub kind: Kind,
+    /// The mode the fault was injected in.
+    pub mode: &'static str,
+    /// A fault latched within the watch window.
+    pub detected: bool,
+    /// Largest distance of the handle from where it was at the injection (mm).
+    pub excursion_mm: f64,
+    /// Largest handle speed (mm/s).
+    pub speed_mm_s: f64,
+    /// Largest force on what holds the handle (the block in the force modes; N).
+    pub force_n: f64,
+}
+
+impl Default for Consequence {
+    fn default() -> Self {
+        Consequence {
+            kind: Kind::LinkLoss,
+            mode: "",
+            detected: false,
+            excursion_mm: 0.0,
+            speed_mm_s: 0.0,
+            force_n: 0.0,
+        }
+    }
+}
+
+impl Consequence {
+    /// One period of the twin after the injection; `start_m` is the handle at it.
+    pub(crate) fn observe(&mut self, start_m: [f64; 2], s: &TrueState) {
+        let d = [
+            s.handle_user_m[0] - start_m[0],
+            s.handle_user_m[1] - start_m[1],
+        ];
+        self.excursion_mm = self.excursion_mm.max(d[0].hypot(d[1]) * 1e3);
+        let v = s.handle_velocity_user_m_s;
+        self.speed_mm_s = self.speed_mm_s.max(v[0].hypot(v[1]) * 1e3);
+        let f = s.force_on_holder_user_n;
+        self.force_n = self.force_n.max(f[0].hypot(f[1]));
+    }
+}
+
+/// Injections and detections of one fault kind in one mode, and the worst that followed
+/// the undetected ones.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Coverage {
+    pub injected: u64,
+    pub detected: u64,
+    pub worst_undetected_excursion_mm: f64,
+    pub worst_undetected_speed_mm_s: f64,
+    pub worst_undetected_force_n: f64,
+    /// Largest excursion after a detected one (mm): the motion while the muscles vent.
+    pub worst_detected_excursion_mm: f64,
+}
 
 /// The figures of one kind of injected fault.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -42,11 +101,38 @@ pub struct SoakReport {
     pub bad_targets_refused: u64,
     pub noise_bursts: u64,
     pub overrun_count_changes: u64,
+    /// Detection per fault kind and the mode it was injected in.
+    pub coverage: BTreeMap<(Kind, &'static str), Coverage>,
+    /// What followed every fault that no fault bit answered within its watch.
+    pub undetected: Vec<Consequence>,
     /// Every violation of the soak's checks (at most 100 kept); empty on a pass.
     pub problems: Vec<String>,
 }
 
 impl SoakReport {
+    /// Counts one injected fault and what followed it.
+    pub(crate) fn record(&mut self, c: Consequence) {
+        let cov = self.coverage.entry((c.kind, c.mode)).or_default();
+        cov.injected += 1;
+        if c.detected {
+            cov.detected += 1;
+            cov.worst_detected_excursion_mm = cov.worst_detected_excursion_mm.max(c.excursion_mm);
+        } else {
+            cov.worst_undetected_excursion_mm =
+                cov.worst_undetected_excursion_mm.max(c.excursion_mm);
+            cov.worst_undetected_speed_mm_s = cov.worst_undetected_speed_mm_s.max(c.speed_mm_s);
+            cov.worst_undetected_force_n = cov.worst_undetected_force_n.max(c.force_n);
+            self.undetected.push(c);
+        }
+    }
+
+    /// The undetected faults, largest excursion first.
+    pub fn undetected_by_excursion(&self) -> Vec<Consequence> {
+        let mut v = self.undetected.clone();
+        v.sort_by(|a, b| b.excursion_mm.total_cmp(&a.excursion_mm));
+        v
+    }
+
     pub fn faults_injected(&self) -> u64 {
         self.injected.values().map(|f| f.injected).sum()
     }
@@ -119,6 +205,7 @@ impl fmt::Display for SoakReport {
                 k.name()
             )?;
         }
+        write_coverage(f, self)?;
         let spontaneous: Vec<String> = self
             .spontaneous
             .iter()
@@ -130,5 +217,105 @@ impl fmt::Display for SoakReport {
             writeln!(f, "  {p}")?;
         }
         Ok(())
+    }
+}
+
+/// Detection per fault kind and mode, what followed the undetected faults, the worst ten.
+fn write_coverage(f: &mut fmt::Formatter<'_>, r: &SoakReport) -> fmt::Result {
+    writeln!(
+        f,
+        "| fault | mode | injected | latched | coverage | undetected: worst excursion (mm) | worst speed (mm/s) | worst force (N) | detected: worst excursion (mm) |"
+    )?;
+    writeln!(f, "|---|---|---|---|---|---|---|---|---|")?;
+    for ((kind, mode), c) in &r.coverage {
+        let undetected = c.injected > c.detected;
+        let worst = |v: f64| {
+            if undetected {
+                format!("{v:.1}")
+            } else {
+                "—".into()
+            }
+        };
+        writeln!(
+            f,
+            "| {} | {mode} | {} | {} | {:.0} % | {} | {} | {} | {} |",
+            kind.name(),
+            c.injected,
+            c.detected,
+            100.0 * c.detected as f64 / c.injected.max(1) as f64,
+            worst(c.worst_undetected_excursion_mm),
+            worst(c.worst_undetected_speed_mm_s),
+            worst(c.worst_undetected_force_n),
+            if c.detected > 0 {
+                format!("{:.1}", c.worst_detected_excursion_mm)
+            } else {
+                "—".into()
+            }
+        )?;
+    }
+    let all = r.undetected_by_excursion();
+    writeln!(
+        f,
+        "undetected faults: {}; the ten largest excursions:",
+        all.len()
+    )?;
+    for c in all.iter().take(10) {
+        writeln!(
+            f,
+            "  {} in {}: {:.1} mm, {:.0} mm/s, {:.1} N",
+            c.kind.name(),
+            c.mode,
+            c.excursion_mm,
+            c.speed_mm_s,
+            c.force_n
+        )?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn consequence(kind: Kind, mode: &'static str, detected: bool, mm: f64) -> Consequence {
+        Consequence {
+            kind,
+            mode,
+            detected,
+            excursion_mm: mm,
+            speed_mm_s: 10.0 * mm,
+            force_n: mm / 2.0,
+        }
+    }
+
+    #[test]
+    fn coverage_counts_per_kind_and_mode_and_keeps_what_followed_each_undetected_fault() {
+        let mut r = SoakReport::default();
+        r.record(consequence(Kind::EncoderStuck, "joint", false, 12.0));
+        r.record(consequence(Kind::EncoderStuck, "joint", true, 30.0));
+        r.record(consequence(Kind::EncoderStuck, "joint", false, 40.0));
+        r.record(consequence(Kind::EncoderStuck, "pressures", true, 5.0));
+        r.record(consequence(Kind::ConverterStuck, "joint", false, 7.0));
+        let joint = r.coverage[&(Kind::EncoderStuck, "joint")];
+        assert_eq!((joint.injected, joint.detected), (3, 1));
+        assert_eq!(joint.worst_undetected_excursion_mm, 40.0);
+        assert_eq!(joint.worst_undetected_speed_mm_s, 400.0);
+        assert_eq!(joint.worst_undetected_force_n, 20.0);
+        assert_eq!(joint.worst_detected_excursion_mm, 30.0);
+        let pressures = r.coverage[&(Kind::EncoderStuck, "pressures")];
+        assert_eq!((pressures.injected, pressures.detected), (1, 1));
+        assert_eq!(pressures.worst_undetected_excursion_mm, 0.0);
+        let worst: Vec<f64> = r
+            .undetected_by_excursion()
+            .iter()
+            .map(|c| c.excursion_mm)
+            .collect();
+        assert_eq!(worst, [40.0, 12.0, 7.0]);
+        let text = r.to_string();
+        assert!(
+            text.contains("| stuck encoder | joint | 3 | 1 | 33 % | 40.0 | 400.0 | 20.0 | 30.0 |"),
+            "{text}"
+        );
+        assert!(text.contains("undetected faults: 3"), "{text}");
     }
 }

@@ -8,7 +8,7 @@ use pam_protocol::{
     MAX_FRAME,
 };
 
-use super::{injection, limits_with_overrun, Host, Kind, KINDS};
+use super::{injection, limits_with_overrun, Consequence, Host, Kind, KINDS};
 
 /// Home at the neutral pose, where the twin starts.
 pub(super) fn start(host: &mut Host) {
@@ -78,7 +78,7 @@ fn recover(host: &mut Host) {
     }
 }
 
-/// A new count of missed periods (task of issue 12), and one the device must refuse.
+/// A new count of missed periods, and one the device must refuse.
 fn change_overrun_count(host: &mut Host) {
     let n = 1 + host.below(8) as u32;
     match host.request(limits_with_overrun(n)) {
@@ -161,7 +161,7 @@ fn segment(host: &mut Host, inject: bool) -> bool {
     let inject_at = inject.then(|| host.below(length));
     for k in 0..length {
         if Some(k) == inject_at {
-            inject_and_watch(host);
+            inject_and_watch(host, name);
             return false;
         }
         match host.below(1_000) {
@@ -251,8 +251,9 @@ fn noise(host: &mut Host) {
     }
 }
 
-/// Injects a random fault and watches the telemetry for the fault and the safe state.
-fn inject_and_watch(host: &mut Host) {
+/// Injects a random fault and watches the telemetry for the fault and the safe state, and
+/// the twin for what the handle does after it.
+fn inject_and_watch(host: &mut Host, mode: &'static str) {
     let kind = KINDS[host.below(KINDS.len() as u64) as usize];
     let bound = kind.bound_periods(host.overrun_periods);
     let faults_before = host.plant.device.controller().faults().0;
@@ -262,8 +263,15 @@ fn inject_and_watch(host: &mut Host) {
     }
     let floor = host.floor_ma();
     let (mut to_fault, mut to_safe, mut preempted) = (None, None, false);
+    let start_m = host.plant.twin.state().handle_user_m;
+    let mut after = Consequence {
+        kind,
+        mode,
+        ..Consequence::default()
+    };
     for k in 0..kind.watch_periods() {
         let t = host.period();
+        after.observe(start_m, host.plant.twin.state());
         let new = t.faults & !faults_before;
         if to_fault.is_none() && new != 0 {
             to_fault = Some(k);
@@ -272,8 +280,16 @@ fn inject_and_watch(host: &mut Host) {
         if to_safe.is_none() && t.state != wire::State::Armed && t.current_ma == [floor; 4] {
             to_safe = Some(k);
         }
-        if to_safe.is_some() && k > to_safe.unwrap_or(0) + 200 {
-            break; // 200 samples in the safe state are enough
+        // 200 samples in the safe state, and the muscles vented: the handle has stopped
+        let vented = host
+            .plant
+            .twin
+            .state()
+            .pressure_bar
+            .iter()
+            .all(|&p| p < 0.5);
+        if to_safe.is_some() && k > to_safe.unwrap_or(0) + 200 && vented {
+            break;
         }
     }
     if let (Some(b), Some(s)) = (bound, to_safe) {
@@ -287,6 +303,8 @@ fn inject_and_watch(host: &mut Host) {
     if bound.is_some() && to_safe.is_none() {
         host.problem(format!("{}: never reached the safe state", kind.name()));
     }
+    after.detected = to_fault.is_some();
+    host.report.record(after);
     let f = host.report.injected.entry(kind).or_default();
     f.injected += 1;
     f.detected += to_fault.is_some() as u64;
