@@ -1,4 +1,4 @@
-//! End-to-end, closed-loop force mode (issue 14): through pamctl and the protocol, on the
+//! End-to-end, closed-loop force mode: through pamctl and the protocol, on the
 //! emulator with a blocked handle (on a board: block the handle first).
 
 use pam_control::{Faults, Mode, State, MAX_GAIN_SCALE};

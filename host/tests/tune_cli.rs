@@ -50,11 +50,10 @@ fn tune_proposes_a_gain_whose_predicted_settling_the_twin_shows() {
         .collect();
     let g = j["axes"][0]["gain"].as_f64().unwrap();
     assert!((0.5..0.65).contains(&g), "identified gain {g}");
-    // The loop measures the rig's gain itself and divides by it (`pam_control::plant_gain`,
-    // branch issue14-rig), so the plant it runs against is G / Ĝ ≈ 1 and the proposal is the
-    // default twin's (1.25). Before, the loop ran at G and the tuner made up for it with
-    // 2.20 (this bound was `scale > 1.5`; with the loop's measurement 2.20 would be a loop
-    // gain of 2.2, beyond the tuner's own bound of 2).
+    // The loop measures the rig's gain itself and divides by it (`pam_control::plant_gain`),
+    // so the plant it runs against is G / Ĝ ≈ 1 and the proposal is the default twin's
+    // (1.25). A loop that ran at G would need a scale near 2.2 from the tuner, beyond the
+    // tuner's own bound of 2.
     assert!(
         (1.0..1.5).contains(&scale),
         "a plant of gain {g}, measured by the loop: the design's scale for g = 1, not {scale}"
