@@ -30,14 +30,14 @@ cases() {
   echo "twin_dyn_high|twin|--experiment dynamic --point 1 --stiffness high --duration 30 --period 0.01 --seed 20"
   echo "twin_dyn_two|twin|--experiment dynamic --point 1 --duration 30 --period 0.01 --seed 21 --with carrier_ball_friction:coulomb_n=3 --with loadcell_drift"
   echo "twin_static|twin|--experiment static --point 1 --period 0.01 --seed 22"
-  echo "twin_imp|twin|--experiment impedance --duration 30 --period 0.01 --seed 23"
+  echo "twin_imp|twin|--experiment impedance --duration 20 --period 0.001 --seed 23"
   for e in none asymmetric_ip_rates pressure_saturation transport_delay muscle_hysteresis loadcell_drift; do
     local with=""
     [ "$e" != none ] && with="--with $e"
     echo "twin_step_$e|twin|--experiment force_step --pose $(( seed % 9 )) --period 0.05 --seed $seed $with"
     seed=$((seed + 1))
   done
-  echo "twin_step_cl|twin|--experiment force_step --pose 4 --period 0.05 --closed-loop --seed 30"
+  echo "twin_step_cl|twin|--experiment force_step --pose 4 --closed-loop --seed 30"
   echo "twin_step_ff|twin|--experiment force_step --pose 2 --period 0.05 --feed-forward --seed 31"
   local f s
   seed=100
@@ -47,7 +47,9 @@ cases() {
             pose_dependence/cartesian_linear pose_dependence/joint_gain_plane drift/offset_linear \
             drift/offset_exponential delay/sensor_sync unexplained/mains_tone unexplained/slow_wander; do
     f=${fs%/*}; s=${fs#*/}
-    echo "synth_dyn_${f}_$s|synth|--seed $seed --experiment dynamic --family $f --shape $s --duration-s 40 --period-s 0.01"
+    local dt=0.01
+    [ "$s" = mains_tone ] && dt=0.002
+    echo "synth_dyn_${f}_$s|synth|--seed $seed --experiment dynamic --family $f --shape $s --duration-s 40 --period-s $dt"
     seed=$((seed + 1))
   done
   echo "synth_dyn_nuis|synth|--seed 150 --experiment dynamic --family friction --shape coulomb --nuisance random --motion random --period-s 0.01"
@@ -56,7 +58,9 @@ cases() {
             drift/offset_exponential delay/dead_time delay/tube_lag rate_limits/output_slew \
             rate_limits/input_slew saturation/hard_clip saturation/tanh_knee saturation/pressure_cap unexplained/mains_tone; do
     f=${fs%/*}; s=${fs#*/}
-    echo "synth_step_${f}_$s|synth|--seed $seed --experiment step --family $f --shape $s"
+    local period=""
+    [ "$s" = mains_tone ] && period="--period-s 0.002"
+    echo "synth_step_${f}_$s|synth|--seed $seed --experiment step --family $f --shape $s $period"
     seed=$((seed + 1))
   done
   echo "synth_step_levels|synth|--seed 170 --experiment step --family delay --shape dead_time --step-levels random --step-order x_then_y"

@@ -7,9 +7,10 @@
 //! ```
 
 use pam_ident::msd;
-use pam_ident::trial::{rms, Trial};
+use pam_ident::trial::Trial;
 use pam_ident::FilterSettings;
 use pam_model::RobotModel;
+use pam_numerics::stats::rms;
 use pam_twin::experiments::{trial_stiffness, ExperimentConfig, StiffnessLevel};
 use pam_twin::impedance_trial::{impedance_trial, VirtualImpedance};
 use pam_twin::TwinConfig;

@@ -11,16 +11,13 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod error;
-pub mod filter;
 pub mod freq;
 pub mod held_out;
-pub mod lm;
-pub mod lsq;
 pub mod msd;
 pub mod response;
-pub mod spectrum;
 pub mod spikes;
 pub mod step;
+pub mod step_detection;
 pub mod trial;
 
 pub mod diagnose;

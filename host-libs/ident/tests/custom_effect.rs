@@ -9,8 +9,8 @@ use pam_ident::effects::{self, DynCtx, DynTerm, Experiment, ModelEffect, Shape, 
 
 /// The custom effect's own shape parameter.
 const FREQUENCY: ShapeParam = ShapeParam::Custom("frequency_hz");
-use pam_ident::lsq::Column;
 use pam_model::RobotModel;
+use pam_numerics::lsq::Column;
 
 /// A tone of unknown amplitude and phase at a frequency from a small grid.
 struct MainsTone;

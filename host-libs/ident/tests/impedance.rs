@@ -3,9 +3,10 @@
 //! the transparent mode to 1.5 × the open loop's stiffest K at the point, on both axes.
 
 use pam_ident::msd;
-use pam_ident::trial::{rms, Trial};
+use pam_ident::trial::Trial;
 use pam_ident::FilterSettings;
 use pam_model::RobotModel;
+use pam_numerics::stats::rms;
 use pam_twin::experiments::ExperimentConfig;
 use pam_twin::impedance_trial::{impedance_trial, VirtualImpedance};
 use pam_twin::TwinConfig;

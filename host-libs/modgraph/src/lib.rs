@@ -367,20 +367,29 @@ fn display(m: &str) -> String {
     }
 }
 
-/// Panic with every circle and every glob import of the crate under `src`, if there is any.
+/// Panic with every circle between the modules of the crate under `src`, if there is any.
 pub fn assert_no_cycles(src: impl AsRef<Path>) {
-    let g = Graph::read(src.as_ref());
-    let cycles = g.cycles();
-    let mut msg = String::new();
-    for c in &cycles {
-        msg += &format!("import circle: {}\n", c.join(" → "));
-    }
-    for (f, n, l) in &g.globs {
-        msg += &format!(
-            "glob import (name what the file uses): {}:{n}: {l}\n",
-            f.display()
-        );
-    }
+    let msg: String = Graph::read(src.as_ref())
+        .cycles()
+        .iter()
+        .map(|c| format!("import circle: {}\n", c.join(" → ")))
+        .collect();
+    assert!(msg.is_empty(), "{msg}");
+}
+
+/// Panic with every glob import (`use super::*`, `pub use x::*`) outside the tests of the
+/// crate under `src`, if there is any.
+pub fn assert_explicit_imports(src: impl AsRef<Path>) {
+    let msg: String = Graph::read(src.as_ref())
+        .globs
+        .iter()
+        .map(|(f, n, l)| {
+            format!(
+                "glob import (name what the file uses): {}:{n}: {l}\n",
+                f.display()
+            )
+        })
+        .collect();
     assert!(msg.is_empty(), "{msg}");
 }
 

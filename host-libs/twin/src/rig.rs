@@ -22,7 +22,7 @@
 use pam_model::mat2::Mat2;
 use pam_model::{RobotModel, RobotParams};
 
-use crate::experiments::{trial_stiffness, StiffnessLevel};
+use pam_model::protocols::{trial_stiffness, StiffnessLevel};
 
 /// Thesis §4.3, static trial, point 1, K_low: pure-spring fit (eq. 4.28), N/m, user frame.
 pub const KC_STATIC_LOW_POINT1_N_PER_M: [[f64; 2]; 2] = [[145.9, 73.5], [73.5, 387.0]];

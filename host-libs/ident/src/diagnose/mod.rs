@@ -26,13 +26,14 @@ pub use unexplained::*;
 
 use crate::effects::{DynCtx, DynTerm, Experiment, Family, ModelEffect, Shape};
 use crate::held_out::HeldOut;
-use crate::lsq::{self, Column};
 use crate::msd::{self, MSD_POSITIVE};
 use crate::response::{self, Drive, Response, StepExtra};
-use crate::spectrum::{amplitude_spectrum, narrow_peaks, on_even_times};
 use crate::step::{self, StepParams};
-use crate::trial::{rms, std_dev, FilterSettings, Prepared, Trial};
+use crate::trial::{FilterSettings, Prepared, Trial};
 use pam_model::RobotModel;
+use pam_numerics::lsq::{self, Column};
+use pam_numerics::spectrum::{amplitude_spectrum, narrow_peaks, on_even_times};
+use pam_numerics::stats::{rms, std_dev};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -373,7 +374,7 @@ fn on_analysis_grid(p: Prepared, experiment: Experiment, settings: &Settings) ->
         Experiment::Step => p.every_with_mean_commands(stride),
     };
     if let (Experiment::Step, Some(r)) = (experiment, &p.force_ref_n) {
-        let steps = step::reference_steps(r, settings.step_threshold_n);
+        let steps = crate::step_detection::reference_steps(r, settings.step_threshold_n);
         // each step's level, halfway through it (past a ramp's samples)
         let levels: Vec<[f64; 2]> = steps
             .iter()
@@ -521,20 +522,6 @@ impl<'a> Loop<'a> {
             Experiment::Step => self.fit_step(effects),
         }
     }
-}
-
-pub(crate) fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let (ma, mb) = (
-        a.iter().sum::<f64>() / a.len() as f64,
-        b.iter().sum::<f64>() / b.len() as f64,
-    );
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        sab += (x - ma) * (y - mb);
-        saa += (x - ma).powi(2);
-        sbb += (y - mb).powi(2);
-    }
-    sab / (saa * sbb).sqrt().max(1e-300)
 }
 
 // -------------------------------------------------------------------- diagnosis

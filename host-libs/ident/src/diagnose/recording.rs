@@ -9,8 +9,9 @@ use serde::Serialize;
 use super::{Loop, ModelFit, Settings};
 use crate::effects::Experiment;
 use crate::spikes;
-use crate::trial::{linear_at, Trial};
+use crate::trial::Trial;
 use pam_model::RobotModel;
+use pam_numerics::interp::linear_at;
 
 /// Log rows from a change of the reference or the currents on that are never bridged: at
 /// coarse sampling a delay or a rate limit shows as a residual burst of one or two rows at

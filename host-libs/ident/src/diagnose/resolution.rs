@@ -154,8 +154,8 @@ pub fn encoder_floor(lp: &Loop, fit: &ModelFit) -> Option<EncoderFloor> {
             for (i, ri) in r.iter_mut().enumerate() {
                 *ri = row[0] * errors[0][runs[0].0[i]] + row[1] * errors[1][runs[1].0[i]];
             }
-            let on_trial = rows_t_s.map(|t| crate::trial::linear_at(t, &r, &p.t_s));
-            let amp = super::unexplained::wander_test(on_trial.as_deref().unwrap_or(&r))
+            let on_trial = rows_t_s.map(|t| pam_numerics::interp::linear_at(t, &r, &p.t_s));
+            let amp = pam_numerics::stats::wander_test(on_trial.as_deref().unwrap_or(&r))
                 .map_or(0.0, |w| w.amplitude_n);
             sum_sq[a] += amp * amp;
             bound_n[a] = bound_n[a].max(amp);

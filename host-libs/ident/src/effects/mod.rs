@@ -12,10 +12,11 @@
 //! To add an effect, implement [`ModelEffect`] and list it in [`catalog`] (or pass your own
 //! list to [`crate::diagnose::diagnose_with`]); see `docs/model-loop.md`.
 
-use crate::lsq::Column;
 use crate::response::StepExtra;
-use crate::trial::{rms, Prepared};
+use crate::trial::Prepared;
 use pam_model::RobotModel;
+use pam_numerics::lsq::Column;
+use pam_numerics::stats::rms;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]

@@ -7,9 +7,10 @@ use super::svg::{self, LinePanel, Series, MEASURED};
 use super::Page;
 use crate::diagnose::ModelFit;
 use crate::effects::Experiment;
-use crate::spectrum::amplitude_spectrum;
-use crate::step::{reference_steps, ReferenceStep};
-use crate::trial::{rms, Prepared};
+use crate::step_detection::{reference_steps, ReferenceStep};
+use crate::trial::Prepared;
+use pam_numerics::spectrum::amplitude_spectrum;
+use pam_numerics::stats::rms;
 
 /// A fit as the page shows it: its label and colour.
 pub struct Shown<'a> {
@@ -200,7 +201,7 @@ pub fn spectrum(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         let mut traces = Vec::new();
         for s in fits {
             let sp = amplitude_spectrum(
-                &crate::spectrum::on_even_times(&p.t_s, &s.fit.residual(axis), p.dt_s),
+                &pam_numerics::spectrum::on_even_times(&p.t_s, &s.fit.residual(axis), p.dt_s),
                 p.dt_s,
             );
             let (f, a) = plots::max_per_log_bucket(&sp.freq_hz, &sp.amplitude, 700);

@@ -6,7 +6,7 @@ use super::params::{lower_bounds, pack, unpack};
 use super::simulate::peak_rate;
 use super::*;
 use crate::held_out::HeldOut;
-use crate::lm;
+use pam_numerics::lm;
 use rayon::prelude::*;
 
 /// Least-squares fit of the step-trial model on the rows of `axes` that are not

@@ -198,8 +198,8 @@ impl Drive {
         }
         let reference = p.force_ref_n.as_ref()?;
         for a in 0..2 {
-            if crate::trial::std_dev(&reference[a]) > 1e-9
-                && !(crate::diagnose::correlation(&reference[a], &commanded[a]) > 0.5)
+            if pam_numerics::stats::std_dev(&reference[a]) > 1e-9
+                && !(pam_numerics::stats::correlation(&reference[a], &commanded[a]) > 0.5)
             {
                 return None;
             }
@@ -275,9 +275,9 @@ impl Drive {
 }
 
 /// Each sample's interval to the next (the last repeats the one before), when the sampling
-/// is uneven ([`crate::trial::is_uneven`]).
+/// is uneven ([`pam_numerics::interp::is_uneven`]).
 pub(crate) fn uneven_intervals(t_s: &[f64], dt_s: f64) -> Option<Vec<f64>> {
-    if t_s.len() < 2 || !crate::trial::is_uneven(t_s, dt_s) {
+    if t_s.len() < 2 || !pam_numerics::interp::is_uneven(t_s, dt_s) {
         return None;
     }
     let mut h: Vec<f64> = t_s.windows(2).map(|w| w[1] - w[0]).collect();

@@ -4,6 +4,15 @@
 
 use std::f64::consts::PI;
 
+/// A filter that cannot be designed.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum FilterError {
+    #[error("filter order must be 1..=40, got {order}")]
+    Order { order: usize },
+    #[error("cutoff {cutoff_hz} Hz must be in (0, {nyquist_hz}) Hz (half the sample rate)")]
+    Cutoff { cutoff_hz: f64, nyquist_hz: f64 },
+}
+
 /// One biquad, direct form II transposed, unity DC gain: y = (b0 + b1 z⁻¹ + b2 z⁻²) /
 /// (1 + a1 z⁻¹ + a2 z⁻²) x.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,17 +29,13 @@ pub struct Butterworth {
 impl Butterworth {
     /// Low-pass of `order` ≥ 1 with its −3 dB point at `cutoff_hz`, for samples at
     /// `sample_rate_hz`. Errors when the cutoff is not below Nyquist.
-    pub fn lowpass(
-        order: usize,
-        cutoff_hz: f64,
-        sample_rate_hz: f64,
-    ) -> Result<Self, crate::IdentError> {
+    pub fn lowpass(order: usize, cutoff_hz: f64, sample_rate_hz: f64) -> Result<Self, FilterError> {
         if order == 0 || order > 40 {
-            return Err(crate::IdentError::FilterOrder { order });
+            return Err(FilterError::Order { order });
         }
         let nyquist = sample_rate_hz / 2.0;
         if !(cutoff_hz > 0.0 && cutoff_hz < nyquist) {
-            return Err(crate::IdentError::FilterCutoff {
+            return Err(FilterError::Cutoff {
                 cutoff_hz,
                 nyquist_hz: nyquist,
             });

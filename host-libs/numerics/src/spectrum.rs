@@ -58,13 +58,13 @@ pub struct Spectrum {
 pub fn on_even_times<'a>(t_s: &[f64], x: &'a [f64], dt_s: f64) -> std::borrow::Cow<'a, [f64]> {
     use std::borrow::Cow;
     let n = t_s.len().min(x.len());
-    if n < 2 || !(dt_s > 0.0) || !crate::trial::is_uneven(&t_s[..n], dt_s) {
+    if n < 2 || !(dt_s > 0.0) || !crate::interp::is_uneven(&t_s[..n], dt_s) {
         return Cow::Borrowed(x);
     }
     let t0 = t_s[0];
     let m = ((t_s[n - 1] - t0) / dt_s + 1e-9).floor() as usize + 1;
     let grid: Vec<f64> = (0..m).map(|k| t0 + k as f64 * dt_s).collect();
-    Cow::Owned(crate::trial::linear_at(&t_s[..n], &x[..n], &grid))
+    Cow::Owned(crate::interp::linear_at(&t_s[..n], &x[..n], &grid))
 }
 
 /// Amplitude spectrum of `x` sampled every `dt_s`: |X(f)|·2/N (DC not doubled), without
