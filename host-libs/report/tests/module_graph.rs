@@ -5,3 +5,8 @@
 fn no_import_circle_between_modules() {
     pam_modgraph::assert_no_cycles(concat!(env!("CARGO_MANIFEST_DIR"), "/src"));
 }
+
+#[test]
+fn imports_are_explicit() {
+    pam_modgraph::assert_explicit_imports(concat!(env!("CARGO_MANIFEST_DIR"), "/src"));
+}

@@ -2,7 +2,19 @@
 //! forms (Cartesian, joint space, the muscles' force law), a force offset per axis and the
 //! muscles' pneumatic compliance; and the derivative filter's cutoff that suits the data.
 
-use super::*;
+use super::decide::effective_samples_of;
+use crate::effects::DynCtx;
+use pam_ident::msd;
+use pam_ident::msd::MSD_POSITIVE;
+use pam_ident::step;
+use pam_ident::step::StepParams;
+use pam_ident::trial::FilterSettings;
+use pam_ident::trial::Prepared;
+use pam_ident::trial::Trial;
+use pam_model::RobotModel;
+use pam_numerics::lsq;
+use pam_numerics::lsq::Column;
+use rayon::prelude::*;
 
 pub(super) struct BaseVariant {
     /// The base columns; with `offset`, the last two are a constant force per axis.

@@ -1,6 +1,17 @@
 //! `compare`: where the model fails (worst windows, error by speed, over the workspace).
 
-use super::*;
+use super::recording::sampling_warning;
+use super::unexplained::UnexplainedReport;
+use super::AxisPair;
+use super::Loop;
+use super::ModelFit;
+use super::Settings;
+use crate::effects::Experiment;
+use pam_ident::msd;
+use pam_numerics::stats::rms;
+use pam_numerics::stats::std_dev;
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// Convenience for reports: NRMSE per axis of a fit as an AxisPair.
 pub fn nrmse_pair(f: &ModelFit) -> AxisPair {

@@ -7,7 +7,12 @@
 //! total minus its block: a fold costs a few small solves, not a pass over the data.
 //! The trial is on the 5 ms analysis grid ([`analysis_trial`]): every row is scored.
 
-use super::*;
+use super::Loop;
+use crate::effects::DynCtx;
+use crate::effects::DynTerm;
+use crate::effects::ModelEffect;
+use crate::effects::Shape;
+use pam_numerics::lsq;
 use std::ops::Range;
 
 /// Number of contiguous folds.

@@ -1,7 +1,29 @@
 //! The verdict: every effect against the base, fold by fold; the accepted ones added while
 //! they pay; the families the data cannot tell apart.
 
-use super::*;
+use super::cv::FoldScores;
+use super::recording::loop_without_spikes;
+use super::recording::sampling_warning;
+use super::recording::SpikeReport;
+use super::resolution::encoder_floor;
+use super::selection::fold_test;
+use super::selection::paired_test;
+use super::selection::t_critical;
+use super::selection::FoldTest;
+use super::unexplained::UnexplainedReport;
+use super::AxisPair;
+use super::Loop;
+use super::ModelFit;
+use super::Settings;
+use crate::effects::Experiment;
+use crate::effects::Family;
+use crate::effects::ModelEffect;
+use pam_ident::trial::Trial;
+use pam_model::RobotModel;
+use pam_numerics::stats::rms;
+use pam_numerics::stats::std_dev;
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct BaseReport {
@@ -92,18 +114,6 @@ pub struct EffectReport {
     pub accepted: bool,
     /// The family's other shapes, best first.
     pub other_shapes: Vec<ShapeScore>,
-}
-
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct UnexplainedReport {
-    pub kind: String,
-    pub signal: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub frequency_hz: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub amplitude_n: Option<f64>,
-    pub variance_share: f64,
-    pub detail: String,
 }
 
 #[derive(Clone, Debug, Serialize)]

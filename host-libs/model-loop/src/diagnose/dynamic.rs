@@ -1,7 +1,24 @@
 //! Fits of dynamic trials: the base variants plus the effects' regressors, the shape
 //! choice, and the delay (a shift of the measured force, see [`Loop::target`]).
 
-use super::*;
+use super::base::Stiffness;
+use super::held_out_scores;
+use super::BaseRanking;
+use super::DynColumns;
+use super::Loop;
+use super::ModelFit;
+use super::Target;
+use super::VariantFit;
+use super::SHORTLIST;
+use crate::effects::DynCtx;
+use crate::effects::DynTerm;
+use crate::effects::Experiment;
+use crate::effects::ModelEffect;
+use crate::effects::Shape;
+use pam_ident::msd;
+use pam_numerics::lsq;
+use pam_numerics::lsq::Column;
+use std::collections::BTreeMap;
 
 impl<'a> Loop<'a> {
     pub(super) fn dyn_columns(

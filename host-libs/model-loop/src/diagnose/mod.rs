@@ -14,26 +14,29 @@ mod resolution;
 mod selection;
 mod step_fit;
 mod unexplained;
-use base::*;
+use base::{analysis_stride, choose_pneumatic, BaseVariant, SharedColumns};
 pub use base::{joint_stiffness_columns, pneumatic_columns, prepare_with_best_cutoff, Stiffness};
-pub use compare::*;
+pub use compare::{compare, nrmse_pair, Bin, Comparison, Window};
 pub use cv::{FoldScores, FOLDS};
-pub use decide::*;
+use decide::effective_samples_of;
+pub use decide::{
+    diagnose, diagnose_observed, diagnose_with, BaseReport, Diagnosis, EffectReport, Progress,
+    ShapeScore, StepReport, Verdict,
+};
 pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
 pub use resolution::{encoder_floor, encoder_step_rad, EncoderFloor};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
-pub use unexplained::*;
+pub use unexplained::unexplained_structure;
 
-use crate::effects::{DynCtx, DynTerm, Experiment, Family, ModelEffect, Shape};
-use crate::response::{self, Drive, Response, StepExtra};
+use crate::effects::{Experiment, ModelEffect, Shape};
+use crate::response::{self, Drive, Response};
 use pam_ident::held_out::HeldOut;
-use pam_ident::msd::{self, MSD_POSITIVE};
+use pam_ident::msd::{self};
 use pam_ident::step::{self, StepParams};
 use pam_ident::trial::{FilterSettings, Prepared, Trial};
 use pam_model::RobotModel;
 use pam_numerics::lsq::{self, Column};
-use pam_numerics::spectrum::{amplitude_spectrum, narrow_peaks, on_even_times};
-use pam_numerics::stats::{rms, std_dev};
+use pam_numerics::stats::std_dev;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -10,7 +10,9 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::*;
+use super::Loop;
+use super::ModelFit;
+use crate::effects::Experiment;
 
 /// Least number of moves of an encoder (rows whose angle changed) to judge its lattice.
 const MIN_MOVES: usize = 50;

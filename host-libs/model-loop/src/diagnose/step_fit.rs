@@ -1,7 +1,16 @@
 //! Fits of step trials: the second-order response of the converters (§5.3) with the
 //! effects' extra parameters, on the training part, scored on the held-out part.
 
-use super::*;
+use super::held_out_scores;
+use super::Loop;
+use super::ModelFit;
+use crate::effects::Experiment;
+use crate::effects::ModelEffect;
+use crate::response;
+use crate::response::Response;
+use crate::response::StepExtra;
+use pam_numerics::stats::std_dev;
+use std::collections::BTreeMap;
 
 impl<'a> Loop<'a> {
     /// Axes with any step (fitted).

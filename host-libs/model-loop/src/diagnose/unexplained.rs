@@ -1,8 +1,31 @@
 //! Structure left in the residual that no effect accounts for: spectral lines and a slow
 //! wander of the level.
 
-use super::*;
+use super::resolution::encoder_floor;
+use super::Loop;
+use super::ModelFit;
+use super::Settings;
+use crate::effects::Experiment;
+use pam_numerics::spectrum::amplitude_spectrum;
+use pam_numerics::spectrum::narrow_peaks;
+use pam_numerics::spectrum::on_even_times;
+use pam_numerics::stats::rms;
+use pam_numerics::stats::std_dev;
 use pam_numerics::stats::{wander_test, WANDER_BINS, WANDER_LEVEL, WANDER_MIN_SHARE};
+use serde::Serialize;
+
+/// Structure in the residual that no catalog effect explains (a tone, a slow wander).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct UnexplainedReport {
+    pub kind: String,
+    pub signal: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frequency_hz: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub amplitude_n: Option<f64>,
+    pub variance_share: f64,
+    pub detail: String,
+}
 
 /// Structure left in the residual of `fit` that no effect accounts for: narrow spectral
 /// lines that are not lines of the motion (or of the reference) itself.

@@ -1,6 +1,13 @@
 //! Friction at the handle: the carrier ball's dry friction and quadratic drag.
 
-use super::*;
+use super::DynCtx;
+use super::DynTerm;
+use super::Experiment;
+use super::Family;
+use super::ModelEffect;
+use super::Shape;
+use super::ShapeParam;
+use pam_numerics::lsq::Column;
 
 /// Dry friction of the carrier ball: a force of constant size against the handle velocity,
 /// smoothed over a speed (grid), like Coulomb friction.

@@ -1,6 +1,15 @@
 //! Hysteresis of the muscles: direction-dependent force that turns over a small excursion.
 
-use super::*;
+use super::DynCtx;
+use super::DynTerm;
+use super::Experiment;
+use super::Family;
+use super::ModelEffect;
+use super::Shape;
+use super::ShapeParam;
+use crate::response::StepExtra;
+use pam_numerics::lsq::Column;
+use pam_numerics::stats::rms;
 
 /// Dahl-type hysteresis of each muscle pair: a direction state z ∈ [−1, 1] that turns
 /// over a contraction change `width` (grid); the torque loss is proportional to z.

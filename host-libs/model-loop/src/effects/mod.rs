@@ -16,7 +16,6 @@ use crate::response::StepExtra;
 use pam_ident::trial::Prepared;
 use pam_model::RobotModel;
 use pam_numerics::lsq::Column;
-use pam_numerics::stats::rms;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -432,12 +431,15 @@ mod pose;
 mod slip;
 mod step_effects;
 mod stiffness;
-pub use friction::*;
-pub use hysteresis::*;
-pub use pose::*;
-pub use slip::*;
-pub use step_effects::*;
-pub use stiffness::*;
+pub use friction::{CarrierBallFriction, PreslidingFriction, StribeckFriction, VelocitySquared};
+pub use hysteresis::{ElasticLoop, MaxwellSlip, MuscleHysteresis};
+pub use pose::PoseDependence;
+pub use slip::{CableSlip, JointPlay};
+pub use step_effects::{
+    AsymmetricIpRates, CommandSlew, ForceSaturation, ForceSlew, LoadcellDrift, MusclePressureCap,
+    PressureSaturation, SettlingDrift, TransportDelay, MAX_DYNAMIC_DELAY_S,
+};
+pub use stiffness::{CubicAboutEquilibrium, NonlinearStiffness};
 
 /// The model-side catalog: the twin's effects in its order, then the families' other
 /// shapes.

@@ -1,6 +1,18 @@
 //! Pose dependence of the stiffness and of the step gain (eq. 5.2's plane).
 
-use super::*;
+use super::from_neutral;
+use super::joint_pressures;
+use super::model_torque;
+use super::reference_shapes;
+use super::DynCtx;
+use super::DynTerm;
+use super::Experiment;
+use super::Family;
+use super::ModelEffect;
+use super::Shape;
+use super::ShapeParam;
+use crate::response::StepExtra;
+use pam_numerics::lsq::Column;
 
 /// Pose dependence of the stiffness: the restoring force gains terms quadratic in the
 /// displacement (a stiffness that changes linearly across the workspace).

@@ -1,6 +1,12 @@
 //! Backlash and slip of joint 1's cable in its pulley groove.
 
-use super::*;
+use super::DynCtx;
+use super::DynTerm;
+use super::Experiment;
+use super::Family;
+use super::ModelEffect;
+use super::Shape;
+use super::ShapeParam;
 
 /// Joint-1 cable: backlash in the pulley groove (play, grid) and slip that creeps while the
 /// joint torque exceeds what the groove holds (hold torque, grid).

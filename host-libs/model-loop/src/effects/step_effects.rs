@@ -1,6 +1,14 @@
 //! Effects of the pressure chain seen in step trials (and the load cell's drift, seen in both).
 
-use super::*;
+use super::DynCtx;
+use super::DynTerm;
+use super::Experiment;
+use super::Family;
+use super::ModelEffect;
+use super::Shape;
+use super::ShapeParam;
+use crate::response::StepExtra;
+use pam_numerics::lsq::Column;
 
 /// The longest dynamic delay tried, s.
 pub const MAX_DYNAMIC_DELAY_S: f64 = 0.15;

@@ -1,6 +1,17 @@
 //! Stiffness nonlinearity: the cable force's cubic term.
 
-use super::*;
+use super::at_start;
+use super::from_neutral;
+use super::reference_shapes;
+use super::DynCtx;
+use super::DynTerm;
+use super::Experiment;
+use super::Family;
+use super::ModelEffect;
+use super::Shape;
+use super::ShapeParam;
+use pam_model::RobotModel;
+use pam_numerics::lsq::Column;
 
 /// Cubic stiffening of the cable forces with the muscle contraction (per joint).
 pub struct NonlinearStiffness;

@@ -2,10 +2,14 @@
 //! (rates, knees, caps, delays), screened by cost, the best few refined by
 //! Levenberg–Marquardt.
 
+use super::params::Response;
 use super::params::{lower_bounds, pack, unpack};
-use super::simulate::peak_rate;
-use super::*;
+use super::simulate::{peak_rate, simulate};
+use super::Drive;
+use super::StepExtra;
+use super::Units;
 use pam_ident::held_out::HeldOut;
+use pam_ident::trial::Prepared;
 use pam_numerics::lm;
 use rayon::prelude::*;
 

@@ -1,7 +1,9 @@
 //! The step model's parameters: the response, the extras' parameters packed for the
 //! fit, their bounds, and their names in reports.
 
-use super::*;
+use super::StepExtra;
+use super::Units;
+use super::FILL_SPAN_BAR;
 
 /// Parameters of the step-trial model. Extras at their neutral values leave the base
 /// (ζ, ωn, gains) unchanged.

@@ -1,7 +1,10 @@
 //! Simulation of a step trial: the (delayed, rate-limited, saturated) set-points through
 //! each converter's second order to the handle force.
 
-use super::*;
+use super::params::Response;
+use super::Drive;
+use super::Units;
+use super::MAX_SUBSTEP_S;
 use pam_ident::held_out::HeldOut;
 
 #[inline]
