@@ -4,6 +4,7 @@
 mod common;
 
 use common::*;
+use pam_model_loop::diagnose::Verdict;
 use pam_model_loop::diagnose::{diagnose_with, Settings};
 use pam_model_loop::effects::{self, DynCtx, DynTerm, Experiment, ModelEffect, Shape, ShapeParam};
 
@@ -86,7 +87,7 @@ fn a_custom_effect_turns_unexplained_into_explained() {
         &standard,
     )
     .unwrap();
-    assert_eq!(d.verdict, "unexplained");
+    assert_eq!(d.verdict, Verdict::Unexplained);
     assert!(d
         .unexplained
         .iter()
@@ -102,7 +103,7 @@ fn a_custom_effect_turns_unexplained_into_explained() {
         &extended,
     )
     .unwrap();
-    assert_eq!(d.verdict, "effect");
+    assert_eq!(d.verdict, Verdict::Effect);
     let top = &d.effects[0];
     assert_eq!(top.id, "mains_tone");
     // the simulator puts 1 N on both load-cell channels (sensor frame); in the user frame

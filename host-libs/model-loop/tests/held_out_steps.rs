@@ -6,6 +6,7 @@ mod common;
 
 use common::*;
 use pam_model::RobotModel;
+use pam_model_loop::diagnose::Verdict;
 use pam_model_loop::diagnose::{diagnose, Diagnosis, Settings};
 use pam_model_loop::effects::Experiment;
 
@@ -44,7 +45,7 @@ fn an_effect_on_x_alone_is_found_on_the_thesis_protocol() {
     ];
     for (k, (hidden, id)) in cases.into_iter().enumerate() {
         let d = x_then_y(hidden, true, 40 + k as u64);
-        assert_eq!(d.verdict, "effect", "{id}: {:?}", ranking(&d));
+        assert_eq!(d.verdict, Verdict::Effect, "{id}: {:?}", ranking(&d));
         assert_eq!(d.effects[0].id, id, "{id}: {:?}", ranking(&d));
         // X's held-out steps carry the evidence: X's error falls by a third at least
         // (scored on the last 20 %, where X holds still at 0, it fell by 14–17 %, from
@@ -68,7 +69,7 @@ fn an_effect_on_x_alone_is_found_on_the_thesis_protocol() {
 fn nothing_hidden_on_the_thesis_protocol_gives_none() {
     for seed in [50, 51] {
         let d = x_then_y(Hidden::None, false, seed);
-        assert_eq!(d.verdict, "none", "seed {seed}: {:?}", ranking(&d));
+        assert_eq!(d.verdict, Verdict::None, "seed {seed}: {:?}", ranking(&d));
     }
 }
 
@@ -94,7 +95,7 @@ fn synth_x_then_y(index: u64) -> (pam_synth::Family, Option<String>) {
     )
     .unwrap()
     .0;
-    let named = (d.verdict == "effect").then(|| d.effects[0].id.clone());
+    let named = (d.verdict == Verdict::Effect).then(|| d.effects[0].id.clone());
     (spec.family, named)
 }
 

@@ -6,11 +6,12 @@
 
 use pam_ident::Trial;
 use pam_model::RobotModel;
+use pam_model_loop::diagnose::Verdict;
 use pam_model_loop::diagnose::{diagnose, Settings};
 use pam_model_loop::effects::Experiment;
 use pam_synth::{generate, CaseSpec, Family, Shape};
 
-fn warnings(spec: &CaseSpec) -> (String, Vec<String>) {
+fn warnings(spec: &CaseSpec) -> (Verdict, Vec<String>) {
     let g = generate(spec).expect("generating");
     let log = pam_log::read_str(&g.log_text, None).expect("log");
     let trial = Trial::from_log(&log).expect("trial");
@@ -21,7 +22,7 @@ fn warnings(spec: &CaseSpec) -> (String, Vec<String>) {
         Settings::default(),
     )
     .expect("diagnosis");
-    (d.verdict.to_string(), d.warnings)
+    (d.verdict, d.warnings)
 }
 
 #[test]
@@ -36,7 +37,7 @@ fn a_lag_the_data_cannot_place_is_reported_not_hidden() {
     let (verdict, w) = warnings(&delayed);
     let lag = w.iter().find(|w| w.contains("the force lags the motion"));
     assert!(
-        verdict == "effect" || lag.is_some(),
+        verdict == Verdict::Effect || lag.is_some(),
         "verdict {verdict}, warnings {w:?}"
     );
     // the same case without the delay: same motion, currents and noise
@@ -46,7 +47,7 @@ fn a_lag_the_data_cannot_place_is_reported_not_hidden() {
         ..delayed
     };
     let (verdict, w) = warnings(&control);
-    assert_eq!(verdict, "none");
+    assert_eq!(verdict, Verdict::None);
     assert!(
         !w.iter().any(|w| w.contains("the force lags the motion")),
         "{w:?}"

@@ -7,6 +7,7 @@ mod common;
 
 use common::*;
 use pam_model::RobotModel;
+use pam_model_loop::diagnose::Verdict;
 use pam_model_loop::diagnose::{diagnose, Diagnosis, Settings};
 use pam_model_loop::effects::Experiment;
 
@@ -53,7 +54,7 @@ fn assert_found(
     check: impl Fn(&std::collections::BTreeMap<String, f64>) -> Result<(), String>,
 ) {
     let top = &d.effects[0];
-    assert_eq!(d.verdict, "effect", "{label}: {d:#?}");
+    assert_eq!(d.verdict, Verdict::Effect, "{label}: {d:#?}");
     assert_eq!(
         top.id,
         id,
@@ -337,7 +338,7 @@ fn nothing_hidden_gives_none() {
             let d = run_dynamic(Hidden::None, dt, noise, dur, 100 * seed + k as u64);
             assert_eq!(
                 d.verdict,
-                "none",
+                Verdict::None,
                 "dt {dt} seed {seed}: {:?}",
                 d.effects
                     .iter()
@@ -347,7 +348,7 @@ fn nothing_hidden_gives_none() {
             let d = run_step(Hidden::None, dt, noise, dur, 100 * seed + k as u64);
             assert_eq!(
                 d.verdict,
-                "none",
+                Verdict::None,
                 "step dt {dt} seed {seed}: {:?}",
                 d.effects
                     .iter()
@@ -371,7 +372,7 @@ fn a_mains_tone_is_unexplained_and_named() {
             dur,
             80 + k as u64,
         );
-        assert_eq!(d.verdict, "unexplained", "dt {dt}: {d:#?}");
+        assert_eq!(d.verdict, Verdict::Unexplained, "dt {dt}: {d:#?}");
         let u = &d.unexplained[0];
         assert_eq!(u.kind, "spectral_peak");
         // 50 Hz, or where it aliases at 20 Hz sampling: the Nyquist frequency
@@ -486,6 +487,6 @@ fn step_effects_are_found_with_their_parameters() {
             dur,
             240 + k as u64,
         );
-        assert_eq!(d.verdict, "unexplained", "step dt {dt}: {d:#?}");
+        assert_eq!(d.verdict, Verdict::Unexplained, "step dt {dt}: {d:#?}");
     }
 }

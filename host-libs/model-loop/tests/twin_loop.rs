@@ -8,6 +8,7 @@
 
 use pam_ident::Trial;
 use pam_model::RobotModel;
+use pam_model_loop::diagnose::Verdict;
 use pam_model_loop::diagnose::{diagnose, Diagnosis, Settings};
 use pam_model_loop::effects::Experiment;
 use pam_twin::experiments::{dynamic_trial, force_step_test, ExperimentConfig, StiffnessLevel};
@@ -91,7 +92,7 @@ fn found(d: &Diagnosis, id: &str, label: &str) -> BTreeMap<String, f64> {
         .iter()
         .map(|e| (e.id.as_str(), e.score, e.accepted))
         .collect();
-    assert_eq!(d.verdict, "effect", "{label}: {ranking:?}");
+    assert_eq!(d.verdict, Verdict::Effect, "{label}: {ranking:?}");
     assert_eq!(d.effects[0].id, id, "{label}: {ranking:?}");
     let pooled = |fx: f64, fy: f64| fx * fx + fy * fy;
     let top = &d.effects[0];
@@ -121,7 +122,7 @@ fn twin_controls_give_none() {
             let d = run(exp, "", *r, 1 + k as u64);
             assert_eq!(
                 d.verdict,
-                "none",
+                Verdict::None,
                 "{exp:?} {}: {:?}",
                 r.period_s,
                 d.effects
@@ -370,7 +371,7 @@ fn twin_mains_hum_is_unexplained() {
         );
         assert_eq!(
             d.verdict,
-            "unexplained",
+            Verdict::Unexplained,
             "{}: {:?}",
             r.period_s,
             d.effects
@@ -400,7 +401,7 @@ fn twin_controls_give_none_away_from_the_centre() {
             let d = run_at(point, Experiment::Dynamic, "", *r, 60 + k as u64);
             assert_eq!(
                 d.verdict,
-                "none",
+                Verdict::None,
                 "point {point}, {} s: base {:?}; {:?}",
                 r.period_s,
                 d.base.params,
@@ -426,7 +427,7 @@ fn twin_steps_away_from_the_centre() {
             let d = run_step_at(pose, "", *r, 120 + k as u64);
             assert_eq!(
                 d.verdict,
-                "none",
+                Verdict::None,
                 "{label}: {:?}",
                 d.effects
                     .iter()
@@ -552,5 +553,5 @@ fn twin_noisy_logs() {
         assert!(top.effect_size > 0.01, "{spec}: {}", top.effect_size);
     }
     let d = run(Experiment::Dynamic, "", r, 140);
-    assert_eq!(d.verdict, "none", "{:?}", d.effects);
+    assert_eq!(d.verdict, Verdict::None, "{:?}", d.effects);
 }

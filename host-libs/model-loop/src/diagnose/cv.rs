@@ -8,6 +8,7 @@
 //! The trial is on the 5 ms analysis grid ([`analysis_trial`]): every row is scored.
 
 use super::Loop;
+use super::ModelFit;
 use crate::effects::DynCtx;
 use crate::effects::DynTerm;
 use crate::effects::ModelEffect;
@@ -248,4 +249,28 @@ impl<'a> Loop<'a> {
         shapes.truncate(FREE_SHAPES);
         self.cv_dynamic(fixed, Some((e, &shapes)))
     }
+}
+
+/// Blocks the held-out part of a step trial is scored in.
+pub(super) const STEP_BLOCKS: usize = 6;
+
+/// Held-out sums of squares of a fit in `blocks` blocks of its held-out rows, in time
+/// order, each of the same number of rows.
+pub(super) fn held_out_blocks(f: &ModelFit, blocks: usize) -> FoldScores {
+    let rows: Vec<usize> = f.held_out.rows().collect();
+    let len = rows.len();
+    let mut out = FoldScores::default();
+    for b in 0..blocks {
+        let r = &rows[b * len / blocks..(b + 1) * len / blocks];
+        let (mut sse, mut sst) = (0.0, 0.0);
+        for &a in &f.axes {
+            let (m, p) = (&f.measured[a], &f.predicted[a]);
+            let mean = r.iter().map(|&i| m[i]).sum::<f64>() / r.len().max(1) as f64;
+            sse += r.iter().map(|&i| (m[i] - p[i]).powi(2)).sum::<f64>();
+            sst += r.iter().map(|&i| (m[i] - mean).powi(2)).sum::<f64>();
+        }
+        out.sse.push(sse);
+        out.sst.push(sst);
+    }
+    out
 }

@@ -8,6 +8,7 @@ mod base;
 mod compare;
 mod cv;
 mod decide;
+mod diagnosis;
 mod dynamic;
 mod recording;
 mod resolution;
@@ -19,10 +20,8 @@ pub use base::{joint_stiffness_columns, pneumatic_columns, prepare_with_best_cut
 pub use compare::{compare, nrmse_pair, Bin, Comparison, Window};
 pub use cv::{FoldScores, FOLDS};
 use decide::effective_samples_of;
-pub use decide::{
-    diagnose, diagnose_observed, diagnose_with, BaseReport, Diagnosis, EffectReport, Progress,
-    ShapeScore, StepReport, Verdict,
-};
+pub use decide::{diagnose, diagnose_observed, diagnose_with, Progress};
+pub use diagnosis::{BaseReport, Diagnosis, EffectReport, ShapeScore, StepReport, Verdict};
 pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
 pub use resolution::{encoder_floor, encoder_step_rad, EncoderFloor};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};

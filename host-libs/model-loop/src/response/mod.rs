@@ -17,6 +17,7 @@ use pam_ident::trial::Prepared;
 use pam_model::RobotModel;
 
 mod fit;
+mod grid;
 mod params;
 mod simulate;
 #[cfg(test)]
