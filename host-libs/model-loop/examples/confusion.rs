@@ -2,7 +2,7 @@
 //! diagnosed and judged through the diagnosis's JSON; per-case lines, the confusion matrix,
 //! accuracy, false alarms and timings.
 //!
-//! `cargo run -p pam-ident --release --example confusion -- --logs 300 --seed0 1000
+//! `cargo run -p pam-model-loop --release --example confusion -- --logs 300 --seed0 1000
 //!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]
 //!  [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]
 //!  [--motion sines|multisine|reach_and_hold|circles|random]

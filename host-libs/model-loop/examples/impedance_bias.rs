@@ -1,11 +1,11 @@
-//! Impedance mode, rendered against identified (issue 14): for a commanded K and B, the K, B
+//! Impedance mode, rendered against identified: for a commanded K and B, the K, B
 //! and M that the dynamic identification (`pamctl ident dynamic`) finds on the twin's
 //! impedance trial, next to what it finds on a *pure* spring-damper driven by the same
 //! motion (the log's force replaced by −K Δx − B ẋ computed from the logged encoder angles,
 //! plus the load cell's noise): the identification's own bias, with no robot in it.
 //!
 //! ```sh
-//! cargo run --release -p pam-ident --example impedance_bias -- K B [M] [POINT] [SECONDS]
+//! cargo run --release -p pam-model-loop --example impedance_bias -- K B [M] [POINT] [SECONDS]
 //! ```
 
 use pam_ident::msd;

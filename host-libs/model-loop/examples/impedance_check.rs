@@ -1,9 +1,9 @@
-//! Impedance mode on the twin (issue 14): the commanded virtual stiffness against the K that
+//! Impedance mode on the twin: the commanded virtual stiffness against the K that
 //! `pamctl ident dynamic` identifies on the impedance trial's log, and the interaction force
 //! in transparent mode (K = 0).
 //!
 //! ```sh
-//! cargo run --release -p pam-ident --example impedance_check -- [POINT] [SECONDS] [EFFECT]
+//! cargo run --release -p pam-model-loop --example impedance_check -- [POINT] [SECONDS] [EFFECT]
 //! ```
 
 use pam_ident::msd;

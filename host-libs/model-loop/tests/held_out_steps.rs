@@ -102,7 +102,7 @@ fn synth_x_then_y(index: u64) -> (pam_synth::Family, Option<String>) {
 /// On that run the last-fifth split gave 277/320 with 11 false alarms in 80 controls; every
 /// fifth step gives 305/320 and 1 (docs/model-loop.md, "Which rows are held out"). Two
 /// controls it named `asymmetric_ip_rates`, a saturation it called "none" and a hysteresis
-/// it named saturation; and a case the first version of this split crashed on.
+/// it named saturation; and a case that would crash a split that lost a step's last row.
 #[test]
 fn the_independent_generator_in_the_thesis_order() {
     for index in [27, 139] {

@@ -1,4 +1,4 @@
-//! Impedance mode on the twin (issue 14): the K and B that the dynamic identification (§4.3,
+//! Impedance mode on the twin: the K and B that the dynamic identification (§4.3,
 //! `pamctl ident dynamic`) finds on an impedance trial's log are the commanded K and B, from
 //! the transparent mode to 1.5 × the open loop's stiffest K at the point, on both axes.
 

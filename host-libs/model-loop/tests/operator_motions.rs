@@ -142,7 +142,8 @@ fn the_floor_is_the_count_through_the_stiffness() {
 }
 
 /// Controls under reach-and-hold, short (45 s) and at the generator's mixed sampling: the
-/// eleventh session's loop named a wander or a drift on about a quarter of them.
+/// a loop that does not allow for the encoders' rounding names a wander or a drift on about
+/// a quarter of them.
 #[test]
 fn controls_under_reach_and_hold_raise_few_alarms() {
     const CONTROLS: u64 = 24;

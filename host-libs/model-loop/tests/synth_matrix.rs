@@ -1,11 +1,11 @@
 //! The model loop on logs from an independent generator (`pam-synth`, not built with the
 //! loop): 80 short logs at mixed sampling periods, both experiments, about a quarter
-//! controls. The targets are ≥ 95 % right and false alarms ≤ 5 % over the controls;
-//! on these short logs the loop reached 82.5 % and 3 of 20 (2026-11-23), 95.0 % and 0 of
-//! 20 (2026-11-24) and 97.5 % and 0 of 20 (seventh session); this test holds the level as a floor ([`FLOOR_ACCURACY`],
+//! controls. The targets are ≥ 95 % right and false alarms ≤ 5 % over the controls; on
+//! these short logs the loop reaches 97.5 % and 0 of 20; this test holds the level as a
+//! floor ([`FLOOR_ACCURACY`],
 //! [`CEILING_FALSE_ALARMS`]). The matrix is printed so a failing run shows what the loop
 //! confused. The full run (longer logs, as a rig records them):
-//! `cargo run -p pam-ident --release --example confusion -- --logs 300`.
+//! `cargo run -p pam-model-loop --release --example confusion -- --logs 300`.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -20,9 +20,8 @@ use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
 use pam_synth::{generate, CaseSpec, Experiment, MotionPlan, NuisancePlan};
 
 const CASES: usize = 80;
-/// Measured 97.5 % right and 0/20 false alarms (seventh session: the fold test's level
-/// calibrated, the wander's variance ratio; 95.0 % in the fourth, 86.2 % and 2/20 before,
-/// 82.5 % and 3/20 earlier): the floor the loop must not fall below, two logs under today.
+/// Measured 97.5 % right and 0/20 false alarms: the floor the loop must not fall below,
+/// two logs under that.
 const FLOOR_ACCURACY: f64 = 0.95;
 const CEILING_FALSE_ALARMS: f64 = 0.05;
 /// The targets, printed next to the result.
@@ -146,8 +145,8 @@ fn loop_names_the_hidden_effect_of_independent_logs() {
 /// full-length run (312/320 there).
 const CASES_RECORDED: usize = 80;
 const SEED0_RECORDED: u64 = 21_000;
-/// Measured 71/80 and 0/20 false alarms (eleventh session); the tenth session's loop, which
-/// resampled these logs to their median period, 67/80. The floor is two logs under today.
+/// Measured 71/80 and 0/20 false alarms (a loop that resamples these logs to their median
+/// period gets 67/80). The floor is two logs under that.
 const FLOOR_ACCURACY_RECORDED: f64 = 69.0 / 80.0;
 
 #[test]
@@ -172,8 +171,8 @@ fn loop_names_the_hidden_effect_through_a_rigs_recording() {
 /// (docs/model-loop.md, "How the operator moves").
 const CASES_OPERATORS: usize = 80;
 const SEED0_OPERATORS: u64 = 22_000;
-/// Measured 76/80 and 0/20 false alarms (twelfth session; the eleventh session's loop the
-/// same: these 80 hold only three reach-and-hold controls, which
+/// Measured 76/80 and 0/20 false alarms (these 80 hold only three reach-and-hold controls,
+/// which
 /// `operator_motions::controls_under_reach_and_hold_raise_few_alarms` covers). The floor is
 /// two logs under today.
 const FLOOR_ACCURACY_OPERATORS: f64 = 74.0 / 80.0;

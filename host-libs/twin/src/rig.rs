@@ -14,8 +14,8 @@
 //! - The parallel element is **elastoplastic** (stick-slip, like the braid's and the sleeves'
 //!   friction it stands for): a spring anchored where the arm was placed that slips past a
 //!   break-away torque ([`parallel_breakaway_from_thesis`], the least that the ±4 cm trials
-//!   that measured it cannot have slipped). A plain spring with its rest at neutral (this
-//!   module's first version) preloads a block at the §5.2 poses by up to 30 N, more than the
+//!   that measured it cannot have slipped). A plain spring with its rest at neutral
+//!   preloads a block at the §5.2 poses by up to 30 N, more than the
 //!   rig's weaker muscles can cancel, and a free arm would not have stayed at Table 4.1's
 //!   points 2–5 in open loop, where the thesis ran its trials.
 
