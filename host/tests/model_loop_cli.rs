@@ -1,6 +1,6 @@
 //! `pamctl model compare|diagnose|fit` and `pamctl ident …` end to end, on logs written
 //! with pam-log from the identification tests' independent simulator.
-#[path = "../../host-libs/ident/tests/common/mod.rs"]
+#[path = "../../host-libs/model-loop/tests/common/mod.rs"]
 mod common;
 
 mod cli;

@@ -4,7 +4,7 @@
 //! test finds /usr/bin/chromium (or `chromium` on the PATH) and, as root on Debian,
 //! installs it when missing.
 mod cli;
-#[path = "../../host-libs/ident/tests/common/mod.rs"]
+#[path = "../../host-libs/model-loop/tests/common/mod.rs"]
 mod common;
 
 use cli::write_log;

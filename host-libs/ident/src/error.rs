@@ -27,10 +27,9 @@ pub enum IdentError {
         needed_samples: usize,
         needed_s: f64,
     },
-    #[error("filter order must be 1..=40, got {order}")]
-    FilterOrder { order: usize },
-    #[error("cutoff {cutoff_hz} Hz must be in (0, {nyquist_hz}) Hz (half the sample rate)")]
-    FilterCutoff { cutoff_hz: f64, nyquist_hz: f64 },
+    /// The derivative filter cannot be designed (its order or cutoff).
+    #[error(transparent)]
+    Filter(#[from] pam_numerics::filter::FilterError),
     #[error("a step experiment needs the force reference columns fx_ref_n, fy_ref_n")]
     NoForceReference,
     #[error("only {bins} spectral bins below {band_rad_s} rad/s: the trial is too short for a frequency fit")]
@@ -63,7 +62,7 @@ impl IdentError {
             ColumnLength { .. } | NotFinite { .. } | TimeNotIncreasing { .. } => {
                 "the log is damaged; record it again or cut the bad rows"
             }
-            FilterOrder { .. } | FilterCutoff { .. } => {
+            Filter(_) => {
                 "choose a derivative filter cutoff below half the sampling rate (--cutoff-hz)"
             }
             NoForceReference => "record the step test with `pamctl experiment step`, which logs fx_ref_n and fy_ref_n",

@@ -3,10 +3,10 @@
 //! |Fx| = Z1|Vx| + Z3|Vy|, |Fy| = Z3|Vx| + Z2|Vy|, Z_i = √((b_i ω)² + (k_i − m_i ω²)²)/ω,
 //! started from the time-domain result and limited to a band (22 rad/s in the thesis).
 
-use crate::lm;
 use crate::msd::{self, matrix_report, sym, AxisScore, MatrixReport};
-use crate::spectrum::amplitude_spectrum;
 use crate::trial::Prepared;
+use pam_numerics::lm;
+use pam_numerics::spectrum::amplitude_spectrum;
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -82,7 +82,7 @@ pub fn fit(p: &Prepared, start: &[f64], band_rad_s: f64) -> Result<FreqFit, crat
         msd::score(&meas[1], &model[1]).r2,
     ];
     let cols = msd::msd_columns(p);
-    let pred = crate::lsq::predict(&cols, &theta, p.len());
+    let pred = pam_numerics::lsq::predict(&cols, &theta, p.len());
     let (test, _) = msd::scores(p, &f, &pred);
     Ok(FreqFit {
         band_rad_s,

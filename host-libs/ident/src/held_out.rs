@@ -8,7 +8,7 @@
 //! converters' set-points, not by the measured force, so a held-out step in the middle of
 //! the log is as unseen by the fit as the log's end.
 
-use crate::step::ReferenceStep;
+use crate::step_detection::ReferenceStep;
 use std::ops::Range;
 
 /// Fewest steps for which every fifth one is held out (two held-out steps at least);

@@ -1,6 +1,7 @@
 //! Identification of the PAM rehabilitation robot from logs, as in the thesis (§4.3–4.6,
-//! §5.3), and the model loop: compare the model with a measurement, find which physical
-//! effect is missing, add it and watch the held-out error fall.
+//! §5.3), and the preparation of a log that the model loop (pam-model-loop) starts from:
+//! the trial and its filtered signals, the held-out rows, the steps of a step trial, the
+//! load cell's spikes.
 //!
 //! Host only, f64. Uses only what a log contains: time, encoder angles, measured force,
 //! the force reference of step experiments.
@@ -11,20 +12,13 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod error;
-pub mod filter;
 pub mod freq;
 pub mod held_out;
-pub mod lm;
-pub mod lsq;
 pub mod msd;
-pub mod response;
-pub mod spectrum;
 pub mod spikes;
 pub mod step;
+pub mod step_detection;
 pub mod trial;
 
-pub mod diagnose;
-pub mod effects;
 pub use error::IdentError;
 pub use trial::{FilterSettings, Prepared, Trial};
-pub mod report;

@@ -2,10 +2,11 @@
 //! dynamic trials and the pure spring of eq. 4.27–4.28 for static trials, fitted on the
 //! first 80 % and scored on the last 20 %.
 
-use crate::lsq::{self, Column};
-use crate::trial::{rms, std_dev, Prepared};
+use crate::trial::Prepared;
 use pam_model::ellipse::Ellipse;
 use pam_model::Mat2;
+use pam_numerics::lsq::{self, Column};
+use pam_numerics::stats::{rms, std_dev};
 use serde::Serialize;
 
 /// The sign convention of the log: fx_n is the force the robot exerts on the hand, so the

@@ -6,8 +6,10 @@
 //! the catalog (delay, asymmetric rates, saturation, pose-dependent gain, drift, hysteresis)
 //! are parametrised transforms of this one model.
 
-use crate::lm;
-use crate::trial::{mean, Prepared};
+use crate::step_detection::detect_steps;
+use crate::trial::Prepared;
+use pam_numerics::lm;
+use pam_numerics::stats::mean;
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -25,23 +27,6 @@ pub struct StepResult {
     pub peak_time_s: Option<f64>,
     pub omega_n_rad_s: Option<f64>,
     pub alpha_rad: [f64; 2],
-}
-
-/// Steps of the reference (or of the measured force when there is no reference):
-/// |ΔF| > `threshold_n` between consecutive samples starts a new step (§5.3).
-pub fn detect_steps(signal: &[f64], threshold_n: f64) -> Vec<usize> {
-    let mut starts = vec![0];
-    for i in 1..signal.len() {
-        if (signal[i] - signal[i - 1]).abs() > threshold_n {
-            // a step spread over consecutive samples counts once
-            if i - *starts.last().unwrap() > 1 {
-                starts.push(i);
-            } else {
-                *starts.last_mut().unwrap() = i;
-            }
-        }
-    }
-    starts
 }
 
 /// ζ from the overshoot ratio Mp = e^{−πζ/√(1−ζ²)}.
@@ -169,14 +154,14 @@ pub fn fit_gain_plane(poses: &[PoseAverage]) -> Result<[[f64; 3]; 2], crate::Ide
         }
         let n = pts.len();
         let cols = vec![
-            crate::lsq::Column::on("p1", 0, pts.iter().map(|p| p.alpha_rad[0]).collect()),
-            crate::lsq::Column::on("p2", 0, pts.iter().map(|p| p.alpha_rad[1]).collect()),
-            crate::lsq::Column::on("p3", 0, vec![1.0; n]),
+            pam_numerics::lsq::Column::on("p1", 0, pts.iter().map(|p| p.alpha_rad[0]).collect()),
+            pam_numerics::lsq::Column::on("p2", 0, pts.iter().map(|p| p.alpha_rad[1]).collect()),
+            pam_numerics::lsq::Column::on("p3", 0, vec![1.0; n]),
         ];
         let y: Vec<f64> = pts.iter().map(|p| p.gain).collect();
         let zero = vec![0.0; n];
-        let ne = crate::lsq::normal_equations(&cols, &[&y, &zero], 0..n);
-        let th = crate::lsq::solve(&ne, &[]);
+        let ne = pam_numerics::lsq::normal_equations(&cols, &[&y, &zero], 0..n);
+        let th = pam_numerics::lsq::solve(&ne, &[]);
         out[axis] = [th[0], th[1], th[2]];
     }
     Ok(out)
@@ -338,69 +323,4 @@ pub fn initial_params(steps: &[StepResult], axis: usize) -> StepParams {
             mean(&w).clamp(0.5, 500.0)
         },
     )
-}
-
-/// A step of the reference: samples `start..end`, the axis whose reference jumped most.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ReferenceStep {
-    pub start: usize,
-    pub end: usize,
-    pub axis: usize,
-}
-
-/// The steps of a two-axis reference: a jump larger than `threshold` on either axis starts
-/// a step (jumps on consecutive samples count once), which lasts until the next.
-pub fn reference_steps(reference: &[Vec<f64>; 2], threshold: f64) -> Vec<ReferenceStep> {
-    let n = reference[0].len().min(reference[1].len());
-    let mut starts: Vec<(usize, usize)> = Vec::new();
-    for i in 1..n {
-        let d = [0, 1].map(|a| (reference[a][i] - reference[a][i - 1]).abs());
-        if d[0] > threshold || d[1] > threshold {
-            let axis = if d[0] >= d[1] { 0 } else { 1 };
-            match starts.last_mut() {
-                Some(last) if i - last.0 <= 1 => *last = (i, axis),
-                _ => starts.push((i, axis)),
-            }
-        }
-    }
-    starts
-        .iter()
-        .enumerate()
-        .map(|(k, &(start, axis))| ReferenceStep {
-            start,
-            end: starts.get(k + 1).map_or(n, |s| s.0),
-            axis,
-        })
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn reference_steps_of_both_axes() {
-        let mut rx = vec![0.0; 100];
-        let mut ry = vec![0.0; 100];
-        rx[20..].iter_mut().for_each(|v| *v = 10.0);
-        ry[50..].iter_mut().for_each(|v| *v = -8.0);
-        ry[51..].iter_mut().for_each(|v| *v = -16.0); // spread over two samples
-        let s = reference_steps(&[rx, ry], 3.0);
-        assert_eq!(
-            s,
-            vec![
-                ReferenceStep {
-                    start: 20,
-                    end: 51,
-                    axis: 0
-                },
-                ReferenceStep {
-                    start: 51,
-                    end: 100,
-                    axis: 1
-                }
-            ]
-        );
-        assert!(reference_steps(&[vec![1.0; 10], vec![1.0; 10]], 3.0).is_empty());
-    }
 }

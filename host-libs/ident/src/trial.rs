@@ -2,9 +2,11 @@
 //! force reference when one is active. Everything else (handle position, velocity,
 //! acceleration) is derived here through the robot's forward kinematics.
 
-use crate::filter::Butterworth;
 use crate::held_out::HeldOut;
 use pam_model::RobotModel;
+use pam_numerics::filter::Butterworth;
+use pam_numerics::interp::linear_at;
+use pam_numerics::stats::mean;
 use rayon::prelude::*;
 
 /// The columns of one trial, in SI units, user frame.
@@ -325,37 +327,6 @@ impl Trial {
     }
 }
 
-/// An interval may depart from the mean period by this share and the sampling still counts
-/// as even (a printed time's rounding is far below).
-pub const UNEVEN_SHARE: f64 = 0.01;
-
-/// Whether some interval of `t_s` departs from the mean period `dt_s` by more than
-/// [`UNEVEN_SHARE`].
-pub fn is_uneven(t_s: &[f64], dt_s: f64) -> bool {
-    t_s.windows(2)
-        .any(|w| ((w[1] - w[0]) - dt_s).abs() > UNEVEN_SHARE * dt_s)
-}
-
-/// `v`, sampled at the increasing times `t`, linearly interpolated at the increasing times
-/// `at` (held at the ends).
-pub fn linear_at(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
-    let n = t.len().min(v.len());
-    if n < 2 {
-        return vec![v.first().copied().unwrap_or(0.0); at.len()];
-    }
-    let mut j = 0;
-    at.iter()
-        .map(|&x| {
-            while j + 2 < n && t[j + 1] < x {
-                j += 1;
-            }
-            let (ta, tb) = (t[j], t[j + 1]);
-            let f = ((x - ta) / (tb - ta)).clamp(0.0, 1.0);
-            v[j] + f * (v[j + 1] - v[j])
-        })
-        .collect()
-}
-
 fn hold(t: &[f64], v: &[f64], grid: &[f64]) -> Vec<f64> {
     let mut j = 0;
     grid.iter()
@@ -468,23 +439,6 @@ pub fn central_difference(s: &[f64], t: &[f64]) -> Vec<f64> {
         };
     }
     d
-}
-
-pub fn mean(s: &[f64]) -> f64 {
-    if s.is_empty() {
-        0.0
-    } else {
-        s.iter().sum::<f64>() / s.len() as f64
-    }
-}
-
-pub fn std_dev(s: &[f64]) -> f64 {
-    let m = mean(s);
-    (s.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / s.len().max(1) as f64).sqrt()
-}
-
-pub fn rms(s: &[f64]) -> f64 {
-    (s.iter().map(|v| v * v).sum::<f64>() / s.len().max(1) as f64).sqrt()
 }
 
 #[cfg(test)]

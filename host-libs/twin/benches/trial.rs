@@ -1,5 +1,5 @@
 //! Speed of the twin: a 90 s dynamic trial at 1 kHz with the real controller in the loop
-//! (issue 3: "well under a second").
+//! (it should take well under a second).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use pam_twin::experiments::{dynamic_trial, ExperimentConfig, StiffnessLevel};

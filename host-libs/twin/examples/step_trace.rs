@@ -1,4 +1,4 @@
-//! Trace of one §5.2 force step at a pose (issue 14's diagnosis of the slow step,
+//! Trace of one §5.2 force step at a pose (to see why a step is slow,
 //! docs/closed-loop.md): every 10 ms the measured force, the closed loop's integral, the
 //! commanded and true pressures, the twin's four muscle forces (a slack cable reads 0) and the
 //! inverse model's `Limited` flags. The levels from 0 to FROM are stepped through first, 1.5 s

@@ -14,15 +14,14 @@
 //! by the twin over the period, and one log row is written per period with the sample and
 //! the currents computed from it.
 
-use std::fmt;
-
 use pam_control::Mode;
 use pam_log::Log;
-use pam_model::{RobotModel, RobotParams, Vec2};
+use pam_model::{RobotModel, Vec2};
 
-pub use crate::harness::OperatorPath;
+use crate::harness::err;
 pub(crate) use crate::harness::Rig;
-use crate::plant::{HandleCondition, TwinConfig};
+pub use crate::harness::{ExperimentConfig, ExperimentError, OperatorPath};
+use crate::plant::HandleCondition;
 
 // The thesis's protocols (Table 4.1's points and stiffness levels, §5.2's poses, steps and
 // stiffness, the static trial's holds) live in pam-model; re-exported for the twin's users.
@@ -30,74 +29,6 @@ pub use pam_model::protocols::{
     static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
 };
 pub use pam_model::thesis::{STEP_MAX_N, STEP_N, STEP_POSES_DEG, TABLE_4_1_POINTS_DEG};
-
-/// What every experiment shares.
-#[derive(Clone, Debug)]
-pub struct ExperimentConfig {
-    /// The plant (true parameters, effects, sensors, seed).
-    pub twin: TwinConfig,
-    /// What the controller believes (defaults to the plant's parameters).
-    pub controller_params: RobotParams<f64>,
-    /// Loop and logging period: 1 ms by default; the thesis sampled at 50 ms.
-    pub period_s: f64,
-    /// Settling time before logging starts (the thesis logged "after steady state").
-    pub settle_s: f64,
-    /// Operator path amplitude (peak, per axis) for dynamic trials.
-    pub path_amplitude_m: f64,
-    pub path_band_hz: (f64, f64),
-    /// Gain-plane feed-forward in force mode. Off by default: the thesis's step gains
-    /// (Table 5.2, Fig. 5.4–5.5) were measured with the uncorrected command, and §5.4 then
-    /// proposes the correction from them.
-    pub feed_forward: bool,
-    /// Force mode with the load cell in the loop (`Mode::ForceClosedLoop`). Off by default.
-    pub closed_loop: bool,
-    /// Multiplier of the closed loop's designed feedback gains (1 = the design).
-    pub gain_scale: f64,
-    /// Hold time of each force level.
-    pub step_hold_s: f64,
-}
-
-impl ExperimentConfig {
-    pub fn new(twin: TwinConfig) -> Self {
-        ExperimentConfig {
-            controller_params: twin.params,
-            twin,
-            period_s: 0.001,
-            settle_s: 3.0,
-            path_amplitude_m: 0.04,
-            path_band_hz: (0.1, 2.0),
-            feed_forward: false,
-            closed_loop: false,
-            gain_scale: 1.0,
-            step_hold_s: 1.5,
-        }
-    }
-    pub fn thesis() -> Self {
-        Self::new(TwinConfig::thesis())
-    }
-}
-
-#[derive(Debug)]
-pub struct ExperimentError {
-    pub message: String,
-    /// What was logged up to the failure.
-    pub partial_log: Option<Log>,
-}
-
-impl fmt::Display for ExperimentError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.message)
-    }
-}
-
-impl std::error::Error for ExperimentError {}
-
-pub(crate) fn err(message: impl Into<String>) -> ExperimentError {
-    ExperimentError {
-        message: message.into(),
-        partial_log: None,
-    }
-}
 
 fn deg2rad(a: [f64; 2]) -> Vec2<f64> {
     [a[0].to_radians(), a[1].to_radians()]

@@ -1,4 +1,4 @@
-//! The impedance trial (issue 14): the robot in impedance mode about a Table 4.1 point, the
+//! The impedance trial: the robot in impedance mode about a Table 4.1 point, the
 //! scripted operator of the dynamic trial (§4.2) moving the handle, logged like a dynamic
 //! trial so that `pamctl ident dynamic` identifies the rendered K, B, M.
 

@@ -1,4 +1,4 @@
-//! Digital twin of the PAM rehabilitation robot (issue 3).
+//! Digital twin of the PAM rehabilitation robot.
 //!
 //! A physics simulator of the whole chain of the thesis — loop currents → I/P converters
 //! (second order, Table 5.2) → compressible muscles (volume of a DMSP-20, polytropic air) →

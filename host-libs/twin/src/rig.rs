@@ -14,15 +14,15 @@
 //! - The parallel element is **elastoplastic** (stick-slip, like the braid's and the sleeves'
 //!   friction it stands for): a spring anchored where the arm was placed that slips past a
 //!   break-away torque ([`parallel_breakaway_from_thesis`], the least that the ±4 cm trials
-//!   that measured it cannot have slipped). A plain spring with its rest at neutral (this
-//!   module's first version) preloads a block at the §5.2 poses by up to 30 N, more than the
+//!   that measured it cannot have slipped). A plain spring with its rest at neutral
+//!   preloads a block at the §5.2 poses by up to 30 N, more than the
 //!   rig's weaker muscles can cancel, and a free arm would not have stayed at Table 4.1's
 //!   points 2–5 in open loop, where the thesis ran its trials.
 
 use pam_model::mat2::Mat2;
 use pam_model::{RobotModel, RobotParams};
 
-use crate::experiments::{trial_stiffness, StiffnessLevel};
+use pam_model::protocols::{trial_stiffness, StiffnessLevel};
 
 /// Thesis §4.3, static trial, point 1, K_low: pure-spring fit (eq. 4.28), N/m, user frame.
 pub const KC_STATIC_LOW_POINT1_N_PER_M: [[f64; 2]; 2] = [[145.9, 73.5], [73.5, 387.0]];

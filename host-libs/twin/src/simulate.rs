@@ -34,7 +34,7 @@ pub enum Experiment {
     /// §5.2 force-step test at one of the nine poses (`force_step_test`).
     ForceStep,
     /// Impedance mode at a Table 4.1 point with the dynamic trial's operator
-    /// (`impedance_trial`, issue 14).
+    /// (`impedance_trial`).
     Impedance,
 }
 

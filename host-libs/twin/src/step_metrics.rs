@@ -1,4 +1,4 @@
-//! Force-step figures measured from a log (issue 14's table): per reference step, the 5 %
+//! Force-step figures measured from a log (the step table): per reference step, the 5 %
 //! settling time, the overshoot and the step gain, on the axis that stepped.
 //!
 //! - A step is a change of `fx_ref_n` or `fy_ref_n` between two rows; it lasts until the

@@ -1,4 +1,4 @@
-//! Tuning the closed force loop from an identified plant (issue 14, `pamctl tune`).
+//! Tuning the closed force loop from an identified plant (`pamctl tune`).
 //!
 //! The plant, per Cartesian axis, as a step log shows it: g·H(s)·e^(−sτ), with
 //! H(s) = ωn² / (s² + 2ζωn s + ωn²) (§5.3, fitted by `pam_ident::step`), g the static gain the
@@ -30,7 +30,7 @@ use pam_model::params::IpConverter;
 use pam_model::RobotParams;
 use thiserror::Error;
 
-/// Most overshoot a proposal may predict, % (issue 14's goal).
+/// Most overshoot a proposal may predict, %.
 pub const MAX_OVERSHOOT_PCT: f64 = 10.0;
 /// Least linear gain margin of a proposal (a factor, 6 dB).
 pub const MIN_GAIN_MARGIN: f64 = 2.0;

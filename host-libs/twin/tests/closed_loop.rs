@@ -1,4 +1,4 @@
-//! Closed-loop force mode on the twin (issue 14): the §5.2 steps measured from the logs, and
+//! Closed-loop force mode on the twin: the §5.2 steps measured from the logs, and
 //! the guard against deliberately bad gains. Figures printed with `--nocapture`.
 
 use pam_control::{Controller, Faults, Mode, SafetyConfig, Sensors, State};

@@ -1,4 +1,4 @@
-//! Closed-loop force mode against a held (compliant) handle (issue 14): a patient's hand, the
+//! Closed-loop force mode against a held (compliant) handle: a patient's hand, the
 //! twin's firm grip (5000 N/m, 100 N·s/m) and a relaxed one (1000 N/m, 50 N·s/m). Before the
 //! loop looked at what holds the handle it rang at the arm-on-hand resonance (5–9 Hz) and the
 //! guard vented it (docs/closed-loop.md, "A held handle"). Figures with `--nocapture`.

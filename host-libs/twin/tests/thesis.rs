@@ -45,7 +45,7 @@ fn print_mat(name: &str, m: &Mat2<f64>) -> String {
 /// [[85.8, 55.2], [55.2, 221.3]]: the thesis measured more than its model predicts (Fig. 4.3),
 /// statically too. The twin's rig has a parallel stiffness calibrated on the static and the
 /// high-stiffness trials (`pam_twin::rig`); this trial is held out of that calibration, and
-/// issue 3 asks for it within a factor 1.5 of the print.
+/// it is asked for within a factor 1.5 of the print.
 #[test]
 fn dynamic_trial_point1_fits_linear_msd_with_positive_masses() {
     let cfg = ExperimentConfig::new(TwinConfig::identified_rig());

@@ -2,10 +2,11 @@
 
 use anyhow::Context;
 use clap::Args;
-use pam_ident::diagnose::{self, Settings, Verdict};
-use pam_ident::effects::{self, Experiment};
-use pam_ident::{report, FilterSettings, Trial};
+use pam_ident::{FilterSettings, Trial};
 use pam_model::RobotModel;
+use pam_model_loop::diagnose::{self, Settings, Verdict};
+use pam_model_loop::effects::{self, Experiment};
+use pam_report as report;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -126,7 +127,7 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
             &model,
             exp,
             settings(a),
-            &pam_ident::effects::catalog(),
+            &pam_model_loop::effects::catalog(),
             progress,
         )
     })?;

@@ -1,0 +1,584 @@
+//! The verdict: every effect against the base, fold by fold; the accepted ones added while
+//! they pay; the families the data cannot tell apart.
+
+use super::cv::{held_out_blocks, FoldScores, STEP_BLOCKS};
+use super::diagnosis::{BaseReport, Diagnosis, EffectReport, ShapeScore, StepReport, Verdict};
+use super::recording::loop_without_spikes;
+use super::recording::sampling_warning;
+use super::resolution::encoder_floor;
+use super::selection::fold_test;
+use super::selection::paired_test;
+use super::selection::t_critical;
+use super::unexplained::UnexplainedReport;
+use super::AxisPair;
+use super::Loop;
+use super::ModelFit;
+use super::Settings;
+use crate::effects::Experiment;
+use crate::effects::Family;
+use crate::effects::ModelEffect;
+use pam_ident::trial::Trial;
+use pam_model::RobotModel;
+use pam_numerics::stats::rms;
+use pam_numerics::stats::std_dev;
+use std::collections::BTreeMap;
+
+/// RMS of the change an effect makes to the held-out prediction, over the measured signal's
+/// standard deviation on the whole trial; the largest over the scored axes.
+fn effect_size(base: &ModelFit, f: &ModelFit) -> f64 {
+    f.axes
+        .iter()
+        .map(|&a| change_rms_n(base, f, a) / std_dev(&f.measured[a]).max(1e-12))
+        .fold(0.0, f64::max)
+}
+
+/// RMS of the change an effect makes to axis `a`'s held-out prediction, N.
+fn change_rms_n(base: &ModelFit, f: &ModelFit, a: usize) -> f64 {
+    let d: Vec<f64> = f
+        .held_out
+        .rows()
+        .map(|i| f.predicted[a][i] - base.predicted[a][i])
+        .collect();
+    rms(&d)
+}
+
+/// Diagnoses a trial against the standard catalog.
+pub fn diagnose(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    experiment: Experiment,
+    settings: Settings,
+) -> Result<(Diagnosis, Vec<ModelFit>), pam_ident::IdentError> {
+    diagnose_with(
+        trial,
+        model,
+        experiment,
+        settings,
+        &crate::effects::catalog(),
+    )
+}
+
+/// One catalog effect tried alone against the base.
+struct Tried<'e> {
+    report: EffectReport,
+    effect: &'e dyn ModelEffect,
+    folds: FoldScores,
+}
+
+/// Diagnoses a trial against a given catalog. Returns the diagnosis and the fits of the
+/// step-by-step sequence (base first) for reports.
+pub fn diagnose_with(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    experiment: Experiment,
+    settings: Settings,
+    catalog: &[&dyn ModelEffect],
+) -> Result<(Diagnosis, Vec<ModelFit>), pam_ident::IdentError> {
+    diagnose_observed(trial, model, experiment, settings, catalog, &|_| {})
+}
+
+/// Where a diagnosis is, for a progress display (effects are fitted on several threads, so
+/// `EffectDone` comes in any order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// The trial is prepared and the base fitted; this many effects follow.
+    BaseFitted { effects: usize },
+    /// One effect has been fitted and cross-validated on its own.
+    EffectDone { effect: &'static str },
+    /// The accepted effects are being combined (greedy sequence).
+    Combining,
+}
+
+/// [`diagnose_with`], telling `progress` where it is.
+pub fn diagnose_observed(
+    trial: &Trial,
+    model: &RobotModel<f64>,
+    experiment: Experiment,
+    settings: Settings,
+    catalog: &[&dyn ModelEffect],
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<(Diagnosis, Vec<ModelFit>), pam_ident::IdentError> {
+    let (lp, base, spikes) = loop_without_spikes(trial, model, experiment, settings)?;
+    let dynamic = experiment == Experiment::Dynamic;
+    let applicable: Vec<&dyn ModelEffect> = catalog
+        .iter()
+        .copied()
+        .filter(|e| e.applies(experiment))
+        .filter(|e| dynamic || !e.step_extras().is_empty())
+        .collect();
+    let judge = Judge::new(&lp, &base, settings, &applicable);
+    progress(Progress::BaseFitted {
+        effects: applicable.len(),
+    });
+    // every effect alone against the base, on both cores
+    let alone: Vec<(ModelFit, FoldScores)> = {
+        use rayon::prelude::*;
+        applicable
+            .par_iter()
+            .map(|e| {
+                let f = lp.fit(&[*e]);
+                let folds = judge.folds_of(&[*e], &f);
+                progress(Progress::EffectDone { effect: e.id() });
+                (f, folds)
+            })
+            .collect()
+    };
+    progress(Progress::Combining);
+    let tried: Vec<Tried> = applicable
+        .into_iter()
+        .zip(alone)
+        .map(|(e, (f, folds))| judge.tried(e, f, folds))
+        .collect();
+    let reports = best_shape_per_family(tried);
+    let (ambiguous, separating_experiment) = judge.ambiguity(&reports);
+    let (fits, current, current_fit) = judge.combine(&reports);
+    let structure = super::unexplained::structure(&lp, &current_fit, &settings);
+    let unexplained = structure.found;
+    let verdict = verdict_of(
+        &reports,
+        !current.is_empty(),
+        &current_fit,
+        judge.e_base,
+        &unexplained,
+    );
+    let steps = fits
+        .iter()
+        .map(|f| StepReport {
+            effects: f.effect_ids.clone(),
+            nrmse: AxisPair::of(f.nrmse),
+        })
+        .collect();
+    let base_params = base.params.get("base").cloned().unwrap_or_default();
+    let mut warnings = base.warnings.clone();
+    if let Some(s) = &spikes {
+        warnings.push(s.warning());
+    }
+    warnings.extend(sampling_warning(&lp));
+    warnings.extend(structure.set_aside);
+    if dynamic {
+        let delay = reports
+            .iter()
+            .map(|r| &r.report)
+            .find(|r| r.family == Some(Family::Delay));
+        if let Some(w) = lag_warning(&base_params, delay) {
+            warnings.push(w);
+        }
+    }
+    Ok((
+        Diagnosis {
+            experiment,
+            samples: lp.p.len(),
+            sample_period_s: lp.p.dt_s,
+            held_out: lp.p.held_out.describe(),
+            spikes,
+            base: BaseReport {
+                nrmse: AxisPair::of(base.nrmse),
+                r2: AxisPair::of(base.r2),
+                params: base_params,
+            },
+            verdict,
+            effects: reports.into_iter().map(|r| r.report).collect(),
+            ambiguous,
+            separating_experiment,
+            unexplained,
+            steps,
+            warnings,
+        },
+        fits,
+    ))
+}
+
+/// What every effect of one diagnosis is judged against: the base, its folds, and the
+/// levels of the tests.
+struct Judge<'l, 'a> {
+    lp: &'l Loop<'a>,
+    base: &'l ModelFit,
+    settings: Settings,
+    dynamic: bool,
+    /// The base's held-out relative error.
+    e_base: f64,
+    /// Independent samples the training residual is worth.
+    n_eff: f64,
+    /// Independent samples the held-out residual is worth.
+    n_eff_test: f64,
+    base_folds: FoldScores,
+    /// The critical t of the fold test and the level of each family's test.
+    t_crit: f64,
+    level: f64,
+    /// The encoders' rounding in the force (frozen at every rest), drawn when first asked.
+    floor: std::sync::OnceLock<Option<super::resolution::EncoderFloor>>,
+}
+
+impl<'l, 'a> Judge<'l, 'a> {
+    fn new(
+        lp: &'l Loop<'a>,
+        base: &'l ModelFit,
+        settings: Settings,
+        applicable: &[&dyn ModelEffect],
+    ) -> Self {
+        let dynamic = lp.experiment == Experiment::Dynamic;
+        let held_out: Vec<Vec<f64>> = base
+            .axes
+            .iter()
+            .map(|&a| {
+                let r = base.residual(a);
+                base.held_out.rows().map(|i| r[i]).collect()
+            })
+            .collect();
+        let mut judge = Judge {
+            lp,
+            base,
+            settings,
+            dynamic,
+            e_base: base.relative_mse(),
+            n_eff: effective_samples(lp, base),
+            n_eff_test: effective_samples_of(&held_out),
+            base_folds: FoldScores::default(),
+            t_crit: 0.0,
+            level: 0.0,
+            floor: std::sync::OnceLock::new(),
+        };
+        judge.base_folds = judge.folds_of(&[], base);
+        // the level is split over the candidates the data is asked about: one per family
+        let mut families: Vec<String> = applicable.iter().map(|e| family_key(*e)).collect();
+        families.sort();
+        families.dedup();
+        let folds_count = judge.base_folds.sse.len();
+        // the level of each family's test (split in half between the t-test and the
+        // signed-rank test); with `bonferroni`, the level is split over the families as well
+        let split = if settings.bonferroni {
+            families.len().max(1)
+        } else {
+            1
+        };
+        judge.level = settings.alpha / split as f64;
+        judge.t_crit = t_critical(folds_count, settings.alpha / 2.0, split);
+        judge
+    }
+
+    /// The fold scores of a fit: cross-validated in a dynamic trial, held-out blocks in a
+    /// step trial.
+    fn folds_of(&self, effects: &[&dyn ModelEffect], f: &ModelFit) -> FoldScores {
+        if self.dynamic {
+            match effects.split_last() {
+                Some((last, fixed)) => self.lp.cv_effect(fixed, *last),
+                None => self.lp.cv_dynamic(&[], None),
+            }
+        } else {
+            held_out_blocks(f, STEP_BLOCKS)
+        }
+    }
+
+    /// A slow level change within the encoders' rounding cannot be told from it: (its RMS,
+    /// the rounding's bound) when so (drawn only for a drift that would be accepted: it
+    /// costs a few hundred passes).
+    fn within_rounding(&self, e: &dyn ModelEffect, f: &ModelFit) -> Option<(f64, f64)> {
+        if !self.dynamic || e.family() != Some(Family::Drift) {
+            return None;
+        }
+        let fl = (*self.floor.get_or_init(|| encoder_floor(self.lp, self.base)))?;
+        // the axis where the change stands out most from the rounding
+        let (change, bound) = f
+            .axes
+            .iter()
+            .map(|&a| (change_rms_n(self.base, f, a), fl.bound_n[a]))
+            .filter(|&(_, bound)| bound > 0.0)
+            .max_by(|x, y| (x.0 / x.1).total_cmp(&(y.0 / y.1)))?;
+        (change <= bound).then_some((change, bound))
+    }
+
+    /// One effect alone against the base: its scores, its evidence, and whether it is
+    /// accepted.
+    fn tried<'e>(&self, e: &'e dyn ModelEffect, f: ModelFit, folds: FoldScores) -> Tried<'e> {
+        let (dynamic, settings, t_crit, level) =
+            (self.dynamic, &self.settings, self.t_crit, self.level);
+        let (n_eff, n_eff_test) = (self.n_eff, self.n_eff_test);
+        let test = fold_test(&self.base_folds, &folds, dynamic);
+        let held_out_improvement = 1.0 - f.relative_mse() / self.e_base.max(1e-300);
+        let improvement = if dynamic {
+            test.improvement
+        } else {
+            held_out_improvement
+        };
+        let score = improvement - settings.penalty_per_param * f.added_params as f64;
+        // the training gain must pass the Bayesian information criterion counted on the
+        // effective number of independent residual samples (the residual is
+        // autocorrelated: n alone would flatter it)
+        let bic =
+            n_eff * (1.0 - f.train_gain).max(1e-300).ln() + f.added_params as f64 * n_eff.ln();
+        let size = effect_size(self.base, &f);
+        let accepted = if dynamic {
+            // the cross-validated gain must exceed the fold-to-fold spread at the split
+            // level and pay for the parameters it adds; it is material when it changes the
+            // prediction by a share of the signal (in a noisy log a real effect removes
+            // only a small share of the error)
+            test.significant(t_crit, level)
+                && score > 0.0
+                && f.train_gain > 0.0
+                && bic < 0.0
+                && size >= settings.min_effect_size
+        } else {
+            // steps: the training part holds few, strongly autocorrelated step responses
+            // and the held-out steps carry the evidence; a step effect often acts on a few
+            // steps only (the largest, those of one sign), so the blocks' gains are not
+            // alike and the held-out gain decides, by its size or by the BIC on the
+            // held-out effective samples
+            let held_bic = n_eff_test * (1.0 - improvement).max(1e-300).ln()
+                + f.added_params as f64 * n_eff_test.ln();
+            (score > settings.min_improvement
+                || (improvement > settings.min_significant_improvement && held_bic < 0.0))
+                && test.fold_mean > 0.0
+                && size >= settings.min_effect_size
+        };
+        // a slow change within the encoders' rounding is not told from it
+        let rounding = if accepted {
+            self.within_rounding(e, &f)
+        } else {
+            None
+        };
+        let accepted = accepted && rounding.is_none();
+        let params = f.params.get(e.id()).cloned().unwrap_or_default();
+        let mut evidence = format!(
+            "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the {} error (fold gains {:.1} ± {:.1} %, t = {:.1} against {:.1}), changing the prediction by {:.2} % of the signal ({} parameter{})",
+            e.signature(),
+            100.0 * f.train_gain,
+            100.0 * improvement,
+            if dynamic { "cross-validated" } else { "held-out" },
+            100.0 * test.fold_mean,
+            100.0 * test.fold_sd,
+            test.t,
+            if dynamic { t_crit } else { 0.0 },
+            100.0 * size,
+            f.added_params,
+            if f.added_params == 1 { "" } else { "s" },
+        );
+        if let Some((change, bound)) = rounding {
+            evidence.push_str(&format!(
+                "; a slow change of {change:.3} N RMS lies within what the encoders' rounding can put in the force's level (up to {bound:.3} N RMS in {draws} draws of it: it is frozen while a count is held): the log cannot tell it from their rounding",
+                draws = super::resolution::DRAWS
+            ));
+        }
+        Tried {
+            report: EffectReport {
+                id: e
+                    .family()
+                    .map(|x| x.catalog_id())
+                    .unwrap_or(e.id())
+                    .to_string(),
+                family: e.family(),
+                shape: e.shape_name().to_string(),
+                effect: e.id().to_string(),
+                nrmse: AxisPair::of(f.nrmse),
+                params,
+                evidence,
+                signature: e.signature().to_string(),
+                signature_strength: f.train_gain,
+                improvement,
+                held_out_improvement,
+                added_params: f.added_params,
+                score,
+                effect_size: size,
+                folds: test,
+                t_critical: if dynamic { t_crit } else { 0.0 },
+                accepted,
+                other_shapes: Vec::new(),
+            },
+            effect: e,
+            folds,
+        }
+    }
+
+    /// Accepted families whose gain over the first is within the spread (honest doubt), and
+    /// the experiment that would separate the first two.
+    fn ambiguity(&self, reports: &[Tried]) -> (Vec<Family>, Option<String>) {
+        let mut ambiguous = Vec::new();
+        let mut separating_experiment = None;
+        if let Some(top) = reports.first().filter(|t| t.report.accepted) {
+            for other in reports[1..].iter().filter(|t| t.report.accepted) {
+                let (Some(fa), Some(fb)) = (top.report.family, other.report.family) else {
+                    continue;
+                };
+                let d = paired_test(&self.base_folds, &top.folds, &other.folds, self.dynamic);
+                if d.t < self.settings.ambiguity_t {
+                    if ambiguous.is_empty() {
+                        ambiguous.push(fa);
+                        separating_experiment = Some(fa.separating_experiment(fb).to_string());
+                    }
+                    ambiguous.push(fb);
+                }
+            }
+        }
+        (ambiguous, separating_experiment)
+    }
+
+    /// Greedy: add accepted effects best first while each still pays for itself. Returns
+    /// the fits in order (base first), the effects kept and the last fit.
+    fn combine<'e>(
+        &self,
+        reports: &[Tried<'e>],
+    ) -> (Vec<ModelFit>, Vec<&'e dyn ModelEffect>, ModelFit) {
+        let (dynamic, settings, base) = (self.dynamic, &self.settings, self.base);
+        let mut fits = vec![base.clone()];
+        let mut current: Vec<&dyn ModelEffect> = Vec::new();
+        let mut current_fit = base.clone();
+        let mut current_folds = self.base_folds.clone();
+        for t in reports.iter().filter(|r| r.report.accepted).take(4) {
+            let mut trial_set = current.clone();
+            trial_set.push(t.effect);
+            let f = self.lp.fit(&trial_set);
+            let pays = if current.is_empty() {
+                true
+            } else if dynamic {
+                let folds = self.folds_of(&trial_set, &f);
+                let test = fold_test(&current_folds, &folds, true);
+                let ok = test.significant(self.t_crit, self.level)
+                    && test.improvement > settings.min_significant_improvement;
+                if ok {
+                    current_folds = folds;
+                }
+                ok
+            } else {
+                let gain = 1.0 - f.relative_mse() / current_fit.relative_mse().max(1e-300);
+                let added = f.added_params - current_fit.added_params;
+                gain - settings.penalty_per_param * added as f64 > settings.min_improvement
+            };
+            if pays {
+                if current.is_empty() && dynamic {
+                    current_folds = t.folds.clone();
+                }
+                current = trial_set;
+                current_fit = f.clone();
+                fits.push(f);
+            }
+        }
+        (fits, current, current_fit)
+    }
+}
+
+/// One entry per family: its best shape (an accepted one before any other), the others
+/// listed under it.
+fn best_shape_per_family(mut tried: Vec<Tried>) -> Vec<Tried> {
+    let rank = |t: &Tried| (t.report.accepted, t.report.score);
+    tried.sort_by(|a, b| {
+        let (ra, rb) = (rank(a), rank(b));
+        rb.0.cmp(&ra.0).then(rb.1.total_cmp(&ra.1))
+    });
+    let mut reports: Vec<Tried> = Vec::new();
+    for t in tried {
+        let key = family_key(t.effect);
+        if let Some(head) = reports.iter_mut().find(|r| family_key(r.effect) == key) {
+            head.report.other_shapes.push(ShapeScore {
+                shape: t.report.shape.clone(),
+                effect: t.report.effect.clone(),
+                improvement: t.report.improvement,
+                accepted: t.report.accepted,
+            });
+        } else {
+            reports.push(t);
+        }
+    }
+
+    reports
+}
+
+/// The verdict names what is missing most: a structure no effect explains (a tone, a
+/// wander) that carries more of the residual than the accepted effects removed of the
+/// base's error outweighs them (they stay listed and accepted); a twin's few-millisecond
+/// lag accepted at 0.2 % beside a 60 Hz line that carries most of the residual is not the
+/// story of that log. (What was removed: the held-out gain of the accepted set, or the best
+/// accepted effect's own gain — the cross-validated one in a dynamic trial — where that is
+/// larger.)
+fn verdict_of(
+    reports: &[Tried],
+    some_kept: bool,
+    current_fit: &ModelFit,
+    e_base: f64,
+    unexplained: &[UnexplainedReport],
+) -> Verdict {
+    let removed = reports
+        .iter()
+        .filter(|t| t.report.accepted)
+        .map(|t| t.report.improvement)
+        .fold(
+            1.0 - current_fit.relative_mse() / e_base.max(1e-300),
+            f64::max,
+        );
+    let largest_unexplained = unexplained
+        .iter()
+        .map(|u| u.variance_share)
+        .fold(0.0, f64::max);
+    if some_kept && (unexplained.is_empty() || largest_unexplained <= removed) {
+        Verdict::Effect
+    } else if !unexplained.is_empty() {
+        Verdict::Unexplained
+    } else {
+        Verdict::None
+    }
+}
+
+/// Honest doubt where the verdict cannot show it: the base describes a force that lags the
+/// motion by the muscles' pneumatic lag (its gains negative) and a sensor-sync delay removes
+/// a little more, but not beyond the fold-to-fold spread. To first order both are the same
+/// lag, so the data cannot say which; the user should know the lag is there.
+fn lag_warning(base: &BTreeMap<String, f64>, delay: Option<&EffectReport>) -> Option<String> {
+    let delay = delay.filter(|d| !d.accepted && d.improvement > 0.005)?;
+    let kp = |k: &str| base.get(k).copied().unwrap_or(0.0);
+    let (kx, ky) = (kp("kp_xx"), kp("kp_yy"));
+    if !(kx < 0.0 || ky < 0.0) {
+        return None;
+    }
+    let delay_ms = 1000.0 * delay.params.get("delay_s").copied().unwrap_or(0.0);
+    Some(format!(
+        "the force lags the motion: the base takes it as the muscles' pressure lag \
+         (kp_xx {kx:.1}, kp_yy {ky:.1} N/m, negative), and a delay of {delay_ms:.0} ms between \
+         the force and the encoder samples removes {:.1} % more, within the fold-to-fold \
+         spread. The data cannot tell a regulation lag from a sampling delay: check the \
+         logger's timestamps, or sample faster (≤ 5 ms) with quick reversals",
+        100.0 * delay.improvement
+    ))
+}
+
+/// The family an effect is judged in (an effect outside the families is its own).
+fn family_key(e: &dyn ModelEffect) -> String {
+    e.family()
+        .map(|f| f.name().to_string())
+        .unwrap_or_else(|| e.id().to_string())
+}
+
+/// n (1 − ρ)/(1 + ρ) over per-axis residuals.
+pub(crate) fn effective_samples_of(res: &[Vec<f64>]) -> f64 {
+    let mut rho = Vec::new();
+    let mut n = 0usize;
+    for r in res {
+        n += r.len();
+        let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
+        let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
+        if var > 0.0 {
+            rho.push(
+                (r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var)
+                    .clamp(-0.99, 0.999),
+            );
+        }
+    }
+    let rho = if rho.is_empty() {
+        0.0
+    } else {
+        rho.iter().sum::<f64>() / rho.len() as f64
+    };
+    let n = n as f64;
+    (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n.max(10.0))
+}
+
+/// Number of independent samples the training residual is worth: n (1 − ρ)/(1 + ρ) with ρ
+/// the lag-one autocorrelation, averaged over the axes.
+fn effective_samples(lp: &Loop, base: &ModelFit) -> f64 {
+    let train: Vec<Vec<f64>> = base
+        .axes
+        .iter()
+        .map(|&a| {
+            let r = base.residual(a);
+            lp.p.held_out.train_rows().map(|i| r[i]).collect()
+        })
+        .collect();
+    effective_samples_of(&train)
+}

@@ -1,0 +1,127 @@
+//! What a diagnosis says: the verdict, the base, every effect tried, the steps of the
+//! sequence. This is the JSON of `pamctl model diagnose --json`.
+
+use super::recording::SpikeReport;
+use super::selection::FoldTest;
+use super::unexplained::UnexplainedReport;
+use super::AxisPair;
+use crate::effects::{Experiment, Family};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BaseReport {
+    pub nrmse: AxisPair,
+    pub r2: AxisPair,
+    pub params: BTreeMap<String, f64>,
+}
+
+/// What the loop concludes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Verdict {
+    /// At least one effect is accepted; `effects[0]` is the first.
+    Effect,
+    /// The base model explains the log: nothing is missing that the data can show.
+    None,
+    /// The residual has structure no effect explains (a tone, a wander): no effect is
+    /// accepted, or the structure carries more of the residual than the accepted effects
+    /// (still listed, `accepted`) removed of the base's error.
+    Unexplained,
+}
+
+impl Verdict {
+    pub fn name(self) -> &'static str {
+        match self {
+            Verdict::Effect => "effect",
+            Verdict::None => "none",
+            Verdict::Unexplained => "unexplained",
+        }
+    }
+}
+
+impl std::fmt::Display for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Another shape of the same family, tried on the same log.
+#[derive(Clone, Debug, Serialize)]
+pub struct ShapeScore {
+    pub shape: String,
+    /// The catalog effect that carries this shape (for `fit --with`).
+    pub effect: String,
+    pub improvement: f64,
+    pub accepted: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct EffectReport {
+    /// The family's catalog id, shared with the digital twin (for an effect outside the
+    /// families, its own id).
+    pub id: String,
+    /// The physical family (what the user learns), and the shape that fits best.
+    pub family: Option<Family>,
+    pub shape: String,
+    /// The catalog effect that carries the shape (for `fit --with`).
+    pub effect: String,
+    /// Held-out NRMSE with this effect added to the base model.
+    pub nrmse: AxisPair,
+    pub params: BTreeMap<String, f64>,
+    pub evidence: String,
+    /// The residual signature that points to this effect.
+    pub signature: String,
+    /// Share of the base model's training residual the effect removes when refitted.
+    pub signature_strength: f64,
+    /// Share of the relative MSE removed: cross-validated over [`FOLDS`] contiguous folds
+    /// (dynamic trials), or on the held-out part (step trials).
+    pub improvement: f64,
+    /// Share of the held-out relative MSE removed (the rows of [`Diagnosis::held_out`]), fitted
+    /// on the others.
+    pub held_out_improvement: f64,
+    pub added_params: usize,
+    /// improvement − penalty × added_params.
+    pub score: f64,
+    /// How much the effect changes the held-out prediction, RMS over the scored axes as a
+    /// share of the measured signal's spread over the whole trial (largest axis).
+    pub effect_size: f64,
+    /// The gain fold by fold, and the critical t it had to reach.
+    pub folds: FoldTest,
+    pub t_critical: f64,
+    pub accepted: bool,
+    /// The family's other shapes, best first.
+    pub other_shapes: Vec<ShapeScore>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct StepReport {
+    pub effects: Vec<String>,
+    pub nrmse: AxisPair,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Diagnosis {
+    pub experiment: Experiment,
+    pub samples: usize,
+    pub sample_period_s: f64,
+    /// Which rows the fits were scored on ([`HeldOut::describe`]).
+    pub held_out: String,
+    /// Isolated spikes of the force bridged before the fits (none: absent).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spikes: Option<SpikeReport>,
+    pub base: BaseReport,
+    pub verdict: Verdict,
+    /// One entry per family (its best shape): the accepted ones first, best first.
+    pub effects: Vec<EffectReport>,
+    /// Families the log cannot tell apart (the first is `effects[0]`'s): their fold-by-fold
+    /// difference is within the spread. Empty when the first is clearly best.
+    pub ambiguous: Vec<Family>,
+    /// The experiment that would separate the ambiguous families.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub separating_experiment: Option<String>,
+    pub unexplained: Vec<UnexplainedReport>,
+    /// The error falling as the accepted effects are added one by one.
+    pub steps: Vec<StepReport>,
+    pub warnings: Vec<String>,
+}

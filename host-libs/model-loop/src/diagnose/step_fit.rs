@@ -1,0 +1,120 @@
+//! Fits of step trials: the second-order response of the converters (§5.3) with the
+//! effects' extra parameters, on the training part, scored on the held-out part.
+
+use super::held_out_scores;
+use super::Loop;
+use super::ModelFit;
+use crate::effects::Experiment;
+use crate::effects::ModelEffect;
+use crate::response;
+use crate::response::Response;
+use crate::response::StepExtra;
+use pam_numerics::stats::std_dev;
+use std::collections::BTreeMap;
+
+impl<'a> Loop<'a> {
+    /// Axes with any step (fitted).
+    pub(super) fn stepping_axes(&self) -> Vec<usize> {
+        let r = self.p.force_ref_n.as_ref().expect("checked in new");
+        (0..2).filter(|&a| std_dev(&r[a]) > 1e-9).collect()
+    }
+
+    pub(super) fn base_step_params(&self) -> Response {
+        let mut cached = self.base_step.lock().expect("base cache");
+        if let Some(b) = *cached {
+            return b;
+        }
+        let init = self
+            .step_init
+            .unwrap_or(Response::base(0.7, 20.0, [1.0, 1.0]));
+        let d = self.drive.as_ref().expect("step trials have a drive");
+        let fitted = response::fit(
+            &self.p,
+            d,
+            &init,
+            &[],
+            &self.stepping_axes(),
+            &self.p.held_out,
+        );
+        *cached = Some(fitted);
+        fitted
+    }
+
+    pub(super) fn fit_step(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
+        let p = &self.p;
+        let d = self.drive.as_ref().expect("step trials have a drive");
+        let base = self.base_step_params();
+        let chosen: Vec<&dyn ModelEffect> = effects
+            .iter()
+            .copied()
+            .filter(|e| e.applies(Experiment::Step) && !e.step_extras().is_empty())
+            .collect();
+        let mut extras: Vec<StepExtra> = Vec::new();
+        for e in &chosen {
+            for x in e.step_extras() {
+                if !extras.contains(x) {
+                    extras.push(*x);
+                }
+            }
+        }
+        let axes = self.stepping_axes();
+        let fitted = if extras.is_empty() {
+            base
+        } else {
+            response::fit(p, d, &base, &extras, &axes, &p.held_out)
+        };
+        let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
+        let mut pred = [vec![0.0; p.len()], vec![0.0; p.len()]];
+        response::simulate(&fitted, d, &p.t_s, alpha, p.len(), &mut pred);
+        let y = p.force_n.clone();
+        let (nrmse, r2) = held_out_scores(p, &y, &pred);
+        let mut params = BTreeMap::new();
+        let axis_name = ["x", "y"];
+        let mut b = BTreeMap::new();
+        b.insert("zeta".to_string(), base.zeta);
+        b.insert("omega_n_rad_s".to_string(), base.omega_n_rad_s);
+        for &a in &axes {
+            b.insert(format!("gain_{}", axis_name[a]), base.gain[a]);
+            b.insert(format!("offset_n_{}", axis_name[a]), base.offset_n[a]);
+        }
+        params.insert("base".to_string(), b);
+        for e in &chosen {
+            let m: BTreeMap<String, f64> = e
+                .step_extras()
+                .iter()
+                .flat_map(|x| fitted.extra_params(*x, d.units, &axes))
+                .collect();
+            params.insert(e.id().to_string(), m);
+        }
+        let train = |pr: &[Vec<f64>; 2], a: usize| {
+            p.held_out
+                .train_rows()
+                .map(|i| (y[a][i] - pr[a][i]).powi(2))
+                .sum::<f64>()
+        };
+        let train_gain = if chosen.is_empty() {
+            0.0
+        } else {
+            let mut bp = [vec![0.0; p.len()], vec![0.0; p.len()]];
+            response::simulate(&base, d, &p.t_s, alpha, p.len(), &mut bp);
+            let rb: f64 = axes.iter().map(|&a| train(&bp, a)).sum();
+            let re: f64 = axes.iter().map(|&a| train(&pred, a)).sum();
+            1.0 - re / rb.max(1e-300)
+        };
+        let added = response::extra_param_count(&extras, &axes);
+        ModelFit {
+            experiment: Experiment::Step,
+            effect_ids: chosen.iter().map(|e| e.id().to_string()).collect(),
+            params,
+            added_params: added,
+            nrmse,
+            r2,
+            axes,
+            measured: y,
+            predicted: pred,
+            train_gain,
+            held_out: p.held_out.clone(),
+            warnings: Vec::new(),
+        }
+    }
+}

@@ -1,0 +1,199 @@
+//! Friction at the handle: the carrier ball's dry friction and quadratic drag.
+
+use super::DynCtx;
+use super::DynTerm;
+use super::Experiment;
+use super::Family;
+use super::ModelEffect;
+use super::Shape;
+use super::ShapeParam;
+use pam_numerics::lsq::Column;
+
+/// Dry friction of the carrier ball: a force of constant size against the handle velocity,
+/// smoothed over a speed (grid), like Coulomb friction.
+pub struct CarrierBallFriction;
+impl ModelEffect for CarrierBallFriction {
+    fn id(&self) -> &'static str {
+        "carrier_ball_friction"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Friction)
+    }
+    fn shape_name(&self) -> &'static str {
+        "coulomb"
+    }
+    fn summary(&self) -> &'static str {
+        "Coulomb friction of the carrier ball against the handle velocity (§6.2)"
+    }
+    fn signature(&self) -> &'static str {
+        "residual jumps with the sign of the velocity"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Dynamic
+    }
+    fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
+        [0.001, 0.003, 0.01, 0.03, 0.1]
+            .iter()
+            .map(|&w| Shape(vec![(ShapeParam::SmoothingMS, w)]))
+            .collect()
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
+        let w = shape.get(ShapeParam::SmoothingMS).unwrap_or(0.0);
+        let v = &ctx.p.v_m_s;
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        for i in 0..ctx.p.len() {
+            let s = v[0][i].hypot(v[1][i]);
+            // v̂ · s/√(s² + w²): the direction of motion, faded in over w
+            let k = 1.0 / (s * s + w * w).sqrt();
+            x.push(v[0][i] * k);
+            y.push(v[1][i] * k);
+        }
+        DynTerm {
+            columns: vec![Column::both("coulomb_n", x, y)],
+            positive: vec![0],
+            ..Default::default()
+        }
+    }
+}
+
+/// Quadratic drag c·|v|·v at the handle.
+pub struct VelocitySquared;
+impl ModelEffect for VelocitySquared {
+    fn id(&self) -> &'static str {
+        "velocity_squared"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Drag)
+    }
+    fn shape_name(&self) -> &'static str {
+        "quadratic"
+    }
+    fn summary(&self) -> &'static str {
+        "force growing with the square of the handle speed, c·|v|·v (§4.6)"
+    }
+    fn signature(&self) -> &'static str {
+        "residual grows with the square of the speed, with the velocity's sign"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Dynamic
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, _s: &Shape) -> DynTerm {
+        let v = &ctx.p.v_m_s;
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        for i in 0..ctx.p.len() {
+            let s = v[0][i].hypot(v[1][i]);
+            x.push(s * v[0][i]);
+            y.push(s * v[1][i]);
+        }
+        DynTerm {
+            columns: vec![Column::both("coeff_n_s2_per_m2", x, y)],
+            positive: vec![0],
+            ..Default::default()
+        }
+    }
+}
+
+/// Stribeck friction: Coulomb friction plus a breakaway force that fades above a speed
+/// (grid), f = (c + s·e^{−(v/v_s)²})·v̂, both ≥ 0.
+pub struct StribeckFriction;
+impl ModelEffect for StribeckFriction {
+    fn id(&self) -> &'static str {
+        "stribeck_friction"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Friction)
+    }
+    fn shape_name(&self) -> &'static str {
+        "stribeck"
+    }
+    fn summary(&self) -> &'static str {
+        "friction with a breakaway (static) part that fades with speed (Stribeck)"
+    }
+    fn signature(&self) -> &'static str {
+        "residual jumps with the sign of the velocity, most at low speed"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Dynamic
+    }
+    fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
+        [0.005, 0.01, 0.02, 0.05]
+            .iter()
+            .map(|&w| Shape(vec![(ShapeParam::StribeckMS, w)]))
+            .collect()
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
+        let vs = shape.get(ShapeParam::StribeckMS).unwrap_or(0.0);
+        // the sign is smoothed over a tenth of the Stribeck speed
+        let w = 0.1 * vs;
+        let v = &ctx.p.v_m_s;
+        let (mut cx, mut cy, mut sx, mut sy) = (vec![], vec![], vec![], vec![]);
+        for i in 0..ctx.p.len() {
+            let s = v[0][i].hypot(v[1][i]);
+            let k = 1.0 / (s * s + w * w).sqrt();
+            let bump = (-(s / vs).powi(2)).exp();
+            cx.push(v[0][i] * k);
+            cy.push(v[1][i] * k);
+            sx.push(v[0][i] * k * bump);
+            sy.push(v[1][i] * k * bump);
+        }
+        DynTerm {
+            columns: vec![
+                Column::both("coulomb_n", cx, cy),
+                Column::both("breakaway_n", sx, sy),
+            ],
+            positive: vec![0, 1],
+            ..Default::default()
+        }
+    }
+}
+
+/// Friction with presliding (LuGre-like bristles): before the handle slides, the contact
+/// deflects elastically over 30 µm–1 mm (grid), so the friction force turns over that
+/// distance after each reversal instead of jumping. It acts at the handle, per axis of
+/// motion (the muscles' hysteresis acts per joint). A play operator per axis of
+/// that half-width, normalised, one force (≥ 0) for both axes.
+pub struct PreslidingFriction;
+impl ModelEffect for PreslidingFriction {
+    fn id(&self) -> &'static str {
+        "presliding_friction"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Friction)
+    }
+    fn shape_name(&self) -> &'static str {
+        "lugre"
+    }
+    fn summary(&self) -> &'static str {
+        "friction whose force builds up over a tiny presliding distance after each reversal (LuGre bristles)"
+    }
+    fn signature(&self) -> &'static str {
+        "residual follows the direction of motion at the handle, turning over a fraction of a millimetre"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Dynamic
+    }
+    fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
+        [0.00003, 0.0001, 0.0003, 0.001]
+            .iter()
+            .map(|&d| Shape(vec![(ShapeParam::PreslidingM, d)]))
+            .collect()
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
+        let p = ctx.p;
+        let w = shape.get(ShapeParam::PreslidingM).unwrap_or(0.0).max(1e-7);
+        let mut out = [vec![0.0; p.len()], vec![0.0; p.len()]];
+        for (a, col) in out.iter_mut().enumerate() {
+            let mut z = 0.0f64;
+            for i in 1..p.len() {
+                z = (z + p.dx_m[a][i] - p.dx_m[a][i - 1]).clamp(-w, w);
+                col[i] = z / w;
+            }
+        }
+        let [x, y] = out;
+        DynTerm {
+            columns: vec![Column::both("coulomb_n", x, y)],
+            positive: vec![0],
+            ..Default::default()
+        }
+    }
+}

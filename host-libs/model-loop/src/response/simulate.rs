@@ -1,0 +1,358 @@
+//! Simulation of a step trial: the (delayed, rate-limited, saturated) set-points through
+//! each converter's second order to the handle force.
+
+use super::params::Response;
+use super::Drive;
+use super::Units;
+use super::MAX_SUBSTEP_S;
+use pam_ident::held_out::HeldOut;
+
+#[inline]
+fn saturate(s: f64, knee: f64, span: f64) -> f64 {
+    if s.abs() > knee {
+        s.signum() * (knee + span * ((s.abs() - knee) / span).tanh())
+    } else {
+        s
+    }
+}
+
+/// Simulates rows [0, n) of both axes into `out`. Each channel starts at rest at its first
+/// set-point; the set-point over a sub-step is the (delayed) held set-point averaged over
+/// it, so the output is smooth in the delay.
+pub fn simulate(
+    r: &Response,
+    d: &Drive,
+    t_s: &[f64],
+    alpha: [&[f64]; 2],
+    n: usize,
+    out: &mut [Vec<f64>; 2],
+) {
+    // the channel count as a constant keeps the channels' states in registers (measured:
+    // the step fits spend most of their time here)
+    match d.channels() {
+        2 => simulate_channels::<2>(r, d, t_s, alpha, n, out),
+        _ => simulate_channels::<4>(r, d, t_s, alpha, n, out),
+    }
+}
+
+fn simulate_channels<const K: usize>(
+    r: &Response,
+    d: &Drive,
+    t_s: &[f64],
+    alpha: [&[f64]; 2],
+    n: usize,
+    out: &mut [Vec<f64>; 2],
+) {
+    let n = n.min(d.set.len());
+    if n == 0 {
+        return;
+    }
+    let k = K;
+    let (rise, fall) = (r.rise_per_s.max(1e-9), r.fall_per_s.max(1e-9));
+    let limited = rise.is_finite() || fall.is_finite();
+    // the linear second order is stepped exactly (its transition matrix over a sub-step),
+    // so only a rate limit, which clamps within the step, and a delay, which moves the
+    // set-point's change into the sample, need short sub-steps
+    let sub = if limited || r.delay_s > 0.0 {
+        ((d.dt_s / MAX_SUBSTEP_S).ceil() as usize).max(1)
+    } else {
+        1
+    };
+    let h = d.dt_s / sub as f64;
+    let phi = transition(r.omega_n_rad_s, r.zeta, h);
+    // an uneven log: each interval is stepped as it was, with its own sub-steps
+    let uneven = d.intervals_s.as_deref();
+    let substeps = |interval: f64| {
+        if limited || r.delay_s > 0.0 {
+            ((interval / MAX_SUBSTEP_S).ceil() as usize).max(1)
+        } else {
+            1
+        }
+    };
+    let span = r.knee_span.abs().max(1e-6);
+    let force_limited = r.force_knee_n.is_finite();
+    let force_span = r.force_span_n.abs().max(1e-6);
+    let sat = |s: f64| saturate(s, r.knee, span);
+    // Force channels carry the measured force's scale (gain × reference), so that their
+    // rate limit and saturation are in the measured newtons; converter channels are bar.
+    let force_channels = d.units == Units::Force;
+    let cap_span = r.cap_span.abs().max(1e-6);
+    // each sample's shaped set-points once: a delayed sub-step reads two of them
+    let scale: [f64; K] = std::array::from_fn(|c| d.channel_scale(r, c));
+    let shaped: Vec<[f64; K]> = d.set[..n]
+        .iter()
+        .map(|set| {
+            std::array::from_fn(|c| {
+                let s = sat(scale[c] * set[c]);
+                if r.cap_channel == Some(c) {
+                    saturate(s, r.cap, cap_span)
+                } else {
+                    s
+                }
+            })
+        })
+        .collect();
+    let set_at = |j: usize, c: usize| shaped[j.min(n - 1)][c];
+    let mut x = [0.0; K];
+    let mut v = [0.0; K];
+    for (c, xc) in x.iter_mut().enumerate() {
+        *xc = set_at(0, c);
+    }
+    // Rate limits: a converter's flow limits how fast its pressure moves; without the
+    // converters (force channels) the limit is on the commanded force, as in §5.3's
+    // black-box view
+    let slew_the_command = force_channels || r.slew_command;
+    let mut driven = x;
+    // the hysteresis offset goes through the same regulation
+    let mut hx = [0, 1].map(|a| r.hysteresis_n[a] * d.direction[a][0]);
+    let mut hv = [0.0; 2];
+    let delay = r.delay_s.max(0.0) / d.dt_s;
+    let t0 = t_s[0];
+    let frac = 1.0 / sub as f64;
+    // sub-step m of sample i reads the delayed interval [i + offset_m, i + offset_m + frac):
+    // samples i + ⌊offset_m⌋ and the next, the first with a weight that depends on m only
+    let taps: Vec<(isize, f64)> = (0..sub)
+        .map(|m| {
+            let offset = m as f64 * frac - delay;
+            let fl = offset.floor();
+            (fl as isize, ((fl + 1.0 - offset) / frac).min(1.0))
+        })
+        .collect();
+    let hysteresis = r.hysteresis_n != [0.0; 2];
+    // a slew limit on the handle force: its largest change per sample, up and down
+    let force_slewed = r.force_rise_n_per_s.is_finite() || r.force_fall_n_per_s.is_finite();
+    let force_rates = (
+        r.force_rise_n_per_s.max(1e-9),
+        r.force_fall_n_per_s.max(1e-9),
+    );
+    // an uneven log's delayed set-points are looked up by time, from this row on
+    let mut delayed_from = 0usize;
+    let mut slewed: [Option<f64>; 2] = [None; 2];
+    // without a pose dependence the gain is a constant: a force channel's factor is then
+    // exactly 1 (g / g), and the division per sample (a tenth of a step fit's time,
+    // measured) is left out
+    let constant_gain = [0, 1].map(|a| {
+        (r.gain_slope_per_rad[a] == [0.0; 2]).then(|| if force_channels { 1.0 } else { r.gain[a] })
+    });
+    for i in 0..n {
+        let forces = d.channel_forces(i, &x);
+        for a in 0..2 {
+            let f = d.axis_force(i, a, &forces);
+            let g = if let Some(g) = constant_gain[a] {
+                g
+            } else if force_channels {
+                let g = r.gain[a]
+                    + r.gain_slope_per_rad[a][0] * alpha[0][i]
+                    + r.gain_slope_per_rad[a][1] * alpha[1][i];
+                // x already carries the gain; only its pose dependence is left
+                if r.gain[a].abs() > 1e-12 {
+                    g / r.gain[a]
+                } else {
+                    1.0
+                }
+            } else {
+                r.gain[a]
+                    + r.gain_slope_per_rad[a][0] * alpha[0][i]
+                    + r.gain_slope_per_rad[a][1] * alpha[1][i]
+            };
+            let mut force = g * f;
+            if force_limited {
+                force = saturate(force, r.force_knee_n, force_span);
+            }
+            if force_slewed {
+                // the largest change since the previous sample, up and down
+                let since = match (uneven, i) {
+                    (Some(iv), 1..) => iv[i - 1],
+                    _ => d.dt_s,
+                };
+                let (force_up, force_down) = (force_rates.0 * since, force_rates.1 * since);
+                if let Some(prev) = slewed[a] {
+                    force = bounded(force, prev - force_down, prev + force_up);
+                }
+                slewed[a] = Some(force);
+            }
+            out[a][i] = force + hx[a] + r.offset_n[a] + r.drift_n_per_s[a] * (t_s[i] - t0);
+        }
+        let (h, sub, phi) = match uneven {
+            None => (h, sub, phi),
+            Some(iv) => {
+                let sub = substeps(iv[i]);
+                let h = iv[i] / sub as f64;
+                (h, sub, transition(r.omega_n_rad_s, r.zeta, h))
+            }
+        };
+        for m in 0..sub {
+            // the delayed sub-step, spanning at most two samples (before the first sample:
+            // the first set-point): sample j with weight w_first, the rest from j + 1
+            let (j, w_first) = match uneven {
+                None => {
+                    let (tap, w) = taps[m];
+                    let first = i as isize + tap;
+                    if first < 0 || (first == 0 && w >= 1.0) {
+                        (0, 1.0)
+                    } else {
+                        (first as usize, w)
+                    }
+                }
+                Some(_) => {
+                    let from = t_s[i] + m as f64 * h - r.delay_s.max(0.0);
+                    delayed_sample(t_s, n, from, h, &mut delayed_from)
+                }
+            };
+            for c in 0..k {
+                let mut s = if w_first >= 1.0 {
+                    set_at(j, c)
+                } else {
+                    w_first * set_at(j, c) + (1.0 - w_first) * set_at(j + 1, c)
+                };
+                if limited && slew_the_command {
+                    s = bounded(s, driven[c] - fall * h, driven[c] + rise * h);
+                    driven[c] = s;
+                }
+                let (e, vc) = phi.step(x[c] - s, v[c]);
+                v[c] = if limited && !slew_the_command {
+                    bounded(vc, -fall, rise)
+                } else {
+                    vc
+                };
+                x[c] = if v[c] == vc { s + e } else { x[c] + h * v[c] };
+            }
+            for a in 0..2 {
+                if !hysteresis {
+                    break;
+                }
+                let target = r.hysteresis_n[a] * d.direction[a][j.min(n - 1)];
+                let (e, va) = phi.step(hx[a] - target, hv[a]);
+                hx[a] = target + e;
+                hv[a] = va;
+            }
+        }
+    }
+}
+
+/// The sample whose held set-point covers the start of the interval [from, from + h) of an
+/// unevenly sampled log, and the share of the interval before the next sample's; `at` is
+/// where the previous search ended (the intervals only move forward).
+#[inline]
+fn delayed_sample(t_s: &[f64], n: usize, from: f64, h: f64, at: &mut usize) -> (usize, f64) {
+    if from < t_s[0] {
+        return (0, 1.0);
+    }
+    while *at + 1 < n && t_s[*at + 1] <= from {
+        *at += 1;
+    }
+    let j = *at;
+    if j + 1 >= n || from + h <= t_s[j + 1] {
+        (j, 1.0)
+    } else {
+        (j, ((t_s[j + 1] - from) / h).clamp(0.0, 1.0))
+    }
+}
+
+/// The exact transition over `h` of e'' + 2ζωn e' + ωn² e = 0 (e the distance to a held
+/// set-point): e^{Ah} with A = [[0, 1], [−ωn², −2ζωn]], from A's eigenvalues μ ± q.
+#[derive(Clone, Copy, Debug)]
+struct Transition {
+    m: [[f64; 2]; 2],
+}
+
+impl Transition {
+    #[inline]
+    fn step(&self, e: f64, v: f64) -> (f64, f64) {
+        (
+            self.m[0][0] * e + self.m[0][1] * v,
+            self.m[1][0] * e + self.m[1][1] * v,
+        )
+    }
+}
+
+fn transition(omega_n: f64, zeta: f64, h: f64) -> Transition {
+    let wn2 = omega_n * omega_n;
+    let mu = -zeta * omega_n;
+    let disc = mu * mu - wn2;
+    // e^{Ah} = e^{μh} (c·I + s·(A − μI)), c and s from cosh/sinh, cos/sin or the limit
+    let (c, s) = if disc > 1e-12 * wn2.max(1e-30) {
+        let q = disc.sqrt();
+        ((q * h).cosh(), (q * h).sinh() / q)
+    } else if disc < -1e-12 * wn2.max(1e-30) {
+        let q = (-disc).sqrt();
+        ((q * h).cos(), (q * h).sin() / q)
+    } else {
+        (1.0, h)
+    };
+    let g = (mu * h).exp();
+    // A − μI = [[−μ, 1], [−ωn², −2ζωn − μ]]
+    Transition {
+        m: [
+            [g * (c - s * mu), g * s],
+            [-g * s * wn2, g * (c + s * (-2.0 * zeta * omega_n - mu))],
+        ],
+    }
+}
+
+/// `v` within [lo, hi]. Bounds that are NaN or crossed (a trial step of the fit whose rates
+/// overflowed) give NaN, which the fit's cost rejects, rather than a panic.
+fn bounded(v: f64, lo: f64, hi: f64) -> f64 {
+    if lo <= hi {
+        v.clamp(lo, hi)
+    } else {
+        f64::NAN
+    }
+}
+
+/// The fastest rate any channel reaches under `r` in the rows that are not `held_out` (for
+/// the rate limits' starting values).
+pub(super) fn peak_rate(r: &Response, d: &Drive, n: usize, held_out: &HeldOut) -> f64 {
+    let n = n.min(d.set.len());
+    let sub = ((d.dt_s / MAX_SUBSTEP_S).ceil() as usize).max(1);
+    let h = d.dt_s / sub as f64;
+    let wn2 = r.omega_n_rad_s * r.omega_n_rad_s;
+    let c2 = 2.0 * r.zeta * r.omega_n_rad_s;
+    let mut x = [0.0; 4];
+    let mut v = [0.0; 4];
+    x[..d.channels()].copy_from_slice(&d.set[0][..d.channels()]);
+    let mut peak: f64 = 0.0;
+    for i in 0..n {
+        let fitted = !held_out.contains(i);
+        for _ in 0..sub {
+            for c in 0..d.channels() {
+                v[c] += h * (wn2 * (d.set[i][c] - x[c]) - c2 * v[c]);
+                x[c] += h * v[c];
+                if fitted {
+                    peak = peak.max(v[c].abs());
+                }
+            }
+        }
+    }
+    peak
+}
+
+#[cfg(test)]
+mod transition_tests {
+    use super::transition;
+
+    /// The exact step against a fine explicit integration, under-, critically and
+    /// over-damped.
+    #[test]
+    fn matches_a_fine_integration() {
+        for (wn, zeta) in [(25.0, 0.3), (40.0, 1.0), (15.0, 2.5), (220.0, 4.4)] {
+            let h = 0.005;
+            let phi = transition(wn, zeta, h);
+            let (e0, v0) = (1.0, -3.0);
+            let (mut e, mut v) = (e0, v0);
+            let n = 200_000;
+            let dt = h / n as f64;
+            for _ in 0..n {
+                let a = -wn * wn * e - 2.0 * zeta * wn * v;
+                v += dt * a;
+                e += dt * v;
+            }
+            let (pe, pv) = phi.step(e0, v0);
+            assert!((pe - e).abs() < 1e-4, "{wn} {zeta}: e {pe} vs {e}");
+            assert!(
+                (pv - v).abs() < 1e-2 * (1.0 + v.abs()),
+                "{wn} {zeta}: v {pv} vs {v}"
+            );
+        }
+    }
+}
