@@ -129,5 +129,8 @@ pub fn advice(code: ErrorCode) -> &'static str {
         ErrorCode::NoStoredConfig => {
             "the device's flash holds no good configuration record (see `pamctl status`); nothing was changed"
         }
+        ErrorCode::Implausible => {
+            "the sensors contradict this calibration: tare with the handle free, home at the neutral pose, a positive load-cell gain; nothing was changed"
+        }
     }
 }

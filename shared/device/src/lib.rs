@@ -31,6 +31,7 @@
 // Per-channel loops index several parallel arrays at once.
 #![allow(clippy::needless_range_loop)]
 
+pub mod calibration;
 pub mod frontend;
 pub mod storage;
 mod validate;
@@ -88,8 +89,8 @@ pub struct DeviceOptions {
     pub encoder_counter_bits: u8,
 }
 
-/// Pressures above this are never allowed, whatever parameters the host sends (issue 4:
-/// pressure limits 0–5 bar).
+/// Pressures above this are never allowed, whatever parameters the host sends (the
+/// converters' range is 0–5 bar).
 pub const ABSOLUTE_MAX_PRESSURE_BAR: f32 = 5.0;
 
 pub struct Device {
@@ -114,7 +115,9 @@ impl Device {
     /// refuses, or pressure limits beyond [`ABSOLUTE_MAX_PRESSURE_BAR`], fall back to the
     /// thesis values (the device must boot whatever is stored).
     pub fn new(params: RobotParams<f32>, safety: SafetyConfig, options: DeviceOptions) -> Self {
-        let params = if validate::robot_params(&params).is_ok() {
+        let params = if validate::robot_params(&params).is_ok()
+            && calibration::load_cell_gain_plausible(&params.load_cell)
+        {
             params
         } else {
             RobotParams::thesis()
@@ -303,6 +306,11 @@ impl Device {
                 if armed {
                     return Err(ErrorCode::WrongState);
                 }
+                if self.encoders.homed()
+                    && !calibration::rehome_plausible(self.encoders.alpha_rad())
+                {
+                    return Err(ErrorCode::Implausible);
+                }
                 self.controller.reset_angle_history().map_err(error_code)?;
                 self.encoders.home();
                 DONE
@@ -315,6 +323,9 @@ impl Device {
                     return Err(ErrorCode::OutOfRange);
                 }
                 let mut cell = self.controller.model().params.load_cell;
+                if !calibration::tare_plausible(&cell, raw.loadcell_volts) {
+                    return Err(ErrorCode::Implausible);
+                }
                 cell.tare(raw.loadcell_volts);
                 self.controller.set_load_cell(cell);
                 self.config_unsaved = true;
@@ -374,6 +385,9 @@ impl Device {
                 }
                 let params = RobotParams::<f32>::from(*params);
                 validate::robot_params(&params)?;
+                if !calibration::load_cell_gain_plausible(&params.load_cell) {
+                    return Err(ErrorCode::Implausible);
+                }
                 self.controller
                     .set_model(RobotModel::new(params))
                     .map_err(error_code)?;
@@ -385,6 +399,9 @@ impl Device {
                     return Err(ErrorCode::WrongState);
                 }
                 validate::calibration(cal)?;
+                if !calibration::load_cell_gain_plausible(&cal.load_cell.into()) {
+                    return Err(ErrorCode::Implausible);
+                }
                 self.encoders.set_calibration(cal.encoder);
                 self.controller.set_load_cell(cal.load_cell.into());
                 self.output_calibration = cal.output;

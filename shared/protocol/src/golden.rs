@@ -432,6 +432,7 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
         (ErrorCode::NotHomed, "00 ac 02 01 05"),
         (ErrorCode::StorageFailed, "00 ac 02 01 06"),
         (ErrorCode::NoStoredConfig, "00 ac 02 01 07"),
+        (ErrorCode::Implausible, "00 ac 02 01 08"),
     ];
     v.extend(errors.map(|(code, hex)| (reply(Err(code)), hex)));
     v
@@ -502,8 +503,8 @@ fn the_goldens_cover_every_variant() {
         .iter()
         .map(|(m, _)| device_variant(m))
         .collect();
-    // Done, Hello, Status, Config, eight error codes, telemetry, fault event
-    assert_eq!(msgs.len(), 14, "{msgs:?}");
+    // Done, Hello, Status, Config, nine error codes, telemetry, fault event
+    assert_eq!(msgs.len(), 15, "{msgs:?}");
 }
 
 #[test]
@@ -512,7 +513,7 @@ fn the_schema_fingerprint_is_pinned() {
     // the same commit as the golden bytes above.
     println!("SCHEMA_FINGERPRINT = {SCHEMA_FINGERPRINT:#010x}");
     assert_eq!(
-        SCHEMA_FINGERPRINT, 0xb73d_f5e0,
+        SCHEMA_FINGERPRINT, 0x6bf8_8add,
         "{SCHEMA_FINGERPRINT:#010x}"
     );
 }

@@ -20,9 +20,10 @@ use serde::{Deserialize, Serialize};
 /// 4: the configuration in flash (`PersistConfig`, `RestoreConfig`, `EraseConfig`, two
 /// error codes) and the board's health in `Status` (configuration origin, stack, last CPU
 /// fault, VDDA, board checks).
-/// 5: `SafetyConfig::overrun_fault_periods` (issue 12: the configurable count of missed
+/// 5: `SafetyConfig::overrun_fault_periods` (the configurable count of missed
 /// periods that latches `LOOP_OVERRUN`).
-pub const PROTOCOL_VERSION: u16 = 5;
+/// 6: calibration plausibility (`ErrorCode::Implausible`).
+pub const PROTOCOL_VERSION: u16 = 6;
 
 /// Fingerprint of the wire format: FNV-1a over [`PROTOCOL_VERSION`] and the shape of
 /// [`Request`] and [`DeviceMessage`] (every type they contain, see [`crate::wire::schema`]),
@@ -323,6 +324,9 @@ wire_enum! {
         StorageFailed,
         /// `RestoreConfig`: the flash holds no good record (see `Status::config`).
         NoStoredConfig,
+        /// A calibration the sensors contradict: tare under load, home away from the
+        /// previous zero, a load-cell gain that is not positive.
+        Implausible,
     }
 }
 
@@ -335,9 +339,9 @@ wire_enum! {
         Joint,
         Force,
         ForceFeedForward,
-        /// Appended (issue 14): closed-loop force, with or without the gain plane.
+        /// Appended: closed-loop force, with or without the gain plane.
         ForceClosedLoop,
-        /// Appended (issue 14): Cartesian spring-damper through the closed force loop.
+        /// Appended: Cartesian spring-damper through the closed force loop.
         Impedance,
     }
 }

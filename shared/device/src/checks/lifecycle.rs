@@ -121,3 +121,31 @@ pub fn home_zeroes_the_angle_and_is_refused_while_armed() -> CheckResult {
     done(&mut d, RequestBody::Arm)?;
     refused(&mut d, RequestBody::Home, ErrorCode::WrongState)
 }
+
+/// Once homed, the counts run on from boot: a re-home far from the zero in use is a wrong
+/// pose (or lost counts) and is refused; one near it corrects the zero.
+pub fn rehome_far_from_the_zero_is_refused() -> CheckResult {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    done(&mut d, RequestBody::Home)?;
+    // 0.2 rad on joint 1 (255 counts at 8000 counts/rev), moved slowly
+    let mut at = HOME;
+    for k in 1..=51 {
+        at = [HOME[0] + 5 * k, HOME[1]];
+        d.step(raw(at, k), StepTiming::default());
+    }
+    refused(&mut d, RequestBody::Home, ErrorCode::Implausible)?;
+    holds(
+        "zero unchanged",
+        d.step(raw(at, 52), StepTiming::default())
+            .telemetry
+            .map(|t| t.alpha_rad[0] > 0.19)
+            == Some(true),
+    )?;
+    // back to within 0.1 rad of the zero: the re-home is taken
+    for k in 1..=30 {
+        at = [at[0] - 5, HOME[1]];
+        d.step(raw(at, 52 + k), StepTiming::default());
+    }
+    done(&mut d, RequestBody::Home)
+}
