@@ -385,6 +385,7 @@ fn corrupted_frame_is_rejected_and_the_link_recovers() {
             }
             .into(),
         ),
+        session: c.info().session,
     };
     let n = encode_frame(&request, &mut frame).unwrap();
     frame[n / 2] ^= 0x40;

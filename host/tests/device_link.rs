@@ -164,9 +164,15 @@ fn arm_needs_home_and_each_mode_is_set() {
     ok(&d.address, &["tare"]);
     ok(&d.address, &["home"]);
     ok(&d.address, &["arm"]);
+    // the pressures mode is a service mode, and pamctl says how to turn it on
+    let err = fails(&d.address, &["set", "pressures", "1,2,3,2.5"]);
+    assert!(
+        err.contains("ServiceModeOff") && err.contains("--service"),
+        "{err}"
+    );
     let out = ok(
         &d.address,
-        &["set", "pressures", "1,2,3,2.5", "--hold", "0.2"],
+        &["set", "pressures", "1,2,3,2.5", "--service", "--hold", "0.2"],
     );
     assert!(
         out.contains("mode set: pressures 1.00, 2.00, 3.00, 2.50 bar"),
@@ -224,7 +230,7 @@ fn arm_needs_home_and_each_mode_is_set() {
 #[test]
 fn out_of_range_target_is_refused_and_nothing_changes() {
     let d = TestDevice::start(Options::default());
-    ok(&d.address, &["set", "pressures", "1,1,1,1"]);
+    ok(&d.address, &["set", "pressures", "1,1,1,1", "--service"]);
     let err = fails(&d.address, &["set", "pressures", "1,2,9,1"]);
     assert!(
         err.contains("OutOfRange") && err.contains("nothing was changed"),

@@ -2,7 +2,8 @@
 //!
 //! Rows are written whole (pam-log's writer), the file is flushed at least every
 //! 0.5 s and on every way out, so an interrupted recording is a valid log holding every
-//! sample received.
+//! sample received. It only listens: it keeps no mode alive (only the client that armed or
+//! set the mode does, e.g. `pamctl set … --hold SECONDS`).
 
 use crate::LinkArgs;
 use anyhow::Context;
@@ -233,7 +234,6 @@ pub fn record(
     let bytes_at_start = client.bytes_received();
     // the device clock ends a timed recording; this guards against a device that stalls
     let wall_limit = args.duration.map(|d| d + 2.0 + 0.5 * d);
-    let mut last_beat = Instant::now();
     let mut last_progress = Instant::now();
     let mut result = Ok(());
     loop {
@@ -249,14 +249,6 @@ pub fn record(
                 ));
                 break;
             }
-        }
-        // keep the device's command timeout fed while it streams
-        if last_beat.elapsed() >= Duration::from_millis(25) {
-            if let Err(e) = client.heartbeat() {
-                result = Err(e.into());
-                break;
-            }
-            last_beat = Instant::now();
         }
         match client.next_telemetry(Duration::from_millis(10)) {
             Ok(Some(t)) => {

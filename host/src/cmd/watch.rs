@@ -4,7 +4,8 @@
 //! On a terminal it is a ratatui screen (`watch/tui.rs`; Ctrl-C, q or Esc stop it);
 //! otherwise, or with `--plain`, it prints one summary line per refresh; `--once` prints the
 //! full view once as text.
-//! It keeps the link alive (heartbeats), like `record`.
+//! It only listens: it keeps no mode alive (only the client that armed or set the mode
+//! does, e.g. `pamctl set … --hold SECONDS`).
 
 use super::status::state_name;
 use crate::LinkArgs;
@@ -337,16 +338,13 @@ pub fn watch(
     let limit = if args.once { Some(0.5) } else { args.seconds };
     let refresh = Duration::from_millis(args.refresh_ms.max(10));
     let start = Instant::now();
-    let mut last_beat = Instant::now();
     let mut last_draw = Instant::now();
     while !stop.load(Ordering::SeqCst) && limit.is_none_or(|l| start.elapsed().as_secs_f64() < l) {
-        if last_beat.elapsed() >= Duration::from_millis(25) {
-            client.heartbeat()?;
-            last_beat = Instant::now();
-        }
+        let batch = Instant::now();
         while let Some(t) = client.next_telemetry(Duration::from_millis(5))? {
             view.push(&t);
-            if last_beat.elapsed() >= Duration::from_millis(25) {
+            // back to the clock now and then, however fast the samples come
+            if batch.elapsed() >= Duration::from_millis(25) {
                 break;
             }
         }

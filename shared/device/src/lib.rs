@@ -47,7 +47,8 @@ use pam_model::{Real, RobotModel, RobotParams};
 use pam_protocol::{
     Calibration, Config, ConfigOrigin, ConfigSection, DecodeError, DeviceInfo, EncoderCalibration,
     ErrorCode, FaultEvent, ModeKind, OutputCalibration, Reply, ReplyData, Request, RequestBody,
-    Status, Telemetry, Version, PROTOCOL_VERSION, SCHEMA_FINGERPRINT, UNKNOWN_REQUEST_ID,
+    SessionId, Status, Telemetry, Version, NO_SESSION, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
+    UNKNOWN_REQUEST_ID,
 };
 pub use storage::{run_storage, BoardHealth, StorageDone, StorageJob};
 
@@ -108,6 +109,12 @@ pub struct Device {
     config_origin: ConfigOrigin,
     config_unsaved: bool,
     board: BoardHealth,
+    /// Sessions issued since boot (`Hello` replies): 1..=`sessions_issued` are valid.
+    sessions_issued: SessionId,
+    /// The session whose control requests feed the command timeout ([`NO_SESSION`]: none).
+    commander: SessionId,
+    /// The pressures mode's service interlock.
+    service_mode: bool,
 }
 
 impl Device {
@@ -144,6 +151,9 @@ impl Device {
             config_origin: ConfigOrigin::DefaultsNoStorage,
             config_unsaved: false,
             board: BoardHealth::default(),
+            sessions_issued: NO_SESSION,
+            commander: NO_SESSION,
+            service_mode: false,
         }
     }
 
@@ -190,6 +200,9 @@ impl Device {
             self.controller.raise(Faults::SELF_CHECK);
         }
         let out = self.controller.step(&sensors);
+        if out.state == State::Faulted {
+            self.service_mode = false;
+        }
 
         let ip = &self.controller.model().params.ip;
         let mut current_ma = [0.0; 4];
@@ -264,42 +277,104 @@ impl Device {
         }
     }
 
-    /// Carries out one request. Every request counts as a heartbeat; a refused one
-    /// changes nothing else.
+    /// Carries out one request; a refused one changes nothing. Only the commander's control
+    /// requests (`Arm`, `SetMode`, `Heartbeat`) keep the command timeout fed: whoever else
+    /// talks to the device (status, telemetry, another host) cannot keep an arm alive
+    /// whose commander has gone.
     pub fn handle(&mut self, request: &Request) -> Reply {
-        self.controller.heartbeat();
+        let result = self.execute(&request.body, request.session);
         Reply {
             id: request.id,
-            result: self.execute(&request.body),
+            result,
         }
     }
 
-    fn execute(&mut self, body: &RequestBody) -> Result<ReplyData, ErrorCode> {
+    /// The session of the commander (the last to arm or set the mode), [`NO_SESSION`] if
+    /// none.
+    pub fn commander(&self) -> SessionId {
+        self.commander
+    }
+
+    pub fn service_mode(&self) -> bool {
+        self.service_mode
+    }
+
+    fn session_valid(&self, session: SessionId) -> bool {
+        session != NO_SESSION && session <= self.sessions_issued
+    }
+
+    /// A control request of `session`: it becomes the commander and feeds the timeout.
+    fn take_command(&mut self, session: SessionId) -> Result<(), ErrorCode> {
+        if !self.session_valid(session) {
+            return Err(ErrorCode::NoSession);
+        }
+        self.commander = session;
+        Ok(())
+    }
+
+    fn execute(&mut self, body: &RequestBody, session: SessionId) -> Result<ReplyData, ErrorCode> {
         const DONE: Result<ReplyData, ErrorCode> = Ok(ReplyData::Done);
         let armed = self.controller.state() == State::Armed;
         match *body {
-            RequestBody::Hello { protocol_version } => {
+            RequestBody::Hello {
+                protocol_version,
+                schema_fingerprint,
+            } => {
                 if protocol_version != PROTOCOL_VERSION {
                     return Err(ErrorCode::UnsupportedVersion);
                 }
+                if schema_fingerprint != SCHEMA_FINGERPRINT {
+                    return Err(ErrorCode::SchemaMismatch);
+                }
+                // a new session never takes the command: it is only allowed to ask for it
+                self.sessions_issued = self.sessions_issued.saturating_add(1);
                 Ok(ReplyData::Hello(DeviceInfo {
                     protocol_version: PROTOCOL_VERSION,
                     schema_fingerprint: SCHEMA_FINGERPRINT,
                     firmware_version: self.options.firmware_version,
                     period_us: self.period_us(),
                     params_hash: pam_protocol::params_hash(&self.controller.model().params),
+                    session: self.sessions_issued,
                 }))
             }
-            RequestBody::Heartbeat => DONE,
+            RequestBody::Heartbeat => {
+                if armed && (session == NO_SESSION || session != self.commander) {
+                    return Err(ErrorCode::NotCommander);
+                }
+                self.controller.heartbeat();
+                DONE
+            }
             RequestBody::Arm => {
+                if !self.session_valid(session) {
+                    return Err(ErrorCode::NoSession);
+                }
                 if !self.encoders.homed() {
                     return Err(ErrorCode::NotHomed);
                 }
                 self.controller.arm().map_err(error_code)?;
+                self.take_command(session)?;
                 DONE
             }
             RequestBody::Disarm => {
                 self.controller.disarm();
+                self.commander = NO_SESSION;
+                self.service_mode = false;
+                DONE
+            }
+            RequestBody::SetServiceMode { enabled } => {
+                if !self.session_valid(session) {
+                    return Err(ErrorCode::NoSession);
+                }
+                let in_pressures = matches!(self.controller.mode(), Mode::Pressures { .. });
+                if enabled {
+                    let idle = self.controller.mode() == Mode::Idle;
+                    if armed && !idle && !in_pressures {
+                        return Err(ErrorCode::WrongState);
+                    }
+                } else if in_pressures {
+                    self.controller.set_mode(Mode::Idle).map_err(error_code)?;
+                }
+                self.service_mode = enabled;
                 DONE
             }
             RequestBody::Home => {
@@ -352,7 +427,15 @@ impl Device {
                 last_cpu_fault: self.board.last_cpu_fault,
             })),
             RequestBody::SetMode(mode) => {
-                self.controller.set_mode(mode.into()).map_err(error_code)?;
+                if !self.session_valid(session) {
+                    return Err(ErrorCode::NoSession);
+                }
+                let mode: Mode = mode.into();
+                if matches!(mode, Mode::Pressures { .. }) && !self.service_mode {
+                    return Err(ErrorCode::ServiceModeOff);
+                }
+                self.controller.set_mode(mode).map_err(error_code)?;
+                self.take_command(session)?;
                 DONE
             }
             RequestBody::GetConfig(section) => Ok(ReplyData::Config(match section {
@@ -361,6 +444,10 @@ impl Device {
                 ConfigSection::Limits => Config::Limits((*self.controller.safety()).into()),
             })),
             RequestBody::SetConfig(config) => {
+                // while armed, the limits are the commander's (a change feeds the timeout)
+                if armed && session != self.commander {
+                    return Err(ErrorCode::NotCommander);
+                }
                 self.set_config(&config, armed)?;
                 self.config_unsaved = true;
                 DONE

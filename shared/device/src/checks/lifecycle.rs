@@ -31,6 +31,7 @@ pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
         &mut d,
         RequestBody::Hello {
             protocol_version: PROTOCOL_VERSION,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
         },
     ) {
         Ok(ReplyData::Hello(info)) => {
@@ -47,6 +48,7 @@ pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
                 "params hash",
                 info.params_hash == pam_protocol::params_hash(&RobotParams::thesis()),
             )?;
+            holds("a new session", info.session == SESSION + 1)?;
         }
         _ => holds("hello answered", false)?,
     }
@@ -54,6 +56,7 @@ pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
         &mut d,
         RequestBody::Hello {
             protocol_version: PROTOCOL_VERSION + 1,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
         },
         ErrorCode::UnsupportedVersion,
     )
@@ -67,6 +70,7 @@ pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
     done(&mut d, RequestBody::Home)?;
     done(&mut d, RequestBody::Arm)?;
     refused(&mut d, RequestBody::Arm, ErrorCode::WrongState)?;
+    done(&mut d, RequestBody::SetServiceMode { enabled: true })?;
     done(
         &mut d,
         RequestBody::SetMode(
