@@ -36,14 +36,11 @@ PAMCTL_DEVICE=$(sed -n 's/^listening on //p' "$work/sim.out")
 cat "$work/sim.out"
 echo "== status";                         "$pamctl" status
 echo "== home, arm";                      "$pamctl" home; "$pamctl" arm
-echo "== joint mode: go to (10°, 6.5°), Table 4.1 point 4, held 10 s by the pamctl that set it"
-# only the client that armed or set the mode keeps it alive (watch and record only listen):
-# this one sends its keep-alives in the background while the others look
-"$pamctl" set joint --alpha-deg 10,6.5 --stiffness-nm-per-rad 95,40 --hold 10 &
-setter=$!
-sleep 0.5
-echo "== watch 5 s";                      "$pamctl" watch --seconds 5
-echo "== record 2 s at 1 kHz";            "$pamctl" record "$work/run.csv" --duration 2 --stats --quiet
+echo "== joint mode: go to (10°, 6.5°), Table 4.1 point 4"
+"$pamctl" set joint --alpha-deg 10,6.5 --stiffness-nm-per-rad 95,40
+# only the client that armed or set the mode keeps it alive; watch and record only listen
+# unless --keep-alive makes them the commander (mode unchanged)
+echo "== watch 5 s";                      "$pamctl" watch --seconds 5 --keep-alive
+echo "== record 2 s at 1 kHz";            "$pamctl" record "$work/run.csv" --duration 2 --stats --quiet --keep-alive
 echo "== disarm";                         "$pamctl" disarm
-wait "$setter"
 "$pamctl" status | grep -E '^(state|sample)'

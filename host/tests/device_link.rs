@@ -172,7 +172,14 @@ fn arm_needs_home_and_each_mode_is_set() {
     );
     let out = ok(
         &d.address,
-        &["set", "pressures", "1,2,3,2.5", "--service", "--hold", "0.2"],
+        &[
+            "set",
+            "pressures",
+            "1,2,3,2.5",
+            "--service",
+            "--hold",
+            "0.2",
+        ],
     );
     assert!(
         out.contains("mode set: pressures 1.00, 2.00, 3.00, 2.50 bar"),

@@ -93,6 +93,7 @@ fn body_name(b: &RequestBody) -> &'static str {
         RequestBody::RestoreConfig => "config restore",
         RequestBody::EraseConfig => "config erase",
         RequestBody::SetServiceMode { .. } => "the service mode",
+        RequestBody::TakeCommand => "taking the command",
     }
 }
 
@@ -274,6 +275,13 @@ impl Client {
     /// nothing alive. Its reply is dropped by the reader thread.
     pub fn heartbeat(&self) -> Result<(), LinkError> {
         self.send(RequestBody::Heartbeat, false).map(|_| ())
+    }
+
+    /// This client becomes the commander of the armed device, mode unchanged: its
+    /// [`Client::heartbeat`]s keep the mode alive from now on (and the previous
+    /// commander's no longer do).
+    pub fn take_command(&self) -> Result<(), LinkError> {
+        self.command(RequestBody::TakeCommand)
     }
 
     /// The pressures mode's service interlock: on (disarmed, idle, or already in the

@@ -2,8 +2,8 @@
 //!
 //! Rows are written whole (pam-log's writer), the file is flushed at least every
 //! 0.5 s and on every way out, so an interrupted recording is a valid log holding every
-//! sample received. It only listens: it keeps no mode alive (only the client that armed or
-//! set the mode does, e.g. `pamctl set … --hold SECONDS`).
+//! sample received. It only listens (keeps no mode alive) unless `--keep-alive` makes it the
+//! commander.
 
 use crate::LinkArgs;
 use anyhow::Context;
@@ -38,6 +38,10 @@ pub struct RecordArgs {
     /// USB full-speed CDC).
     #[arg(long)]
     pub stats: bool,
+    /// Keep the armed device's mode alive while this runs: this pamctl takes the command
+    /// (mode unchanged) and sends keep-alives. Without it, it only listens.
+    #[arg(long)]
+    pub keep_alive: bool,
 }
 
 /// Columns written, in order: the required ones, the force target when the recording
@@ -225,6 +229,7 @@ pub fn record(
     let mut writer = LogWriter::create(&args.file, &cols, &meta)
         .with_context(|| format!("cannot create {}", args.file.display()))?;
 
+    let mut keep_alive = super::keep_alive::KeepAlive::start(client, args.keep_alive)?;
     client.start_telemetry();
     let mut drops = DropCounter::default();
     let mut clock = Clock::default();
@@ -249,6 +254,10 @@ pub fn record(
                 ));
                 break;
             }
+        }
+        if let Err(e) = keep_alive.tick(client) {
+            result = Err(e.into());
+            break;
         }
         match client.next_telemetry(Duration::from_millis(10)) {
             Ok(Some(t)) => {

@@ -4,8 +4,7 @@
 //! On a terminal it is a ratatui screen (`watch/tui.rs`; Ctrl-C, q or Esc stop it);
 //! otherwise, or with `--plain`, it prints one summary line per refresh; `--once` prints the
 //! full view once as text.
-//! It only listens: it keeps no mode alive (only the client that armed or set the mode
-//! does, e.g. `pamctl set … --hold SECONDS`).
+//! It only listens (keeps no mode alive) unless `--keep-alive` makes it the commander.
 
 use super::status::state_name;
 use crate::LinkArgs;
@@ -38,6 +37,10 @@ pub struct WatchArgs {
     /// Seconds of history in the plots.
     #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
     pub window: f64,
+    /// Keep the armed device's mode alive while this runs: this pamctl takes the command
+    /// (mode unchanged) and sends keep-alives. Without it, it only listens.
+    #[arg(long)]
+    pub keep_alive: bool,
 }
 
 /// Width of a plot in characters.
@@ -334,12 +337,14 @@ pub fn watch(
         }
     }
     let mut view = View::new(args.window);
+    let mut keep_alive = super::keep_alive::KeepAlive::start(client, args.keep_alive)?;
     client.start_telemetry();
     let limit = if args.once { Some(0.5) } else { args.seconds };
     let refresh = Duration::from_millis(args.refresh_ms.max(10));
     let start = Instant::now();
     let mut last_draw = Instant::now();
     while !stop.load(Ordering::SeqCst) && limit.is_none_or(|l| start.elapsed().as_secs_f64() < l) {
+        keep_alive.tick(client)?;
         let batch = Instant::now();
         while let Some(t) = client.next_telemetry(Duration::from_millis(5))? {
             view.push(&t);

@@ -361,6 +361,14 @@ impl Device {
                 self.service_mode = false;
                 DONE
             }
+            RequestBody::TakeCommand => {
+                if !armed {
+                    return Err(ErrorCode::WrongState);
+                }
+                self.take_command(session)?;
+                self.controller.heartbeat();
+                DONE
+            }
             RequestBody::SetServiceMode { enabled } => {
                 if !self.session_valid(session) {
                     return Err(ErrorCode::NoSession);

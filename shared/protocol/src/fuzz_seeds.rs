@@ -79,6 +79,7 @@ fn requests() -> Vec<Request> {
         RequestBody::RestoreConfig,
         RequestBody::EraseConfig,
         RequestBody::SetServiceMode { enabled: true },
+        RequestBody::TakeCommand,
     ]);
     (1..).zip(bodies).map(|(id, b)| request(id, b)).collect()
 }

@@ -25,7 +25,8 @@ use serde::{Deserialize, Serialize};
 /// periods that latches `LOOP_OVERRUN`).
 /// 6: calibration plausibility (`ErrorCode::Implausible`).
 /// 7: the commander: `Request::session`, `Hello::schema_fingerprint` checked by the device,
-/// `DeviceInfo::session`, `Heartbeat` from the commander only, `SetServiceMode`, four error
+/// `DeviceInfo::session`, `Heartbeat` from the commander only, `TakeCommand`,
+/// `SetServiceMode`, four error
 /// codes (`NoSession`, `NotCommander`, `SchemaMismatch`, `ServiceModeOff`).
 pub const PROTOCOL_VERSION: u16 = 7;
 
@@ -120,6 +121,10 @@ wire_enum! {
         SetServiceMode {
             enabled: bool,
         },
+        /// The sender becomes the commander of the armed device without changing the mode
+        /// (a client that only watches opts in explicitly to keeping the mode alive);
+        /// feeds the command timeout. `WrongState` while not armed.
+        TakeCommand,
     }
 }
 

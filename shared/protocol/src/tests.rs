@@ -80,6 +80,7 @@ fn every_request() -> Vec<Request> {
         RequestBody::RestoreConfig,
         RequestBody::EraseConfig,
         RequestBody::SetServiceMode { enabled: true },
+        RequestBody::TakeCommand,
     ];
     bodies
         .iter()

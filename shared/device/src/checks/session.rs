@@ -142,9 +142,21 @@ pub fn setting_the_mode_takes_the_command() -> CheckResult {
             RequestBody::SetConfig(Config::Limits(SafetyConfig::default_1khz().into())),
         ) == Err(ErrorCode::NotCommander),
     )?;
+    // the first takes it back explicitly, mode unchanged
+    holds(
+        "taken back",
+        as_session(&mut d, SESSION, RequestBody::TakeCommand) == Ok(ReplyData::Done)
+            && d.commander() == SESSION
+            && d.controller().mode() == JOINT,
+    )?;
+    holds(
+        "the second's keep-alive refused",
+        as_session(&mut d, second, RequestBody::Heartbeat) == Err(ErrorCode::NotCommander),
+    )?;
     // anyone may disarm
     done(&mut d, RequestBody::Disarm)?;
-    holds("no commander", d.commander() == NO_SESSION)
+    holds("no commander", d.commander() == NO_SESSION)?;
+    refused(&mut d, RequestBody::TakeCommand, ErrorCode::WrongState)
 }
 
 pub fn pressures_mode_needs_the_service_interlock() -> CheckResult {
