@@ -275,6 +275,35 @@ fn silence_times_out_into_a_fault_that_clears_on_command() {
     );
 }
 
+/// Only the commander keeps the arm alive: watching does not, unless `--keep-alive` makes
+/// the watcher the commander.
+#[test]
+fn watching_keeps_the_arm_alive_only_with_keep_alive() {
+    let d = TestDevice::start(Options::default());
+    ok(&d.address, &["home"]);
+    ok(&d.address, &["arm"]);
+    ok(&d.address, &["set", "joint", "--alpha-deg", "2,0"]);
+    ok(&d.address, &["watch", "--seconds", "2", "--plain"]);
+    let out = ok(&d.address, &["status"]);
+    assert!(
+        out.contains("state: FAULTED") && out.contains("faults: command timeout"),
+        "a watcher kept the arm alive: {out}"
+    );
+    ok(&d.address, &["fault", "clear"]);
+    ok(&d.address, &["arm"]);
+    ok(&d.address, &["set", "joint", "--alpha-deg", "2,0"]);
+    ok(
+        &d.address,
+        &["watch", "--seconds", "2", "--plain", "--keep-alive"],
+    );
+    let out = ok(&d.address, &["status"]);
+    assert!(
+        out.contains("state: armed") && out.contains("faults: none"),
+        "--keep-alive did not hold the mode: {out}"
+    );
+    ok(&d.address, &["disarm"]);
+}
+
 #[test]
 fn config_get_set_save_load() {
     let d = TestDevice::start(Options::default());
