@@ -392,6 +392,8 @@ fn corrupted_frame_is_rejected_and_the_link_recovers() {
     c.command(RequestBody::Arm).expect("arm");
     c.command(RequestBody::SetMode(Mode::Idle.into()))
         .expect("idle");
+    // the request below sets the pressures mode: its service interlock goes on from idle
+    c.set_service_mode(true).expect("service mode");
     let before = status(&c);
 
     // a valid pressures request with one byte flipped in flight
