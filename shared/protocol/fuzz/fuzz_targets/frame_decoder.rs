@@ -48,6 +48,19 @@ where
     matches!(got, Some(Ok(ref m)) if same_encoding(m, msg))
 }
 
+/// The message survives postcard alone (serialize, deserialize, same bytes). For what the
+/// device produces after every frame and period: framing it too (COBS, CRC, a decoder fed
+/// byte by byte) was two thirds of each input's cost, and the framing is what the fuzzed
+/// decoders and [`round_trips`] on every decoded message already exercise.
+fn payload_round_trips<T>(msg: &T) -> bool
+where
+    T: serde::Serialize + serde::de::DeserializeOwned,
+{
+    let (bytes, n) = serde_like::Ser::bytes(msg);
+    n <= bytes.len()
+        && matches!(postcard::from_bytes::<T>(&bytes[..n]), Ok(ref m) if same_encoding(m, msg))
+}
+
 fuzz_target!(|data: &[u8]| {
     let mut requests = FrameDecoder::<Request>::new();
     let mut device_msgs = FrameDecoder::<DeviceMessage>::new();
@@ -73,7 +86,7 @@ fuzz_target!(|data: &[u8]| {
                 );
             }
             let reply = device.handle_frame(frame);
-            assert!(round_trips(&DeviceMessage::Reply(reply)));
+            assert!(payload_round_trips(&DeviceMessage::Reply(reply)));
             // a control period after every request, with sensors taken from the stream
             k = k.wrapping_add(1);
             let out = device.step(
@@ -95,7 +108,7 @@ fuzz_target!(|data: &[u8]| {
                 );
             }
             if let Some(t) = out.telemetry {
-                assert!(round_trips(&DeviceMessage::Telemetry(t)));
+                assert!(payload_round_trips(&DeviceMessage::Telemetry(t)));
             }
         }
         if let Some(Ok(m)) = device_msgs.push(b) {
