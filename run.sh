@@ -38,7 +38,9 @@ echo "== status";                         "$pamctl" status
 echo "== home, arm";                      "$pamctl" home; "$pamctl" arm
 echo "== joint mode: go to (10°, 6.5°), Table 4.1 point 4"
 "$pamctl" set joint --alpha-deg 10,6.5 --stiffness-nm-per-rad 95,40
-echo "== watch 5 s";                      "$pamctl" watch --seconds 5
-echo "== record 2 s at 1 kHz";            "$pamctl" record "$work/run.csv" --duration 2 --stats --quiet
+# only the client that armed or set the mode keeps it alive; watch and record only listen
+# unless --keep-alive makes them the commander (mode unchanged)
+echo "== watch 5 s";                      "$pamctl" watch --seconds 5 --keep-alive
+echo "== record 2 s at 1 kHz";            "$pamctl" record "$work/run.csv" --duration 2 --stats --quiet --keep-alive
 echo "== disarm";                         "$pamctl" disarm
 "$pamctl" status | grep -E '^(state|sample)'

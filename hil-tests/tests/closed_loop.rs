@@ -13,7 +13,17 @@ const SIM: &[&str] = &["--handle", "blocked"];
 fn record(device: &str, name: &str, seconds: &str) -> pam_log::Log {
     let file = tmp(&format!("{name}.csv"));
     let path = file.to_str().expect("a UTF-8 temporary path");
-    ok(device, &["record", path, "--duration", seconds, "--quiet"]);
+    ok(
+        device,
+        &[
+            "record",
+            path,
+            "--duration",
+            seconds,
+            "--quiet",
+            "--keep-alive",
+        ],
+    );
     pam_log::read_path(&file).expect("a valid log")
 }
 

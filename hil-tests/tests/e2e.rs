@@ -62,6 +62,8 @@ fn record(
         "--duration",
         seconds,
         "--quiet",
+        // the recording is what keeps the mode it looks at alive
+        "--keep-alive",
     ];
     args.extend(extra);
     let out = ok(device, &args);
@@ -115,7 +117,9 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     );
 
     // pressures: the command reaches the targets (slew-limited) and stays there
-    ok(d, &["set", "pressures", "1.0,2.0,3.0,2.5"]);
+    // a service mode: its interlock goes on from idle
+    ok(d, &["set", "idle"]);
+    ok(d, &["set", "pressures", "1.0,2.0,3.0,2.5", "--service"]);
     let (_, log) = record(d, &tmp("pressures.csv"), "1", &[]);
     assert_physical(&log, 1.0, "pressures");
     for (name, want) in col::PRESSURES_CMD_BAR.iter().zip([1.0, 2.0, 3.0, 2.5]) {
@@ -227,6 +231,7 @@ fn silent_host_brings_the_device_to_its_safe_state_within_the_timeout() {
     let (vent, vent_ma) = pam_hil_tests::vent(&c);
     c.command(RequestBody::Arm).expect("arm");
     let p_set = 2.5f32;
+    c.set_service_mode(true).expect("service mode");
     c.command(RequestBody::SetMode(
         Mode::Pressures {
             pressure_bar: [p_set; 4],
@@ -335,12 +340,15 @@ fn out_of_range_target_is_refused_and_the_state_is_unchanged() {
             feed_forward: false,
         },
     ] {
+        // armed in the joint mode, the pressures mode is refused by its service interlock
+        // before its values are looked at
+        let expected = match bad {
+            Mode::Pressures { .. } => ErrorCode::ServiceModeOff,
+            _ => ErrorCode::OutOfRange,
+        };
         match c.request(RequestBody::SetMode(bad.into())) {
-            Err(LinkError::Refused {
-                code: ErrorCode::OutOfRange,
-                ..
-            }) => {}
-            other => panic!("{bad:?}: expected OutOfRange, got {other:?}"),
+            Err(LinkError::Refused { code, .. }) if code == expected => {}
+            other => panic!("{bad:?}: expected {expected:?}, got {other:?}"),
         }
         assert_eq!(status(&c), before, "a refused target changed the state");
     }
@@ -350,10 +358,21 @@ fn out_of_range_target_is_refused_and_the_state_is_unchanged() {
     drop(c);
 
     // the same through the command line: a clear error, non-zero exit, nothing changed
-    let (code, _, err) = pamctl(&target.address, &["set", "pressures", "9,1,1,1"]);
+    let (code, _, err) = pamctl(
+        &target.address,
+        &["set", "joint", "--stiffness-nm-per-rad", "1e6,27"],
+    );
     assert_eq!(code, 1, "{err}");
     assert!(
         err.contains("OutOfRange") && err.contains("nothing was changed"),
+        "{err}"
+    );
+    // the pressures mode while armed in another: refused by its interlock, and pamctl says
+    // how to turn it on
+    let (code, _, err) = pamctl(&target.address, &["set", "pressures", "1,1,1,1"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("ServiceModeOff") && err.contains("--service"),
         "{err}"
     );
     let out = ok(&target.address, &["status"]);
@@ -373,6 +392,8 @@ fn corrupted_frame_is_rejected_and_the_link_recovers() {
     c.command(RequestBody::Arm).expect("arm");
     c.command(RequestBody::SetMode(Mode::Idle.into()))
         .expect("idle");
+    // the request below sets the pressures mode: its service interlock goes on from idle
+    c.set_service_mode(true).expect("service mode");
     let before = status(&c);
 
     // a valid pressures request with one byte flipped in flight
@@ -385,6 +406,7 @@ fn corrupted_frame_is_rejected_and_the_link_recovers() {
             }
             .into(),
         ),
+        session: c.info().session,
     };
     let n = encode_frame(&request, &mut frame).unwrap();
     frame[n / 2] ^= 0x40;

@@ -47,7 +47,7 @@ fn tmp(name: &str) -> std::path::PathBuf {
 fn status_of_a_fresh_device() {
     let d = TestDevice::start(Options::default());
     let out = ok(&d.address, &["status"]);
-    assert!(out.contains("device: firmware 0.9.1, protocol 5"), "{out}");
+    assert!(out.contains("device: firmware 0.9.1, protocol 7"), "{out}");
     assert!(out.contains("state: disarmed"), "{out}");
     assert!(out.contains("mode: idle"), "{out}");
     assert!(out.contains("faults: none"), "{out}");
@@ -113,7 +113,7 @@ fn protocol_version_mismatch_is_explained() {
     });
     let err = fails(&d.address, &["status"]);
     assert!(
-        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 5"),
+        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 7"),
         "{err}"
     );
 }
@@ -164,9 +164,22 @@ fn arm_needs_home_and_each_mode_is_set() {
     ok(&d.address, &["tare"]);
     ok(&d.address, &["home"]);
     ok(&d.address, &["arm"]);
+    // the pressures mode is a service mode, and pamctl says how to turn it on
+    let err = fails(&d.address, &["set", "pressures", "1,2,3,2.5"]);
+    assert!(
+        err.contains("ServiceModeOff") && err.contains("--service"),
+        "{err}"
+    );
     let out = ok(
         &d.address,
-        &["set", "pressures", "1,2,3,2.5", "--hold", "0.2"],
+        &[
+            "set",
+            "pressures",
+            "1,2,3,2.5",
+            "--service",
+            "--hold",
+            "0.2",
+        ],
     );
     assert!(
         out.contains("mode set: pressures 1.00, 2.00, 3.00, 2.50 bar"),
@@ -224,7 +237,7 @@ fn arm_needs_home_and_each_mode_is_set() {
 #[test]
 fn out_of_range_target_is_refused_and_nothing_changes() {
     let d = TestDevice::start(Options::default());
-    ok(&d.address, &["set", "pressures", "1,1,1,1"]);
+    ok(&d.address, &["set", "pressures", "1,1,1,1", "--service"]);
     let err = fails(&d.address, &["set", "pressures", "1,2,9,1"]);
     assert!(
         err.contains("OutOfRange") && err.contains("nothing was changed"),
@@ -260,6 +273,35 @@ fn silence_times_out_into_a_fault_that_clears_on_command() {
         out.contains("state: disarmed") && out.contains("faults: none"),
         "{out}"
     );
+}
+
+/// Only the commander keeps the arm alive: watching does not, unless `--keep-alive` makes
+/// the watcher the commander.
+#[test]
+fn watching_keeps_the_arm_alive_only_with_keep_alive() {
+    let d = TestDevice::start(Options::default());
+    ok(&d.address, &["home"]);
+    ok(&d.address, &["arm"]);
+    ok(&d.address, &["set", "joint", "--alpha-deg", "2,0"]);
+    ok(&d.address, &["watch", "--seconds", "2", "--plain"]);
+    let out = ok(&d.address, &["status"]);
+    assert!(
+        out.contains("state: FAULTED") && out.contains("faults: command timeout"),
+        "a watcher kept the arm alive: {out}"
+    );
+    ok(&d.address, &["fault", "clear"]);
+    ok(&d.address, &["arm"]);
+    ok(&d.address, &["set", "joint", "--alpha-deg", "2,0"]);
+    ok(
+        &d.address,
+        &["watch", "--seconds", "2", "--plain", "--keep-alive"],
+    );
+    let out = ok(&d.address, &["status"]);
+    assert!(
+        out.contains("state: armed") && out.contains("faults: none"),
+        "--keep-alive did not hold the mode: {out}"
+    );
+    ok(&d.address, &["disarm"]);
 }
 
 #[test]

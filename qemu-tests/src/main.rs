@@ -195,12 +195,21 @@ fn main() -> ! {
             encoder_counter_bits: 16,
         },
     );
-    let req = |body| Request { id: 1, body };
+    let req = |body| Request {
+        id: 1,
+        body,
+        session: 1,
+    };
     let home = RawSensors {
         encoder_counts: [0, 0],
         loadcell_volts: [0.0, 0.0],
     };
     dev.step(home, StepTiming::default());
+    // the handshake issues session 1, which arming and the mode need
+    dev.handle(&req(RequestBody::Hello {
+        protocol_version: pam_protocol::PROTOCOL_VERSION,
+        schema_fingerprint: pam_protocol::SCHEMA_FINGERPRINT,
+    }));
     dev.handle(&req(RequestBody::Home));
     dev.handle(&req(RequestBody::Arm));
     dev.handle(&req(RequestBody::SetMode(Mode::Force {
@@ -337,6 +346,7 @@ fn main() -> ! {
     dev.handle(&req(RequestBody::Disarm));
     let hello = RequestBody::Hello {
         protocol_version: pam_protocol::PROTOCOL_VERSION,
+        schema_fingerprint: pam_protocol::SCHEMA_FINGERPRINT,
     };
     let robot: pam_protocol::wire::RobotParams = RobotParams::thesis().into();
     let mut hello_ok = true;

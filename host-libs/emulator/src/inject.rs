@@ -352,6 +352,7 @@ mod tests {
         let reply = d.handle(&pam_protocol::Request {
             id: 1,
             body: pam_protocol::RequestBody::SetConfig(pam_protocol::Config::Limits(limits.into())),
+            session: pam_protocol::NO_SESSION,
         });
         assert_eq!(reply.result, Ok(pam_protocol::ReplyData::Done));
         board.inject(Injection::Overrun { periods: 6 }, &healthy(), [4.0; 4]);

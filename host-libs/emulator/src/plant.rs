@@ -86,6 +86,7 @@ impl Plant {
         let reply = device.handle(&Request {
             id: 0,
             body: RequestBody::SetConfig(Config::Calibration(cal)),
+            session: pam_protocol::NO_SESSION,
         });
         reply.result.map_err(EmulatorError::Calibration)?;
         // like the firmware's boot: the record in flash, if there is a good one

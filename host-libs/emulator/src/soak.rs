@@ -30,7 +30,7 @@ use pam_control::{Faults, SafetyConfig};
 use pam_firmware_logic::current_loop::OUTPUT_ERROR_DEBOUNCE_PERIODS;
 use pam_protocol::{
     encode_frame, wire, Config, DeviceMessage, ErrorCode, FrameDecoder, ReplyData, Request,
-    RequestBody, Telemetry, MAX_FRAME,
+    RequestBody, SessionId, Telemetry, MAX_FRAME, NO_SESSION, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
 };
 use pam_twin::faults::PlantFault;
 use pam_twin::rng::Rng;
@@ -142,6 +142,8 @@ struct Host {
     plant: Plant,
     rng: Rng,
     id: u16,
+    /// The session the device gave this host in the handshake.
+    session: SessionId,
     time_us: u64,
     device_decoder: FrameDecoder<Request>,
     host_decoder: FrameDecoder<DeviceMessage>,
@@ -187,7 +189,11 @@ impl Host {
 
     fn request(&mut self, body: RequestBody) -> Result<ReplyData, ErrorCode> {
         self.id = self.id.wrapping_add(1).max(1);
-        let request = Request { id: self.id, body };
+        let request = Request {
+            id: self.id,
+            body,
+            session: self.session,
+        };
         let mut buf = [0u8; MAX_FRAME];
         let n = encode_frame(&request, &mut buf).expect("requests fit a frame");
         let replies = self.send_bytes(&buf[..n]);
@@ -315,6 +321,7 @@ pub fn run(
         plant,
         rng: Rng::derive(config.seed, "soak"),
         id: 0,
+        session: NO_SESSION,
         time_us: 0,
         device_decoder: FrameDecoder::new(),
         host_decoder: FrameDecoder::new(),
@@ -328,6 +335,12 @@ pub fn run(
     let wall = Instant::now();
     let end_us = (config.emulated_s * 1e6) as u64;
     let mut next_progress_us = 60_000_000;
+    if let Ok(ReplyData::Hello(info)) = host.request(RequestBody::Hello {
+        protocol_version: PROTOCOL_VERSION,
+        schema_fingerprint: SCHEMA_FINGERPRINT,
+    }) {
+        host.session = info.session;
+    }
     script::start(&mut host);
     while host.time_us < end_us {
         script::episode(&mut host);

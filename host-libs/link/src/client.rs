@@ -5,7 +5,7 @@ use crate::transport::{self, DeviceAddress};
 use crate::LinkError;
 use pam_protocol::{
     encode_frame, DeviceInfo, DeviceMessage, ErrorCode, FaultEvent, FrameDecoder, Reply, ReplyData,
-    Request, RequestBody, Telemetry, MAX_FRAME, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
+    Request, RequestBody, Telemetry, MAX_FRAME, NO_SESSION, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
 };
 use std::io::{ErrorKind, Write};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
@@ -92,6 +92,8 @@ fn body_name(b: &RequestBody) -> &'static str {
         RequestBody::PersistConfig => "config persist",
         RequestBody::RestoreConfig => "config restore",
         RequestBody::EraseConfig => "config erase",
+        RequestBody::SetServiceMode { .. } => "the service mode",
+        RequestBody::TakeCommand => "taking the command",
     }
 }
 
@@ -147,11 +149,15 @@ impl Client {
                 },
                 period_us: 0,
                 params_hash: 0,
+                session: NO_SESSION,
             },
         };
         // a lone delimiter ends whatever half frame the device may hold from before
         client.write_bytes(&[0])?;
-        match client.request(RequestBody::Hello { protocol_version }) {
+        match client.request(RequestBody::Hello {
+            protocol_version,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
+        }) {
             Ok(ReplyData::Hello(info))
                 if info.protocol_version == PROTOCOL_VERSION
                     && info.schema_fingerprint == SCHEMA_FINGERPRINT =>
@@ -209,8 +215,13 @@ impl Client {
             self.shared.awaited.store(id as u32, Ordering::SeqCst);
         }
         let mut buf = [0u8; MAX_FRAME];
-        let n = encode_frame(&Request { id, body }, &mut buf)
-            .map_err(|e| LinkError::Encode(format!("{e:?}")))?;
+        let request = Request {
+            id,
+            body,
+            session: self.info.session,
+        };
+        let n =
+            encode_frame(&request, &mut buf).map_err(|e| LinkError::Encode(format!("{e:?}")))?;
         self.write_bytes(&buf[..n])?;
         Ok(id)
     }
@@ -258,10 +269,26 @@ impl Client {
         }
     }
 
-    /// Fire-and-forget keep-alive (the device's command timeout counts from the last
-    /// request it received). Its reply is dropped by the reader thread.
+    /// Fire-and-forget keep-alive of the commander: the device's command timeout counts
+    /// from the last `Arm`, `SetMode` or keep-alive of the client that armed or set the
+    /// mode last. From any other client the device refuses it (`NotCommander`) and it keeps
+    /// nothing alive. Its reply is dropped by the reader thread.
     pub fn heartbeat(&self) -> Result<(), LinkError> {
         self.send(RequestBody::Heartbeat, false).map(|_| ())
+    }
+
+    /// This client becomes the commander of the armed device, mode unchanged: its
+    /// [`Client::heartbeat`]s keep the mode alive from now on (and the previous
+    /// commander's no longer do).
+    pub fn take_command(&self) -> Result<(), LinkError> {
+        self.command(RequestBody::TakeCommand)
+    }
+
+    /// The pressures mode's service interlock: on (disarmed, idle, or already in the
+    /// pressures mode) lets `SetMode(Pressures)` through; off leaves the pressures mode
+    /// for idle. The device turns it off at every disarm and fault.
+    pub fn set_service_mode(&self, enabled: bool) -> Result<(), LinkError> {
+        self.command(RequestBody::SetServiceMode { enabled })
     }
 
     /// Starts handing telemetry samples to [`Client::next_telemetry`]; samples that came

@@ -129,5 +129,20 @@ pub fn advice(code: ErrorCode) -> &'static str {
         ErrorCode::NoStoredConfig => {
             "the device's flash holds no good configuration record (see `pamctl status`); nothing was changed"
         }
+        ErrorCode::Implausible => {
+            "the sensors contradict this calibration: tare with the handle free, home at the neutral pose, a positive load-cell gain; nothing was changed"
+        }
+        ErrorCode::NoSession => {
+            "arming and setting a mode need the handshake on this link first (pamctl does it on connecting; another client must send `Hello` and use the session it returns)"
+        }
+        ErrorCode::NotCommander => {
+            "only the client that armed or set the mode last keeps the device armed; this one is not it (`pamctl set … --hold SECONDS` keeps a mode alive)"
+        }
+        ErrorCode::SchemaMismatch => {
+            "the device is built with another wire format: flash the firmware built from the same source as this pamctl"
+        }
+        ErrorCode::ServiceModeOff => {
+            "the pressures mode is a service mode: turn it on first with `pamctl service on` (disarmed or idle), or use `pamctl set pressures --service`"
+        }
     }
 }

@@ -8,7 +8,7 @@ pub fn run(link: &LinkArgs, out: &mut dyn std::io::Write) -> anyhow::Result<()> 
     client.command(RequestBody::Arm)?;
     super::done(
         out,
-        "armed. The device disarms itself (command timeout) unless the host keeps talking: \
-         use `pamctl set … --hold` or `pamctl record`",
+        "armed. The device disarms itself (command timeout) unless its commander keeps \
+         talking: use `pamctl set … --hold`, or `pamctl watch`/`record` with `--keep-alive`",
     )
 }

@@ -5,6 +5,7 @@ pub mod experiment;
 pub mod fault;
 pub mod home;
 pub mod ident;
+pub mod keep_alive;
 pub mod model;
 pub mod model_loop;
 pub mod ports;

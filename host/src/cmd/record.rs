@@ -2,7 +2,8 @@
 //!
 //! Rows are written whole (pam-log's writer), the file is flushed at least every
 //! 0.5 s and on every way out, so an interrupted recording is a valid log holding every
-//! sample received. With `--plotjuggler HOST:PORT` the samples written also stream to
+//! sample received. It only listens (keeps no mode alive) unless `--keep-alive` makes it the
+//! commander. With `--plotjuggler HOST:PORT` the samples written also stream to
 //! PlotJuggler (`crate::plotjuggler`).
 
 use crate::LinkArgs;
@@ -40,6 +41,10 @@ pub struct RecordArgs {
     pub stats: bool,
     #[command(flatten)]
     pub plotjuggler: crate::plotjuggler::PlotJugglerArgs,
+    /// Keep the armed device's mode alive while this runs: this pamctl takes the command
+    /// (mode unchanged) and sends keep-alives. Without it, it only listens.
+    #[arg(long)]
+    pub keep_alive: bool,
 }
 
 /// Columns written, in order: the required ones, the force target when the recording
@@ -228,6 +233,7 @@ pub fn record(
     let mut writer = LogWriter::create(&args.file, &cols, &meta)
         .with_context(|| format!("cannot create {}", args.file.display()))?;
 
+    let mut keep_alive = super::keep_alive::KeepAlive::start(client, args.keep_alive)?;
     client.start_telemetry();
     let mut drops = DropCounter::default();
     let mut clock = Clock::default();
@@ -237,7 +243,6 @@ pub fn record(
     let bytes_at_start = client.bytes_received();
     // the device clock ends a timed recording; this guards against a device that stalls
     let wall_limit = args.duration.map(|d| d + 2.0 + 0.5 * d);
-    let mut last_beat = Instant::now();
     let mut last_progress = Instant::now();
     let mut result = Ok(());
     loop {
@@ -254,13 +259,9 @@ pub fn record(
                 break;
             }
         }
-        // keep the device's command timeout fed while it streams
-        if last_beat.elapsed() >= Duration::from_millis(25) {
-            if let Err(e) = client.heartbeat() {
-                result = Err(e.into());
-                break;
-            }
-            last_beat = Instant::now();
+        if let Err(e) = keep_alive.tick(client) {
+            result = Err(e.into());
+            break;
         }
         match client.next_telemetry(Duration::from_millis(10)) {
             Ok(Some(t)) => {

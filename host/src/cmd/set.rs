@@ -13,8 +13,9 @@ use std::time::{Duration, Instant};
 pub struct SetArgs {
     #[command(subcommand)]
     pub mode: SetMode,
-    /// Keep the link alive (heartbeats) this many seconds, or until Ctrl-C with `inf`;
-    /// without it the device's command timeout ends the mode soon after pamctl exits.
+    /// Keep the mode alive this many seconds (this pamctl is the commander and sends its
+    /// keep-alives), or until Ctrl-C with `inf`; without it the device's command timeout
+    /// ends the mode soon after pamctl exits. `watch` and `record` meanwhile only listen.
     #[arg(long, global = true, value_name = "SECONDS")]
     pub hold: Option<f64>,
 }
@@ -23,7 +24,8 @@ pub struct SetArgs {
 pub enum SetMode {
     /// Safe outputs (vent).
     Idle,
-    /// Four channel pressures, bar.
+    /// Four channel pressures, bar. A service mode: the handle's motion is not supervised,
+    /// so the device refuses it unless its service interlock is on (`--service`).
     Pressures {
         #[arg(
             value_delimiter = ',',
@@ -31,6 +33,10 @@ pub enum SetMode {
             value_name = "P1,P2,P3,P4"
         )]
         pressure_bar: Vec<f64>,
+        /// Turn the device's service interlock on first (disarmed, idle or already in the
+        /// pressures mode only); it stays on until the next disarm or fault.
+        #[arg(long)]
+        service: bool,
     },
     /// Per joint: equilibrium angle, torque and stiffness.
     Joint {
@@ -100,7 +106,7 @@ fn values<const N: usize>(name: &str, v: &[f64]) -> anyhow::Result<[f32; N]> {
 pub fn mode_of(m: &SetMode) -> anyhow::Result<Mode> {
     Ok(match m {
         SetMode::Idle => Mode::Idle,
-        SetMode::Pressures { pressure_bar } => Mode::Pressures {
+        SetMode::Pressures { pressure_bar, .. } => Mode::Pressures {
             pressure_bar: values::<4>("pressures", pressure_bar)?,
         },
         SetMode::Joint {
@@ -161,6 +167,9 @@ pub fn run(args: SetArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Resul
     };
     let client = super::connect(link)?;
     client.start_telemetry();
+    if matches!(args.mode, SetMode::Pressures { service: true, .. }) {
+        client.set_service_mode(true)?;
+    }
     client.command(RequestBody::SetMode(mode.into()))?;
     writeln!(out, "mode set: {}", super::status::describe_mode(&mode))?;
     // a few samples tell whether the target had to be clamped at this pose

@@ -4,8 +4,8 @@
 //! On a terminal it is a ratatui screen (`watch/tui.rs`; Ctrl-C, q or Esc stop it);
 //! otherwise, or with `--plain`, it prints one summary line per refresh; `--once` prints the
 //! full view once as text.
-//! It keeps the link alive (heartbeats), like `record`. With `--plotjuggler HOST:PORT` it
-//! also streams the telemetry to PlotJuggler (`crate::plotjuggler`).
+//! It only listens (keeps no mode alive) unless `--keep-alive` makes it the commander. With
+//! `--plotjuggler HOST:PORT` it also streams the telemetry to PlotJuggler (`crate::plotjuggler`).
 
 use super::status::state_name;
 use crate::LinkArgs;
@@ -40,6 +40,10 @@ pub struct WatchArgs {
     pub window: f64,
     #[command(flatten)]
     pub plotjuggler: crate::plotjuggler::PlotJugglerArgs,
+    /// Keep the armed device's mode alive while this runs: this pamctl takes the command
+    /// (mode unchanged) and sends keep-alives. Without it, it only listens.
+    #[arg(long)]
+    pub keep_alive: bool,
 }
 
 /// Width of a plot in characters.
@@ -337,23 +341,22 @@ pub fn watch(
     }
     let mut view = View::new(args.window);
     let mut plot = args.plotjuggler.open()?;
+    let mut keep_alive = super::keep_alive::KeepAlive::start(client, args.keep_alive)?;
     client.start_telemetry();
     let limit = if args.once { Some(0.5) } else { args.seconds };
     let refresh = Duration::from_millis(args.refresh_ms.max(10));
     let start = Instant::now();
-    let mut last_beat = Instant::now();
     let mut last_draw = Instant::now();
     while !stop.load(Ordering::SeqCst) && limit.is_none_or(|l| start.elapsed().as_secs_f64() < l) {
-        if last_beat.elapsed() >= Duration::from_millis(25) {
-            client.heartbeat()?;
-            last_beat = Instant::now();
-        }
+        keep_alive.tick(client)?;
+        let batch = Instant::now();
         while let Some(t) = client.next_telemetry(Duration::from_millis(5))? {
             view.push(&t);
             if let Some(p) = plot.as_mut() {
                 p.offer(&t);
             }
-            if last_beat.elapsed() >= Duration::from_millis(25) {
+            // back to the clock now and then, however fast the samples come
+            if batch.elapsed() >= Duration::from_millis(25) {
                 break;
             }
         }

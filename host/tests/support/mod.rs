@@ -147,6 +147,7 @@ fn serve(listener: TcpListener, options: Options, stop: &AtomicBool, corrupted: 
                                     Ok(Request {
                                         id,
                                         body: RequestBody::Hello { .. },
+                                        ..
                                     }) if options.other_protocol => Reply {
                                         id,
                                         result: Err(ErrorCode::UnsupportedVersion),

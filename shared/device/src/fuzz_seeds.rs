@@ -15,7 +15,7 @@ use pam_control::SafetyConfig;
 use pam_model::RobotParams;
 use pam_protocol::{
     encode_frame, wire, Calibration, Config, ConfigSection, EncoderCalibration, OutputCalibration,
-    Request, RequestBody, MAX_FRAME, PROTOCOL_VERSION,
+    Request, RequestBody, MAX_FRAME, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
 };
 use std::path::PathBuf;
 
@@ -35,8 +35,15 @@ impl Seed {
     fn send(mut self, body: RequestBody) -> Self {
         self.id += 1;
         let mut buf = [0u8; MAX_FRAME];
-        let bytes =
-            postcard::to_slice(&Request { id: self.id, body }, &mut buf).expect("a request fits");
+        let bytes = postcard::to_slice(
+            &Request {
+                id: self.id,
+                body,
+                session: 1,
+            },
+            &mut buf,
+        )
+        .expect("a request fits");
         push_request(&mut self.input, bytes);
         self
     }
@@ -45,7 +52,15 @@ impl Seed {
     fn frame(mut self, body: RequestBody) -> Self {
         self.id += 1;
         let mut buf = [0u8; MAX_FRAME];
-        let n = encode_frame(&Request { id: self.id, body }, &mut buf).expect("fits");
+        let n = encode_frame(
+            &Request {
+                id: self.id,
+                body,
+                session: 1,
+            },
+            &mut buf,
+        )
+        .expect("fits");
         let mut bytes = vec![0x55, 0xAA, 0x00];
         bytes.extend_from_slice(&buf[..n]);
         push_frame_bytes(&mut self.input, &bytes);
@@ -125,6 +140,7 @@ fn seeds() -> Vec<Vec<u8>> {
         Seed::new(0)
             .send(RequestBody::Hello {
                 protocol_version: PROTOCOL_VERSION,
+                schema_fingerprint: SCHEMA_FINGERPRINT,
             })
             .send(RequestBody::GetStatus)
             .send(RequestBody::Arm)

@@ -31,6 +31,7 @@
 // Per-channel loops index several parallel arrays at once.
 #![allow(clippy::needless_range_loop)]
 
+pub mod calibration;
 pub mod frontend;
 pub mod storage;
 mod validate;
@@ -49,7 +50,8 @@ use pam_model::{Real, RobotModel, RobotParams};
 use pam_protocol::{
     Calibration, Config, ConfigOrigin, ConfigSection, DecodeError, DeviceInfo, EncoderCalibration,
     ErrorCode, FaultEvent, ModeKind, OutputCalibration, Reply, ReplyData, Request, RequestBody,
-    Status, Telemetry, Version, PROTOCOL_VERSION, SCHEMA_FINGERPRINT, UNKNOWN_REQUEST_ID,
+    SessionId, Status, Telemetry, Version, NO_SESSION, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
+    UNKNOWN_REQUEST_ID,
 };
 pub use storage::{run_storage, BoardHealth, StorageDone, StorageJob};
 
@@ -91,8 +93,8 @@ pub struct DeviceOptions {
     pub encoder_counter_bits: u8,
 }
 
-/// Pressures above this are never allowed, whatever parameters the host sends (issue 4:
-/// pressure limits 0–5 bar).
+/// Pressures above this are never allowed, whatever parameters the host sends (the
+/// converters' range is 0–5 bar).
 pub const ABSOLUTE_MAX_PRESSURE_BAR: f32 = 5.0;
 
 pub struct Device {
@@ -110,6 +112,12 @@ pub struct Device {
     config_origin: ConfigOrigin,
     config_unsaved: bool,
     board: BoardHealth,
+    /// Sessions issued since boot (`Hello` replies): 1..=`sessions_issued` are valid.
+    sessions_issued: SessionId,
+    /// The session whose control requests feed the command timeout ([`NO_SESSION`]: none).
+    commander: SessionId,
+    /// The pressures mode's service interlock.
+    service_mode: bool,
 }
 
 impl Device {
@@ -117,7 +125,9 @@ impl Device {
     /// refuses, or pressure limits beyond [`ABSOLUTE_MAX_PRESSURE_BAR`], fall back to the
     /// thesis values (the device must boot whatever is stored).
     pub fn new(params: RobotParams<f32>, safety: SafetyConfig, options: DeviceOptions) -> Self {
-        let params = if validate::robot_params(&params).is_ok() {
+        let params = if validate::robot_params(&params).is_ok()
+            && calibration::load_cell_gain_plausible(&params.load_cell)
+        {
             params
         } else {
             RobotParams::thesis()
@@ -144,6 +154,9 @@ impl Device {
             config_origin: ConfigOrigin::DefaultsNoStorage,
             config_unsaved: false,
             board: BoardHealth::default(),
+            sessions_issued: NO_SESSION,
+            commander: NO_SESSION,
+            service_mode: false,
         }
     }
 
@@ -190,6 +203,9 @@ impl Device {
             self.controller.raise(Faults::SELF_CHECK);
         }
         let out = self.controller.step(&sensors);
+        if out.state == State::Faulted {
+            self.service_mode = false;
+        }
 
         // the safe state is the fixed vent current, untrimmed; a trimmed command stays
         // within the loop range (clamp_to cannot panic and maps NaN to the low end)
@@ -268,47 +284,122 @@ impl Device {
         }
     }
 
-    /// Carries out one request. Every request counts as a heartbeat; a refused one
-    /// changes nothing else.
+    /// Carries out one request; a refused one changes nothing. Only the commander's control
+    /// requests (`Arm`, `SetMode`, `Heartbeat`) keep the command timeout fed: whoever else
+    /// talks to the device (status, telemetry, another host) cannot keep an arm alive
+    /// whose commander has gone.
     pub fn handle(&mut self, request: &Request) -> Reply {
-        self.controller.heartbeat();
+        let result = self.execute(&request.body, request.session);
         Reply {
             id: request.id,
-            result: self.execute(&request.body),
+            result,
         }
     }
 
-    fn execute(&mut self, body: &RequestBody) -> Result<ReplyData, ErrorCode> {
+    /// The session of the commander (the last to arm or set the mode), [`NO_SESSION`] if
+    /// none.
+    pub fn commander(&self) -> SessionId {
+        self.commander
+    }
+
+    pub fn service_mode(&self) -> bool {
+        self.service_mode
+    }
+
+    fn session_valid(&self, session: SessionId) -> bool {
+        session != NO_SESSION && session <= self.sessions_issued
+    }
+
+    /// A control request of `session`: it becomes the commander and feeds the timeout.
+    fn take_command(&mut self, session: SessionId) -> Result<(), ErrorCode> {
+        if !self.session_valid(session) {
+            return Err(ErrorCode::NoSession);
+        }
+        self.commander = session;
+        Ok(())
+    }
+
+    fn execute(&mut self, body: &RequestBody, session: SessionId) -> Result<ReplyData, ErrorCode> {
         const DONE: Result<ReplyData, ErrorCode> = Ok(ReplyData::Done);
         let armed = self.controller.state() == State::Armed;
         match *body {
-            RequestBody::Hello { protocol_version } => {
+            RequestBody::Hello {
+                protocol_version,
+                schema_fingerprint,
+            } => {
                 if protocol_version != PROTOCOL_VERSION {
                     return Err(ErrorCode::UnsupportedVersion);
                 }
+                if schema_fingerprint != SCHEMA_FINGERPRINT {
+                    return Err(ErrorCode::SchemaMismatch);
+                }
+                // a new session never takes the command: it is only allowed to ask for it
+                self.sessions_issued = self.sessions_issued.saturating_add(1);
                 Ok(ReplyData::Hello(DeviceInfo {
                     protocol_version: PROTOCOL_VERSION,
                     schema_fingerprint: SCHEMA_FINGERPRINT,
                     firmware_version: self.options.firmware_version,
                     period_us: self.period_us(),
                     params_hash: pam_protocol::params_hash(&self.controller.model().params),
+                    session: self.sessions_issued,
                 }))
             }
-            RequestBody::Heartbeat => DONE,
+            RequestBody::Heartbeat => {
+                if armed && (session == NO_SESSION || session != self.commander) {
+                    return Err(ErrorCode::NotCommander);
+                }
+                self.controller.heartbeat();
+                DONE
+            }
             RequestBody::Arm => {
+                if !self.session_valid(session) {
+                    return Err(ErrorCode::NoSession);
+                }
                 if !self.encoders.homed() {
                     return Err(ErrorCode::NotHomed);
                 }
                 self.controller.arm().map_err(error_code)?;
+                self.take_command(session)?;
                 DONE
             }
             RequestBody::Disarm => {
                 self.controller.disarm();
+                self.commander = NO_SESSION;
+                self.service_mode = false;
+                DONE
+            }
+            RequestBody::TakeCommand => {
+                if !armed {
+                    return Err(ErrorCode::WrongState);
+                }
+                self.take_command(session)?;
+                self.controller.heartbeat();
+                DONE
+            }
+            RequestBody::SetServiceMode { enabled } => {
+                if !self.session_valid(session) {
+                    return Err(ErrorCode::NoSession);
+                }
+                let in_pressures = matches!(self.controller.mode(), Mode::Pressures { .. });
+                if enabled {
+                    let idle = self.controller.mode() == Mode::Idle;
+                    if armed && !idle && !in_pressures {
+                        return Err(ErrorCode::WrongState);
+                    }
+                } else if in_pressures {
+                    self.controller.set_mode(Mode::Idle).map_err(error_code)?;
+                }
+                self.service_mode = enabled;
                 DONE
             }
             RequestBody::Home => {
                 if armed {
                     return Err(ErrorCode::WrongState);
+                }
+                if self.encoders.homed()
+                    && !calibration::rehome_plausible(self.encoders.alpha_rad())
+                {
+                    return Err(ErrorCode::Implausible);
                 }
                 self.controller.reset_angle_history().map_err(error_code)?;
                 self.encoders.home();
@@ -322,6 +413,9 @@ impl Device {
                     return Err(ErrorCode::OutOfRange);
                 }
                 let mut cell = self.controller.model().params.load_cell;
+                if !calibration::tare_plausible(&cell, raw.loadcell_volts) {
+                    return Err(ErrorCode::Implausible);
+                }
                 cell.tare(raw.loadcell_volts);
                 self.controller.set_load_cell(cell);
                 self.config_unsaved = true;
@@ -348,7 +442,15 @@ impl Device {
                 last_cpu_fault: self.board.last_cpu_fault,
             })),
             RequestBody::SetMode(mode) => {
-                self.controller.set_mode(mode.into()).map_err(error_code)?;
+                if !self.session_valid(session) {
+                    return Err(ErrorCode::NoSession);
+                }
+                let mode: Mode = mode.into();
+                if matches!(mode, Mode::Pressures { .. }) && !self.service_mode {
+                    return Err(ErrorCode::ServiceModeOff);
+                }
+                self.controller.set_mode(mode).map_err(error_code)?;
+                self.take_command(session)?;
                 DONE
             }
             RequestBody::GetConfig(section) => Ok(ReplyData::Config(match section {
@@ -357,6 +459,10 @@ impl Device {
                 ConfigSection::Limits => Config::Limits((*self.controller.safety()).into()),
             })),
             RequestBody::SetConfig(config) => {
+                // while armed, the limits are the commander's (a change feeds the timeout)
+                if armed && session != self.commander {
+                    return Err(ErrorCode::NotCommander);
+                }
                 self.set_config(&config, armed)?;
                 self.config_unsaved = true;
                 DONE
@@ -381,6 +487,9 @@ impl Device {
                 }
                 let params = RobotParams::<f32>::from(*params);
                 validate::robot_params(&params)?;
+                if !calibration::load_cell_gain_plausible(&params.load_cell) {
+                    return Err(ErrorCode::Implausible);
+                }
                 self.controller
                     .set_model(RobotModel::new(params))
                     .map_err(error_code)?;
@@ -392,6 +501,9 @@ impl Device {
                     return Err(ErrorCode::WrongState);
                 }
                 validate::calibration(cal)?;
+                if !calibration::load_cell_gain_plausible(&cal.load_cell.into()) {
+                    return Err(ErrorCode::Implausible);
+                }
                 self.encoders.set_calibration(cal.encoder);
                 self.controller.set_load_cell(cal.load_cell.into());
                 self.output_calibration = cal.output;

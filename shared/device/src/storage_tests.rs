@@ -9,7 +9,7 @@ use pam_protocol::{ConfigSection, ReplyData, Status, BOARD_CHECK_VDDA};
 type Flash = RamFlash<4096>;
 
 // the device the service's own checks use
-use crate::checks::{device, OPTIONS};
+use crate::checks::{device, OPTIONS, SESSION};
 
 fn step(d: &mut Device) -> crate::StepResult {
     d.step(
@@ -26,7 +26,15 @@ fn ask(
     store: &mut ConfigStore<Flash>,
     body: RequestBody,
 ) -> Result<ReplyData, ErrorCode> {
-    d.handle_with_store(store, &Request { id: 9, body }).result
+    d.handle_with_store(
+        store,
+        &Request {
+            id: 9,
+            body,
+            session: SESSION,
+        },
+    )
+    .result
 }
 
 fn status(d: &mut Device) -> Status {
@@ -34,6 +42,7 @@ fn status(d: &mut Device) -> Status {
         .handle(&Request {
             id: 1,
             body: RequestBody::GetStatus,
+            session: SESSION,
         })
         .result
     {
@@ -54,6 +63,7 @@ fn customise(d: &mut Device) {
         let r = d.handle(&Request {
             id: 2,
             body: RequestBody::SetConfig(c),
+            session: SESSION,
         });
         assert_eq!(r.result, Ok(ReplyData::Done));
     }
@@ -125,6 +135,7 @@ fn a_corrupt_record_boots_to_the_defaults_with_self_check() {
     let r = d.handle(&Request {
         id: 3,
         body: RequestBody::ClearFaults,
+        session: SESSION,
     });
     assert_eq!(r.result, Ok(ReplyData::Done));
     step(&mut d);
@@ -175,6 +186,7 @@ fn the_emulators_timeout_and_encoders_survive_a_fall_back_to_defaults() {
     d.handle(&Request {
         id: 1,
         body: RequestBody::SetConfig(Config::Calibration(cal)),
+        session: SESSION,
     });
     d.boot_config(Ok(Loaded::Corrupt));
     assert_eq!(d.controller().safety().command_timeout_s, 1.0);
@@ -196,6 +208,7 @@ fn restore_and_erase() {
     let r = d.handle(&Request {
         id: 4,
         body: RequestBody::SetConfig(Config::Calibration(device().calibration())),
+        session: SESSION,
     });
     assert_eq!(r.result, Ok(ReplyData::Done));
     assert_ne!(d.stored_config(), customised);
@@ -224,11 +237,13 @@ fn storage_requests_are_refused_while_armed_and_report_flash_failures() {
     d.handle(&Request {
         id: 1,
         body: RequestBody::Home,
+        session: SESSION,
     });
     assert_eq!(
         d.handle(&Request {
             id: 1,
-            body: RequestBody::Arm
+            body: RequestBody::Arm,
+            session: SESSION,
         })
         .result,
         Ok(ReplyData::Done)
@@ -251,6 +266,7 @@ fn storage_requests_are_refused_while_armed_and_report_flash_failures() {
     d.handle(&Request {
         id: 1,
         body: RequestBody::Disarm,
+        session: SESSION,
     });
     s.flash_mut().cut_power(PowerCut::Off);
     assert_eq!(
@@ -261,7 +277,8 @@ fn storage_requests_are_refused_while_armed_and_report_flash_failures() {
     assert_eq!(
         d.handle(&Request {
             id: 1,
-            body: RequestBody::PersistConfig
+            body: RequestBody::PersistConfig,
+            session: SESSION,
         })
         .result,
         Err(ErrorCode::StorageFailed)
@@ -270,7 +287,8 @@ fn storage_requests_are_refused_while_armed_and_report_flash_failures() {
     assert!(matches!(
         d.handle(&Request {
             id: 1,
-            body: RequestBody::GetConfig(ConfigSection::Limits)
+            body: RequestBody::GetConfig(ConfigSection::Limits),
+            session: SESSION,
         })
         .result,
         Ok(ReplyData::Config(_))
@@ -295,6 +313,7 @@ fn a_failing_board_check_keeps_self_check_raised_and_shows_in_status() {
     d.handle(&Request {
         id: 3,
         body: RequestBody::ClearFaults,
+        session: SESSION,
     });
     step(&mut d);
     assert!(
@@ -309,6 +328,7 @@ fn a_failing_board_check_keeps_self_check_raised_and_shows_in_status() {
     d.handle(&Request {
         id: 3,
         body: RequestBody::ClearFaults,
+        session: SESSION,
     });
     step(&mut d);
     assert_eq!(d.controller().faults(), Faults::NONE);

@@ -12,7 +12,11 @@ use std::path::PathBuf;
 use super::tests::{device_info, frame_of as frame};
 
 fn request(id: u16, body: RequestBody) -> Request {
-    Request { id, body }
+    Request {
+        id,
+        body,
+        session: 1,
+    }
 }
 
 fn requests() -> Vec<Request> {
@@ -48,6 +52,7 @@ fn requests() -> Vec<Request> {
     let mut bodies = vec![
         RequestBody::Hello {
             protocol_version: PROTOCOL_VERSION,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
         },
         RequestBody::Heartbeat,
         RequestBody::Home,
@@ -73,6 +78,8 @@ fn requests() -> Vec<Request> {
         RequestBody::PersistConfig,
         RequestBody::RestoreConfig,
         RequestBody::EraseConfig,
+        RequestBody::SetServiceMode { enabled: true },
+        RequestBody::TakeCommand,
     ]);
     (1..).zip(bodies).map(|(id, b)| request(id, b)).collect()
 }

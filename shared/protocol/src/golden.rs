@@ -217,6 +217,8 @@ fn request_variant(b: &RequestBody) -> &'static str {
         RequestBody::PersistConfig => "PersistConfig",
         RequestBody::RestoreConfig => "RestoreConfig",
         RequestBody::EraseConfig => "EraseConfig",
+        RequestBody::SetServiceMode { .. } => "SetServiceMode",
+        RequestBody::TakeCommand => "TakeCommand",
     }
 }
 
@@ -238,55 +240,60 @@ fn device_variant(m: &DeviceMessage) -> String {
 /// (instance, golden hex). Requests carry id 300 (`ac 02`).
 fn golden_requests() -> Vec<(Request, &'static str)> {
     let [idle, pressures, joint, force, force_closed_loop, impedance] = modes();
-    let r = |body| Request { id: 300, body };
+    let r = |body| Request {
+        id: 300,
+        body,
+        session: 5,
+    };
     vec![
         (
             r(RequestBody::Hello {
                 protocol_version: 2,
+                schema_fingerprint: 0x1234_5678,
             }),
-            "ac 02 00 02",
+            "ac 02 00 02 f8 ac d1 91 01 05",
         ),
-        (r(RequestBody::Heartbeat), "ac 02 01"),
-        (r(RequestBody::Arm), "ac 02 02"),
-        (r(RequestBody::Disarm), "ac 02 03"),
-        (r(RequestBody::Home), "ac 02 04"),
-        (r(RequestBody::Tare), "ac 02 05"),
-        (r(RequestBody::ClearFaults), "ac 02 06"),
-        (r(RequestBody::GetStatus), "ac 02 07"),
-        (r(RequestBody::SetMode(idle)), "ac 02 08 00"),
+        (r(RequestBody::Heartbeat), "ac 02 01 05"),
+        (r(RequestBody::Arm), "ac 02 02 05"),
+        (r(RequestBody::Disarm), "ac 02 03 05"),
+        (r(RequestBody::Home), "ac 02 04 05"),
+        (r(RequestBody::Tare), "ac 02 05 05"),
+        (r(RequestBody::ClearFaults), "ac 02 06 05"),
+        (r(RequestBody::GetStatus), "ac 02 07 05"),
+        (r(RequestBody::SetMode(idle)), "ac 02 08 00 05"),
         (
             r(RequestBody::SetMode(pressures)),
-            "ac 02 08 01 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40",
+            "ac 02 08 01 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 05",
         ),
         (
             r(RequestBody::SetMode(joint)),
             "ac 02 08 02 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 a0 40 \
-            00 00 c0 40",
+            00 00 c0 40 05",
         ),
         (
             r(RequestBody::SetMode(force)),
-            "ac 02 08 03 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01",
+            "ac 02 08 03 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01 05",
         ),
         (
             r(RequestBody::SetMode(force_closed_loop)),
-            "ac 02 08 04 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01 00 00 a0 40",
+            "ac 02 08 04 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01 00 00 a0 40 05",
         ),
         (
             r(RequestBody::SetMode(impedance)),
             "ac 02 08 05 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 a0 40 \
-            00 00 c0 40",
+            00 00 c0 40 05",
         ),
         (
             r(RequestBody::GetConfig(ConfigSection::Robot)),
-            "ac 02 09 00",
+            "ac 02 09 00 05",
         ),
         (
             r(RequestBody::GetConfig(ConfigSection::Calibration)),
-            "ac 02 09 01",
+            "ac 02 09 01 05",
         ),
         (
             r(RequestBody::GetConfig(ConfigSection::Limits)),
-            "ac 02 09 02",
+            "ac 02 09 02 05",
         ),
         (
             r(RequestBody::SetConfig(Config::Robot(robot_params()))),
@@ -299,26 +306,31 @@ fn golden_requests() -> Vec<(Request, &'static str)> {
             00 00 0c 42 00 00 10 42 00 00 14 42 00 00 18 42 00 00 1c 42 00 00 20 42 \
             00 00 24 42 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 a0 40 \
             00 00 28 42 00 00 2c 42 00 00 30 42 00 00 34 42 00 00 38 42 00 00 3c 42 \
-            00 00 40 42",
+            00 00 40 42 05",
         ),
         (
             r(RequestBody::SetConfig(Config::Calibration(calibration()))),
             "ac 02 0a 01 c0 3e 01 ac 02 ff 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 \
             80 40 00 00 a0 40 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 \
-            a0 40 00 00 c0 40 00 00 e0 40 00 00 00 41",
+            a0 40 00 00 c0 40 00 00 e0 40 00 00 00 41 05",
         ),
         (
             r(RequestBody::SetConfig(Config::Limits(safety()))),
             "ac 02 0a 02 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 a0 40 \
-            00 00 c0 40 00 00 e0 40 ac 02 00 00 10 41 00 00 20 41 00 00 30 41 0c",
+            00 00 c0 40 00 00 e0 40 ac 02 00 00 10 41 00 00 20 41 00 00 30 41 0c 05",
         ),
         (
             r(RequestBody::SetTelemetry { divider: 300 }),
-            "ac 02 0b ac 02",
+            "ac 02 0b ac 02 05",
         ),
-        (r(RequestBody::PersistConfig), "ac 02 0c"),
-        (r(RequestBody::RestoreConfig), "ac 02 0d"),
-        (r(RequestBody::EraseConfig), "ac 02 0e"),
+        (r(RequestBody::PersistConfig), "ac 02 0c 05"),
+        (r(RequestBody::RestoreConfig), "ac 02 0d 05"),
+        (r(RequestBody::EraseConfig), "ac 02 0e 05"),
+        (
+            r(RequestBody::SetServiceMode { enabled: true }),
+            "ac 02 0f 01 05",
+        ),
+        (r(RequestBody::TakeCommand), "ac 02 10 05"),
     ]
 }
 
@@ -342,8 +354,9 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
                 },
                 period_us: 1000,
                 params_hash: 0xdead_beef,
+                session: 300,
             }))),
-            "00 ac 02 00 01 02 84 86 88 08 01 02 ac 02 e8 07 ef fd b6 f5 0d",
+            "00 ac 02 00 01 02 84 86 88 08 01 02 ac 02 e8 07 ef fd b6 f5 0d ac 02",
         ),
         // … 02 Status: 02 Faulted, 03 Force {4 × f32, 01 feed_forward}, 80 03 faults
         // 0x180, 01 homed, e8 07 period_us, 0a divider, 03 DefaultsOtherVersion, 01 unsaved,
@@ -432,6 +445,11 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
         (ErrorCode::NotHomed, "00 ac 02 01 05"),
         (ErrorCode::StorageFailed, "00 ac 02 01 06"),
         (ErrorCode::NoStoredConfig, "00 ac 02 01 07"),
+        (ErrorCode::Implausible, "00 ac 02 01 08"),
+        (ErrorCode::NoSession, "00 ac 02 01 09"),
+        (ErrorCode::NotCommander, "00 ac 02 01 0a"),
+        (ErrorCode::SchemaMismatch, "00 ac 02 01 0b"),
+        (ErrorCode::ServiceModeOff, "00 ac 02 01 0c"),
     ];
     v.extend(errors.map(|(code, hex)| (reply(Err(code)), hex)));
     v
@@ -489,7 +507,7 @@ fn the_goldens_cover_every_variant() {
         .iter()
         .map(|(r, _)| request_variant(&r.body))
         .collect();
-    assert_eq!(reqs.len(), 15, "{reqs:?}");
+    assert_eq!(reqs.len(), 17, "{reqs:?}");
     let modes: std::collections::HashSet<_> = golden_requests()
         .iter()
         .filter_map(|(r, _)| match r.body {
@@ -502,8 +520,8 @@ fn the_goldens_cover_every_variant() {
         .iter()
         .map(|(m, _)| device_variant(m))
         .collect();
-    // Done, Hello, Status, Config, eight error codes, telemetry, fault event
-    assert_eq!(msgs.len(), 14, "{msgs:?}");
+    // Done, Hello, Status, Config, thirteen error codes, telemetry, fault event
+    assert_eq!(msgs.len(), 19, "{msgs:?}");
 }
 
 #[test]
@@ -512,7 +530,7 @@ fn the_schema_fingerprint_is_pinned() {
     // the same commit as the golden bytes above.
     println!("SCHEMA_FINGERPRINT = {SCHEMA_FINGERPRINT:#010x}");
     assert_eq!(
-        SCHEMA_FINGERPRINT, 0xb73d_f5e0,
+        SCHEMA_FINGERPRINT, 0xcf75_e4ae,
         "{SCHEMA_FINGERPRINT:#010x}"
     );
 }

@@ -4,8 +4,9 @@
 //! is declared through `wire_struct!`/`wire_enum!` so that it enters the
 //! [`SCHEMA_FINGERPRINT`].
 //!
-//! Compatibility rules, in every protocol version: `RequestBody::Hello` is variant 0 with
-//! a single `u16`, so that a host can always ask any device for its version; and its reply
+//! Compatibility rules, in every protocol version: a [`Request`] starts with its id, and
+//! `RequestBody::Hello` is variant 0 starting with a `u16` (the protocol version), so that
+//! a host can always ask any device for its version; and its reply
 //! (`DeviceMessage::Reply` variant 0, `Ok`, `ReplyData::Hello` variant 1) carries a
 //! [`DeviceInfo`] that starts with `protocol_version` then `schema_fingerprint`. A device of
 //! another version refuses the `Hello` (`UnsupportedVersion`); one of the same version but
@@ -20,9 +21,14 @@ use serde::{Deserialize, Serialize};
 /// 4: the configuration in flash (`PersistConfig`, `RestoreConfig`, `EraseConfig`, two
 /// error codes) and the board's health in `Status` (configuration origin, stack, last CPU
 /// fault, VDDA, board checks).
-/// 5: `SafetyConfig::overrun_fault_periods` (issue 12: the configurable count of missed
+/// 5: `SafetyConfig::overrun_fault_periods` (the configurable count of missed
 /// periods that latches `LOOP_OVERRUN`).
-pub const PROTOCOL_VERSION: u16 = 5;
+/// 6: calibration plausibility (`ErrorCode::Implausible`).
+/// 7: the commander: `Request::session`, `Hello::schema_fingerprint` checked by the device,
+/// `DeviceInfo::session`, `Heartbeat` from the commander only, `TakeCommand`,
+/// `SetServiceMode`, four error
+/// codes (`NoSession`, `NotCommander`, `SchemaMismatch`, `ServiceModeOff`).
+pub const PROTOCOL_VERSION: u16 = 7;
 
 /// Fingerprint of the wire format: FNV-1a over [`PROTOCOL_VERSION`] and the shape of
 /// [`Request`] and [`DeviceMessage`] (every type they contain, see [`crate::wire::schema`]),
@@ -42,24 +48,41 @@ pub type RequestId = u16;
 /// (corrupted frame). Hosts number their requests from 1.
 pub const UNKNOWN_REQUEST_ID: RequestId = 0;
 
+/// A host's session with the device: issued by the device in the `Hello` reply, carried by
+/// every later request of that host.
+pub type SessionId = u16;
+
+/// The session of a host that has not done the handshake.
+pub const NO_SESSION: SessionId = 0;
+
 wire_struct! {
     /// Host → device.
     #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
     pub struct Request {
         pub id: RequestId,
         pub body: RequestBody,
+        /// The token the device gave this host in its `Hello` reply ([`DeviceInfo::session`]);
+        /// [`NO_SESSION`] before the handshake. Last, so that every version's `Hello`
+        /// frame starts alike.
+        pub session: SessionId,
     }
 }
 
 wire_enum! {
     #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
     pub enum RequestBody {
-        /// Handshake: the device answers with [`ReplyData::Hello`], or
-        /// [`ErrorCode::UnsupportedVersion`] if it does not speak `protocol_version`.
+        /// Handshake: the device answers with [`ReplyData::Hello`] and a new session, or
+        /// [`ErrorCode::UnsupportedVersion`] if it does not speak `protocol_version`, or
+        /// [`ErrorCode::SchemaMismatch`] if `schema_fingerprint` is not its own
+        /// [`SCHEMA_FINGERPRINT`]. `Arm` and `SetMode` need a session.
         Hello {
             protocol_version: u16,
+            schema_fingerprint: u32,
         },
-        /// Keep-alive. Every valid request counts as one; this one does nothing else.
+        /// Keep-alive of the commander (the session that armed or set the mode last): it
+        /// resets the command timeout. Only the commander's `Arm`, `SetMode` and
+        /// `Heartbeat` do; any other request (`GetStatus`, telemetry, another session's
+        /// heartbeat) does not. From another session while armed: [`ErrorCode::NotCommander`].
         Heartbeat,
         Arm,
         Disarm,
@@ -71,7 +94,9 @@ wire_enum! {
         ClearFaults,
         GetStatus,
         /// Mode and targets; values beyond the absolute limits are refused, values the robot
-        /// cannot reach at the pose are clamped and flagged in telemetry.
+        /// cannot reach at the pose are clamped and flagged in telemetry. The sender becomes
+        /// the commander. The pressures mode needs the service mode
+        /// ([`RequestBody::SetServiceMode`]).
         SetMode(wire::Mode),
         GetConfig(ConfigSection),
         /// Replaces one configuration section. Invalid → error reply, nothing changed.
@@ -89,6 +114,17 @@ wire_enum! {
         /// Erases the configuration in flash (the next boot starts from the defaults); the
         /// configuration in use is unchanged. Not while armed.
         EraseConfig,
+        /// The service interlock of the pressures mode (raw channel pressures, no motion
+        /// supervision of the handle's target): on only while disarmed, idle or already in
+        /// the pressures mode ([`ErrorCode::WrongState`] otherwise); off at any time (leaving the pressures mode for idle). Off at boot
+        /// and after every disarm.
+        SetServiceMode {
+            enabled: bool,
+        },
+        /// The sender becomes the commander of the armed device without changing the mode
+        /// (a client that only watches opts in explicitly to keeping the mode alive);
+        /// feeds the command timeout. `WrongState` while not armed.
+        TakeCommand,
     }
 }
 
@@ -211,6 +247,8 @@ wire_struct! {
         pub period_us: u32,
         /// [`crate::params_hash`] of the robot parameters in use.
         pub params_hash: u32,
+        /// This host's session: to put in [`Request::session`] from now on.
+        pub session: SessionId,
     }
 }
 
@@ -323,6 +361,18 @@ wire_enum! {
         StorageFailed,
         /// `RestoreConfig`: the flash holds no good record (see `Status::config`).
         NoStoredConfig,
+        /// A calibration the sensors contradict: tare under load, home away from the
+        /// previous zero, a load-cell gain that is not positive.
+        Implausible,
+        /// `Arm` or `SetMode` from a host without a session (no `Hello`, or a session the
+        /// device did not issue since its boot).
+        NoSession,
+        /// A keep-alive from a session that is not the commander, while armed.
+        NotCommander,
+        /// `Hello` from a host built with another wire schema.
+        SchemaMismatch,
+        /// The pressures mode while the service mode is off.
+        ServiceModeOff,
     }
 }
 
@@ -335,9 +385,9 @@ wire_enum! {
         Joint,
         Force,
         ForceFeedForward,
-        /// Appended (issue 14): closed-loop force, with or without the gain plane.
+        /// Appended: closed-loop force, with or without the gain plane.
         ForceClosedLoop,
-        /// Appended (issue 14): Cartesian spring-damper through the closed force loop.
+        /// Appended: Cartesian spring-damper through the closed force loop.
         Impedance,
     }
 }

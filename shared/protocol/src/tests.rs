@@ -28,6 +28,7 @@ fn every_request() -> Vec<Request> {
     let bodies = [
         RequestBody::Hello {
             protocol_version: PROTOCOL_VERSION,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
         },
         RequestBody::Heartbeat,
         RequestBody::Arm,
@@ -78,6 +79,8 @@ fn every_request() -> Vec<Request> {
         RequestBody::PersistConfig,
         RequestBody::RestoreConfig,
         RequestBody::EraseConfig,
+        RequestBody::SetServiceMode { enabled: true },
+        RequestBody::TakeCommand,
     ];
     bodies
         .iter()
@@ -85,6 +88,7 @@ fn every_request() -> Vec<Request> {
         .map(|(i, b)| Request {
             id: (i as u16 + 1) * 1000,
             body: *b,
+            session: i as u16,
         })
         .collect()
 }
@@ -119,6 +123,7 @@ pub(crate) fn device_info() -> DeviceInfo {
         },
         period_us: 1000,
         params_hash: params_hash(&RobotParams::thesis()),
+        session: 1,
     }
 }
 
@@ -465,7 +470,7 @@ fn same_bits<T: serde::Serialize>(a: &T, b: &T) -> bool {
 proptest! {
     #[test]
     fn any_set_mode_round_trips(id in any::<u16>(), mode in arb_mode()) {
-        let r = Request { id, body: RequestBody::SetMode(mode.into()) };
+        let r = Request { id, body: RequestBody::SetMode(mode.into()), session: id };
         let out = feed(&mut FrameDecoder::<Request>::new(), &frame_of(&r));
         prop_assert_eq!(out.len(), 1);
         let got = out[0].unwrap();

@@ -11,7 +11,10 @@
 //! `cargo xtask fault-table [--write]` prints the table (`examples/fault_table.rs`) or
 //! rewrites its section of hil-tests/README.md.
 
-use pam_protocol::{wire, Request, RequestBody, PROTOCOL_VERSION};
+use pam_protocol::{
+    wire, ReplyData, Request, RequestBody, SessionId, NO_SESSION, PROTOCOL_VERSION,
+    SCHEMA_FINGERPRINT,
+};
 use pam_twin::{ConverterRates, EffectSet, HandSpring, HandleCondition};
 
 use super::{injection_at, Kind, KINDS};
@@ -143,16 +146,26 @@ struct Rig {
     id: u16,
     hand: HandleCondition,
     silent: bool,
+    /// The session the device gave the table's host in the handshake.
+    session: SessionId,
 }
 
 impl Rig {
     fn request(&mut self, body: RequestBody) -> Result<(), String> {
         self.id = self.id.wrapping_add(1).max(1);
-        let reply = self.plant.handle_frame(Ok(Request { id: self.id, body }));
-        reply
-            .result
-            .map(|_| ())
-            .map_err(|e| format!("{body:?} refused: {e:?}"))
+        let reply = self.plant.handle_frame(Ok(Request {
+            id: self.id,
+            body,
+            session: self.session,
+        }));
+        match reply.result {
+            Ok(ReplyData::Hello(info)) => {
+                self.session = info.session;
+                Ok(())
+            }
+            Ok(_) => Ok(()),
+            Err(e) => Err(format!("{body:?} refused: {e:?}")),
+        }
     }
 
     /// One emulator period with the table's own handle condition (the hand stays on the
@@ -238,6 +251,7 @@ pub fn run_case(kind: Kind, mode: TableMode, hand: Hand) -> Result<Outcome, Emul
         id: 0,
         hand: HandleCondition::Free,
         silent: false,
+        session: NO_SESSION,
     };
     let mut out = Outcome {
         kind,
@@ -255,8 +269,12 @@ pub fn run_case(kind: Kind, mode: TableMode, hand: Hand) -> Result<Outcome, Emul
     let setup = [
         RequestBody::Hello {
             protocol_version: PROTOCOL_VERSION,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
         },
         RequestBody::Home,
+        // the pressures mode is a service mode: the table enables it for every run, so that
+        // each mode starts from the same sequence
+        RequestBody::SetServiceMode { enabled: true },
         RequestBody::Arm,
         RequestBody::SetMode(PRETENSION),
         RequestBody::SetMode(mode.target()),

@@ -222,6 +222,7 @@ fn noise(host: &mut Host) {
         let request = Request {
             id: 4242,
             body: RequestBody::Disarm,
+            session: host.session,
         };
         let n = encode_frame(&request, &mut buf).expect("fits");
         // another value, never the delimiter

@@ -29,7 +29,7 @@ use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
 use pam_model::RobotParams;
 use pam_protocol::{
     wire, ConfigOrigin, DecodeError, ErrorCode, FrameDecoder, ReplyData,
-    Request, RequestBody, Version,
+    Request, RequestBody, Version, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
 };
 
 /// The firmware's configuration flash: two 2 KiB pages.
@@ -208,9 +208,20 @@ impl Rig {
 fn setup(rig: &mut Rig, flags: u8, id: &mut u16) {
     let mut send = |rig: &mut Rig, body: RequestBody| {
         *id = id.wrapping_add(1);
-        rig.request(&Request { id: *id, body });
+        rig.request(&Request {
+            id: *id,
+            body,
+            session: 1,
+        });
     };
     rig.quiet_step();
+    send(
+        rig,
+        RequestBody::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
+        },
+    );
     if flags & SETUP_PERSIST != 0 {
         send(rig, RequestBody::PersistConfig);
     }
@@ -240,6 +251,9 @@ fn setup(rig: &mut Rig, flags: u8, id: &mut u16) {
         }),
     };
     if let Some(mode) = mode {
+        if matches!(mode, wire::Mode::Pressures { .. }) {
+            send(rig, RequestBody::SetServiceMode { enabled: true });
+        }
         send(rig, RequestBody::SetMode(mode));
     }
     rig.quiet_step();

@@ -31,6 +31,7 @@ pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
         &mut d,
         RequestBody::Hello {
             protocol_version: PROTOCOL_VERSION,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
         },
     ) {
         Ok(ReplyData::Hello(info)) => {
@@ -47,6 +48,7 @@ pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
                 "params hash",
                 info.params_hash == pam_protocol::params_hash(&RobotParams::thesis()),
             )?;
+            holds("a new session", info.session == SESSION + 1)?;
         }
         _ => holds("hello answered", false)?,
     }
@@ -54,6 +56,7 @@ pub fn hello_answers_versions_and_refuses_another_protocol() -> CheckResult {
         &mut d,
         RequestBody::Hello {
             protocol_version: PROTOCOL_VERSION + 1,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
         },
         ErrorCode::UnsupportedVersion,
     )
@@ -67,6 +70,7 @@ pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
     done(&mut d, RequestBody::Home)?;
     done(&mut d, RequestBody::Arm)?;
     refused(&mut d, RequestBody::Arm, ErrorCode::WrongState)?;
+    done(&mut d, RequestBody::SetServiceMode { enabled: true })?;
     done(
         &mut d,
         RequestBody::SetMode(
@@ -120,4 +124,32 @@ pub fn home_zeroes_the_angle_and_is_refused_while_armed() -> CheckResult {
     )?;
     done(&mut d, RequestBody::Arm)?;
     refused(&mut d, RequestBody::Home, ErrorCode::WrongState)
+}
+
+/// Once homed, the counts run on from boot: a re-home far from the zero in use is a wrong
+/// pose (or lost counts) and is refused; one near it corrects the zero.
+pub fn rehome_far_from_the_zero_is_refused() -> CheckResult {
+    let mut d = device();
+    steps(&mut d, 1, 0);
+    done(&mut d, RequestBody::Home)?;
+    // 0.2 rad on joint 1 (255 counts at 8000 counts/rev), moved slowly
+    let mut at = HOME;
+    for k in 1..=51 {
+        at = [HOME[0] + 5 * k, HOME[1]];
+        d.step(raw(at, k), StepTiming::default());
+    }
+    refused(&mut d, RequestBody::Home, ErrorCode::Implausible)?;
+    holds(
+        "zero unchanged",
+        d.step(raw(at, 52), StepTiming::default())
+            .telemetry
+            .map(|t| t.alpha_rad[0] > 0.19)
+            == Some(true),
+    )?;
+    // back to within 0.1 rad of the zero: the re-home is taken
+    for k in 1..=30 {
+        at = [at[0] - 5, HOME[1]];
+        d.step(raw(at, 52 + k), StepTiming::default());
+    }
+    done(&mut d, RequestBody::Home)
 }

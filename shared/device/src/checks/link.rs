@@ -1,4 +1,4 @@
-//! The link: telemetry rate and sequence, heartbeats and the command timeout, fault clearing,
+//! The link: telemetry rate and sequence, fault clearing,
 //! corrupted frames, requests through the wire.
 
 use super::*;
@@ -30,41 +30,6 @@ pub fn telemetry_divider_and_sequence() -> CheckResult {
         t.map(|t| (t.seq, t.time_us, t.loop_exec_us, t.loop_jitter_us))
             == Some((10, 123_456, 17, 3)),
     )
-}
-
-pub fn any_request_is_a_heartbeat_and_silence_times_out() -> CheckResult {
-    let mut d = armed_device()?;
-    for k in 0..1000 {
-        if k % 50 == 49 {
-            request(&mut d, RequestBody::GetStatus).map_err(|_| Failure {
-                what: "status",
-                got: 0.0,
-                expected: 1.0,
-                tolerance: 0.0,
-                index: k,
-            })?;
-        }
-        d.step(raw(HOME, k), StepTiming::default());
-    }
-    holds(
-        "alive while the host talks",
-        d.controller().state() == State::Armed,
-    )?;
-    let mut events = 0;
-    let mut first_at = 0;
-    for k in 0..300 {
-        if let Some(e) = d.step(raw(HOME, k), StepTiming::default()).fault_event {
-            events += 1;
-            first_at = k;
-            holds(
-                "timeout code",
-                e.code == 0 && e.bits == Faults::COMMAND_TIMEOUT.0,
-            )?;
-        }
-    }
-    holds("one fault event", events == 1)?;
-    near("timeout after 100 ms", first_at as f32, 100.0, 1.0)?;
-    holds("faulted", d.controller().state() == State::Faulted)
 }
 
 pub fn faults_clear_only_when_gone() -> CheckResult {
@@ -114,6 +79,7 @@ pub fn corrupted_frames_get_a_malformed_reply() -> CheckResult {
     let r = d.handle_frame(Ok(Request {
         id: 5,
         body: RequestBody::Heartbeat,
+        session: SESSION,
     }));
     holds(
         "good frame handled",
@@ -128,6 +94,7 @@ pub fn requests_survive_the_wire() -> CheckResult {
     let req = Request {
         id: 9,
         body: RequestBody::GetConfig(ConfigSection::Robot),
+        session: SESSION,
     };
     let n = pam_protocol::encode_frame(&req, &mut buf).map_err(|_| Failure {
         what: "encode",

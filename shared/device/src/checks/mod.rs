@@ -17,9 +17,23 @@ pub(crate) const OPTIONS: DeviceOptions = DeviceOptions {
     encoder_counter_bits: 16,
 };
 
+/// A device after the host's handshake: the host's session is [`SESSION`].
 pub(crate) fn device() -> Device {
-    Device::new(RobotParams::thesis(), SafetyConfig::default_1khz(), OPTIONS)
+    let mut d = Device::new(RobotParams::thesis(), SafetyConfig::default_1khz(), OPTIONS);
+    let hello = d.handle(&Request {
+        id: 1,
+        body: RequestBody::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
+        },
+        session: NO_SESSION,
+    });
+    debug_assert!(matches!(hello.result, Ok(ReplyData::Hello(i)) if i.session == SESSION));
+    d
 }
+
+/// The session of the host in [`device`].
+pub(crate) const SESSION: SessionId = 1;
 
 /// Encoders at `counts`, load cell near zero with the dither a live ADC has.
 fn raw(counts: [u32; 2], k: u32) -> RawSensors {
@@ -33,7 +47,11 @@ fn raw(counts: [u32; 2], k: u32) -> RawSensors {
 const HOME: [u32; 2] = [1000, 2000];
 
 fn request(d: &mut Device, body: RequestBody) -> Result<ReplyData, ErrorCode> {
-    let reply = d.handle(&Request { id: 77, body });
+    let reply = d.handle(&Request {
+        id: 77,
+        body,
+        session: SESSION,
+    });
     if reply.id != 77 {
         return Err(ErrorCode::Malformed);
     }
@@ -67,6 +85,7 @@ fn steps_alive(d: &mut Device, n: u32, start: u32) -> StepResult {
             d.handle(&Request {
                 id: 1,
                 body: RequestBody::Heartbeat,
+                session: SESSION,
             });
         }
         out = d.step(raw(HOME, start + k), StepTiming::default());
@@ -132,12 +151,14 @@ mod lifecycle;
 mod link;
 mod modes;
 mod sensors;
+mod session;
 
 pub use config::*;
 pub use lifecycle::*;
 pub use link::*;
 pub use modes::*;
 pub use sensors::*;
+pub use session::*;
 
 pam_model::register_checks!(
     boots_disarmed_unhomed_and_vented,
@@ -148,6 +169,9 @@ pam_model::register_checks!(
     encoder_calibration_sets_scale_and_sign,
     loadcell_volts_become_user_frame_newtons_and_tare_zeroes_them,
     tare_before_any_sample_is_refused,
+    tare_under_load_is_refused,
+    negative_load_cell_gain_is_refused,
+    rehome_far_from_the_zero_is_refused,
     out_of_range_mode_is_refused_and_nothing_changes,
     each_mode_reaches_the_outputs,
     get_config_returns_every_section,
@@ -156,7 +180,10 @@ pam_model::register_checks!(
     limits_are_validated_and_the_period_is_fixed_while_armed,
     no_configuration_moves_the_safe_state_or_loosens_a_limit,
     telemetry_divider_and_sequence,
-    any_request_is_a_heartbeat_and_silence_times_out,
+    arm_and_set_mode_need_a_session_of_this_schema,
+    only_the_commander_feeds_the_command_timeout,
+    setting_the_mode_takes_the_command,
+    pressures_mode_needs_the_service_interlock,
     faults_clear_only_when_gone,
     corrupted_frames_get_a_malformed_reply,
     requests_survive_the_wire,

@@ -4,6 +4,7 @@ use super::*;
 
 pub fn out_of_range_mode_is_refused_and_nothing_changes() -> CheckResult {
     let mut d = armed_device()?;
+    done(&mut d, RequestBody::SetServiceMode { enabled: true })?;
     let good = Mode::Pressures {
         pressure_bar: [1.0, 2.0, 3.0, 2.5],
     };
@@ -38,6 +39,7 @@ pub fn out_of_range_mode_is_refused_and_nothing_changes() -> CheckResult {
 
 pub fn each_mode_reaches_the_outputs() -> CheckResult {
     let mut d = armed_device()?;
+    done(&mut d, RequestBody::SetServiceMode { enabled: true })?;
     done(
         &mut d,
         RequestBody::SetMode(

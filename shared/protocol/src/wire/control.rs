@@ -20,14 +20,14 @@ wire_enum! {
             stiffness_nm_per_rad: [f32; 2],
             feed_forward: bool,
         },
-        /// Appended (issue 14): the variants before it keep their tags and bytes.
+        /// Appended: the variants before it keep their tags and bytes.
         ForceClosedLoop {
             force_n: [f32; 2],
             stiffness_nm_per_rad: [f32; 2],
             feed_forward: bool,
             gain_scale: f32,
         },
-        /// Appended (issue 14).
+        /// Appended.
         Impedance {
             target_user_m: [f32; 2],
             stiffness_n_per_m: [f32; 2],
@@ -61,7 +61,7 @@ wire_struct! {
         pub max_request_torque_nm: f32,
         pub max_request_stiffness_nm_per_rad: f32,
         pub max_request_force_n: f32,
-        /// Appended in protocol 5 (issue 12).
+        /// Appended in protocol 5.
         pub overrun_fault_periods: u32,
     }
 }
