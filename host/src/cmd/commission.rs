@@ -20,18 +20,19 @@ use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-/// Pressure of every muscle during the steps, bar: tensions the cables, far below the
+/// Pressure of every muscle during the steps, bar: just above the 2.3 bar that tensions the
+/// cables at the neutral pose (§2.3), far below the
 /// rig's working range.
-const BASE_BAR: f32 = 1.0;
+const BASE_BAR: f32 = 2.5;
 /// The single-channel step, bar.
-const STEP_BAR: f32 = 0.5;
+const STEP_BAR: f32 = 0.3;
 /// How long the baseline settles before and the step lasts, s.
 const SETTLE_S: f64 = 1.0;
 const STEP_S: f64 = 1.5;
 /// Averaging window at the end of each phase, s.
 const WINDOW_S: f64 = 0.2;
 /// Bounds every sample must stay within: joint speed, rad/s; handle force, N (free handle).
-const MAX_SPEED_RAD_S: f64 = 1.0;
+const MAX_SPEED_RAD_S: f64 = 2.0;
 const MAX_FORCE_N: f64 = 15.0;
 
 #[derive(Args, Debug)]
@@ -88,8 +89,8 @@ pub fn run(args: CommissionArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow
         let client = super::connect(link)?;
         writeln!(
             out,
-            "step 1: encoders and I/P channel map. With the handle free and nobody near the arm, every \
-             muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
+            "step 1: encoders and I/P channel map. With the arm resting at the neutral pose (taken as the \
+             encoders' zero), the handle free and nobody near the arm, every muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
              the joint the model names turns the way it says. Bounds: {MAX_SPEED_RAD_S} rad/s, {MAX_FORCE_N} N.",
             BASE_BAR + STEP_BAR
         )?;
@@ -160,10 +161,13 @@ fn save(path: &std::path::Path, state: &CommissionState) -> anyhow::Result<()> {
 /// and fills `state` with the responses, the tare and the largest speed and force.
 fn channel_steps(client: &Client, state: &mut CommissionState) -> anyhow::Result<()> {
     client.command(RequestBody::SetTelemetry { divider: 1 })?;
-    client.start_telemetry();
+    // the encoders' zero: the arm rests at the neutral pose, vented and disarmed
+    client.command(RequestBody::Home)?;
     client.command(RequestBody::Arm)?;
     let mut samples = Vec::new();
     enter_pressure_service(client, [BASE_BAR; 4])?;
+    // samples from before the arm are not the step's
+    client.start_telemetry();
     collect(client, SETTLE_S, 0, &mut samples, state)?;
     for c in 0..4 {
         let mut p = [BASE_BAR; 4];
@@ -233,7 +237,7 @@ fn collect(
         if stop.load(Ordering::SeqCst) {
             bail!("interrupted (Ctrl-C): vented");
         }
-        if last_beat.elapsed() > Duration::from_millis(40) {
+        if last_beat.elapsed() > Duration::from_millis(20) {
             client.heartbeat()?;
             last_beat = Instant::now();
         }
@@ -247,7 +251,8 @@ fn collect(
                 t.faults
             );
         }
-        if let Some(prev) = samples.last().map(|s: &Sample| s.t) {
+        // over 50 ms: one encoder count in one period alone reads as 1.6 rad/s
+        if let Some(prev) = samples.len().checked_sub(50).map(|i| samples[i].t) {
             let dt = (t.time_us.wrapping_sub(prev.time_us) as f64 * 1e-6).max(1e-4);
             for j in 0..2 {
                 let v = f64::from(t.alpha_rad[j] - prev.alpha_rad[j]).abs() / dt;
