@@ -165,9 +165,14 @@ fn channel_steps(client: &Client, state: &mut CommissionState) -> anyhow::Result
     client.command(RequestBody::Home)?;
     client.command(RequestBody::Arm)?;
     let mut samples = Vec::new();
-    enter_pressure_service(client, [BASE_BAR; 4])?;
+    // from the vent up to the base pressure slowly, in 20 steps over 1 s
+    enter_pressure_service(client, [0.0; 4])?;
     // samples from before the arm are not the step's
     client.start_telemetry();
+    for k in 1..=20 {
+        set_pressures(client, [BASE_BAR * k as f32 / 20.0; 4])?;
+        collect(client, 0.05, 0, &mut samples, state)?;
+    }
     collect(client, SETTLE_S, 0, &mut samples, state)?;
     for c in 0..4 {
         let mut p = [BASE_BAR; 4];

@@ -102,8 +102,8 @@ pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
             ),
         });
     }
-    // scale: only for joints that moved as expected
-    for j in 0..2 {
+    // scale: only once the map is right, and for joints that moved as expected
+    for j in (0..2).filter(|_| wrong.is_empty()) {
         let chans: Vec<&ChannelResponse> = responses
             .iter()
             .filter(|r| {
