@@ -155,8 +155,7 @@ pub fn tare(force_at_rest_n: [f64; 2]) -> Option<Finding> {
 mod tests {
     use super::{channel_map, tare, ChannelResponse};
 
-    /// The thesis's wiring: channels 1, 2 on joint 1 (2 lengthens... signs as the model),
-    /// 3, 4 on joint 2.
+    /// A rig wired as the model: channels 1 and 2 turn joint 1 either way, 3 and 4 joint 2.
     fn right() -> [ChannelResponse; 4] {
         let m = [[0.05, 0.01], [-0.05, -0.01], [0.0, -0.06], [0.0, 0.06]];
         std::array::from_fn(|c| ChannelResponse {
