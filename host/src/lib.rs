@@ -51,6 +51,9 @@ pub enum Command {
     Home,
     /// Take the present load-cell reading as zero force. Disarmed only.
     Tare,
+    /// Guided first bring-up: encoders, I/P channel map and tare, checked against the model
+    /// (handle free, nobody near the arm); resumable (docs/bring-up.md).
+    Commission(cmd::commission::CommissionArgs),
     /// Latched faults.
     #[command(subcommand)]
     Fault(cmd::fault::FaultCommand),
@@ -87,6 +90,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Disarm => cmd::disarm::run(link, out),
         Command::Home => cmd::home::run(link, out),
         Command::Tare => cmd::tare::run(link, out),
+        Command::Commission(c) => cmd::commission::run(c, link, out),
         Command::Fault(f) => cmd::fault::run(f, link, out),
         Command::Set(s) => cmd::set::run(s, link, out),
         Command::Config(c) => cmd::config::run(c, link, out),

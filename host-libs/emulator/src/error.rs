@@ -29,6 +29,8 @@ pub enum EmulatorError {
     Stopped,
     #[error("`{text}`: {reason}")]
     Injection { text: String, reason: String },
+    #[error("--miswire `{text}`: {reason}")]
+    Miswire { text: String, reason: String },
     #[error("`{text}`: {source}")]
     PlantFault {
         text: String,
@@ -58,6 +60,11 @@ impl EmulatorError {
             Stopped => "start the emulator again",
             ConfigFlash { .. } => "give a file the emulator can read and write (it is created when missing), or leave --config-flash out for a flash in memory",
             ConfigStore(_) => "an emulator bug: the emulated flash's geometry should always fit the store",
+            Miswire { .. } => {
+                "write one of swap_channels:A,B, swap_joint1_muscles, encoder_inverted:joint=N, \
+                 encoder_counts:joint=N,scale=S, loadcell_rotated:deg=D, loadcell_inverted:axis=x|z, \
+                 loadcell_gain:axis=x|z,scale=S, loadcell_axes_swapped, tare_offset:x=N,z=N"
+            }
             Injection { .. } | PlantFault { .. } => {
                 "write KIND@SECONDS with KIND one of estop, estop_release, handle_release, overrun:periods=N or a plant \
                  fault (`pamctl sim --help` lists them), e.g. loadcell_frozen@5"

@@ -27,7 +27,7 @@ mod rt;
 pub mod soak;
 mod stats;
 
-pub use config::{emulator_version, HandleMode, SimConfig};
+pub use config::{emulator_version, HandleMode, Miswire, SimConfig};
 pub use emulator::Emulator;
 pub use error::EmulatorError;
 pub use inject::{Injection, Scheduled};

@@ -47,6 +47,8 @@ pub(crate) struct Plant {
     pub(crate) last_currents_ma: [f64; 4],
     /// The configuration flash (persist, restore, erase; read at start).
     pub(crate) store: pam_config_store::ConfigStore<crate::flash::SimFlash>,
+    /// Wiring mistakes of the rig, applied in order between the twin and the device.
+    pub(crate) miswiring: Vec<crate::Miswire>,
 }
 
 impl Plant {
@@ -117,6 +119,7 @@ impl Plant {
             reports,
             last_currents_ma: [4.0; 4],
             store,
+            miswiring: config.miswiring.clone(),
         })
     }
 
@@ -179,7 +182,10 @@ impl Plant {
         let handle = self.handle_condition();
         let period_s = period_us as f64 * 1e-6;
         self.last_currents_ma = driven_ma.map(|c| c as f64);
-        let at_converters = self.board.converter_currents(self.last_currents_ma);
+        let mut at_converters = self.board.converter_currents(self.last_currents_ma);
+        for m in &self.miswiring {
+            at_converters = m.at_converters(at_converters);
+        }
         self.last = self.twin.step(period_s, at_converters, &handle);
         self.t_s += period_s;
         result
@@ -199,7 +205,12 @@ impl Plant {
     }
 
     pub(crate) fn raw_sensors(&self) -> RawSensors {
-        let seen = self.board.sensors(self.last);
+        let mut seen = self.board.sensors(self.last);
+        let lc = self.twin.config().params.load_cell;
+        for m in &self.miswiring {
+            seen.encoder_counts = m.encoder_counts(seen.encoder_counts);
+            seen.loadcell_v = m.loadcell_v(seen.loadcell_v, lc.offset_v, lc.gain_n_per_v);
+        }
         let counts = seen
             .encoder_counts
             .map(|c| (c + ENCODER_POWER_ON_COUNTS) as u32);

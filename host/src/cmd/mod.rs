@@ -1,4 +1,5 @@
 pub mod arm;
+pub mod commission;
 pub mod config;
 pub mod disarm;
 pub mod experiment;

@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use pam_emulator::{Emulator, HandleMode, Injection, Scheduled, SimConfig};
+use pam_emulator::{Emulator, HandleMode, Injection, Miswire, Scheduled, SimConfig};
 use pam_twin::EffectSet;
 use std::io::Write;
 use std::sync::atomic::Ordering;
@@ -52,6 +52,12 @@ pub struct SimArgs {
     /// the flash is in memory and starts erased.
     #[arg(long, value_name = "FILE")]
     pub config_flash: Option<std::path::PathBuf>,
+    /// Wire the emulated rig wrong (repeatable), to try `pamctl commission` against it:
+    /// swap_channels:A,B, swap_joint1_muscles, encoder_inverted:joint=N,
+    /// encoder_counts:joint=N,scale=S, loadcell_rotated:deg=D, loadcell_inverted:axis=x|z,
+    /// loadcell_gain:axis=x|z,scale=S, loadcell_axes_swapped, tare_offset:x=N,z=N.
+    #[arg(long = "miswire", value_name = "KIND")]
+    pub miswire: Vec<String>,
     /// List the twin's effects and their parameters, then exit.
     #[arg(long)]
     pub list_effects: bool,
@@ -78,7 +84,13 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         .map(|t| Scheduled::parse(t))
         .collect::<Result<Vec<_>, _>>()
         .context("--inject")?;
+    let miswiring = args
+        .miswire
+        .iter()
+        .map(|t| Miswire::parse(t))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut config = SimConfig {
+        miswiring,
         injections,
         effects,
         handle: args.handle,
@@ -108,9 +120,10 @@ pub fn run(args: SimArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let effects = config.effects.specs();
     writeln!(
         out,
-        "emulating the robot: 1 kHz device loop, handle {:?}, effects: {}, command timeout {} s; Ctrl-C stops",
+        "emulating the robot: 1 kHz device loop, handle {:?}, effects: {}, miswired: {}, command timeout {} s; Ctrl-C stops",
         config.handle,
         if effects.is_empty() { "none".to_string() } else { effects.join(" ") },
+        if args.miswire.is_empty() { "no".to_string() } else { args.miswire.join(" ") },
         config.command_timeout_s
     )?;
     out.flush()?;

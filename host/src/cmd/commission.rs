@@ -1,0 +1,337 @@
+//! `pamctl commission`: the guided first bring-up of a rig, one step at a time, with the
+//! patient away and the handle free.
+//!
+//! Each step says what it will do and what it expects, drives small pressures slowly, stops
+//! and vents at any fault, at a bound crossed or at Ctrl-C, and says what it measured.
+//! The state file makes the procedure resumable and refuses to go on after a failure.
+
+mod analysis;
+
+use crate::LinkArgs;
+use analysis::{channel_map, tare, ChannelResponse, Finding};
+use anyhow::{anyhow, bail, Context};
+use clap::Args;
+use pam_control::Mode;
+use pam_link::Client;
+use pam_protocol::{wire, RequestBody, Telemetry};
+use pam_twin::{HandleCondition, Twin, TwinConfig};
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+/// Pressure of every muscle during the steps, bar: just above the 2.3 bar that tensions the
+/// cables at the neutral pose (§2.3), far below the
+/// rig's working range.
+const BASE_BAR: f32 = 2.5;
+/// The single-channel step, bar.
+const STEP_BAR: f32 = 0.3;
+/// How long the baseline settles before and the step lasts, s.
+const SETTLE_S: f64 = 1.0;
+const STEP_S: f64 = 1.5;
+/// Averaging window at the end of each phase, s.
+const WINDOW_S: f64 = 0.2;
+/// Bounds every sample must stay within: joint speed, rad/s; handle force, N (free handle).
+const MAX_SPEED_RAD_S: f64 = 2.0;
+const MAX_FORCE_N: f64 = 15.0;
+
+#[derive(Args, Debug)]
+pub struct CommissionArgs {
+    /// The state file (resumable procedure; created when missing).
+    #[arg(long, default_value = "commission-state.json", value_name = "FILE")]
+    pub state: PathBuf,
+    /// Write the commissioning report (Markdown) to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
+    /// Start again from the first step even after a failure.
+    #[arg(long)]
+    pub restart: bool,
+}
+
+/// What the state file keeps between runs.
+#[derive(Debug, Default, serde::Serialize, serde::Deserialize)]
+struct CommissionState {
+    /// The step that passed last (`channels`), if any.
+    passed: Vec<String>,
+    /// A failed step: the procedure refuses to go on until `--restart`.
+    failed: Option<String>,
+    responses: Vec<ChannelResponse>,
+    tare_n: Option<[f64; 2]>,
+    max_speed_rad_s: f64,
+    max_force_n: f64,
+}
+
+/// One recorded sample and the phase it belongs to.
+struct Sample {
+    t: Telemetry,
+    phase: usize,
+}
+
+pub fn run(args: CommissionArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let mut state: CommissionState = match std::fs::read_to_string(&args.state) {
+        Ok(text) if !args.restart => serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a commissioning state file", args.state.display()))?,
+        _ => CommissionState::default(),
+    };
+    if let Some(step) = &state.failed {
+        bail!(
+            "the step `{step}` failed earlier ({}): fix what it named, then run `pamctl commission --restart`",
+            args.state.display()
+        );
+    }
+    if state.passed.iter().any(|s| s == "channels") {
+        writeln!(
+            out,
+            "step 1 (encoders and channel map): passed earlier, skipped"
+        )?;
+    } else {
+        let client = super::connect(link)?;
+        writeln!(
+            out,
+            "step 1: encoders and I/P channel map. With the arm resting at the neutral pose (taken as the \
+             encoders' zero), the handle free and nobody near the arm, every muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
+             the joint the model names turns the way it says. Bounds: {MAX_SPEED_RAD_S} rad/s, {MAX_FORCE_N} N.",
+            BASE_BAR + STEP_BAR
+        )?;
+        let result = channel_steps(&client, &mut state);
+        // vented whatever happened
+        let vented = client.command(RequestBody::Disarm);
+        result?;
+        vented?;
+        let mut findings = channel_map(state.responses.as_slice().try_into()?);
+        findings.extend(state.tare_n.and_then(tare));
+        for r in &state.responses {
+            writeln!(
+                out,
+                "  channel {}: joints moved ({:+.4}, {:+.4}) rad, model ({:+.4}, {:+.4}) rad",
+                r.channel + 1,
+                r.measured_rad[0],
+                r.measured_rad[1],
+                r.model_rad[0],
+                r.model_rad[1]
+            )?;
+        }
+        if let Some(f) = state.tare_n {
+            writeln!(
+                out,
+                "  at rest the load cell reads ({:+.2}, {:+.2}) N",
+                f[0], f[1]
+            )?;
+        }
+        writeln!(
+            out,
+            "  largest joint speed {:.3} rad/s (bound {MAX_SPEED_RAD_S}), largest handle force {:.2} N (bound {MAX_FORCE_N})",
+            state.max_speed_rad_s, state.max_force_n
+        )?;
+        if findings.is_empty() {
+            state.passed.push("channels".into());
+            writeln!(out, "step 1 passed: vented")?;
+        } else {
+            state.failed = Some("channels".into());
+        }
+        save(&args.state, &state)?;
+        if let Some(path) = &args.report {
+            write_report(path, &state, &findings, started.elapsed())?;
+        }
+        if !findings.is_empty() {
+            for f in &findings {
+                writeln!(out, "FAULT {}: {}\n  fix: {}", f.fault, f.detail, f.advice)?;
+            }
+            bail!(
+                "commissioning stopped at step 1 with {} finding(s); vented",
+                findings.len()
+            );
+        }
+    }
+    writeln!(
+        out,
+        "commissioning done in {:.1} s",
+        started.elapsed().as_secs_f64()
+    )?;
+    Ok(())
+}
+
+fn save(path: &std::path::Path, state: &CommissionState) -> anyhow::Result<()> {
+    std::fs::write(path, serde_json::to_string_pretty(state)?)
+        .with_context(|| format!("cannot write the state file {}", path.display()))
+}
+
+/// Arms in pressure mode (the one entry into it) at the base pressures, steps each channel,
+/// and fills `state` with the responses, the tare and the largest speed and force.
+fn channel_steps(client: &Client, state: &mut CommissionState) -> anyhow::Result<()> {
+    client.command(RequestBody::SetTelemetry { divider: 1 })?;
+    // the encoders' zero: the arm rests at the neutral pose, vented and disarmed
+    client.command(RequestBody::Home)?;
+    client.command(RequestBody::Arm)?;
+    let mut samples = Vec::new();
+    // from the vent up to the base pressure slowly, in 20 steps over 1 s
+    enter_pressure_service(client, [0.0; 4])?;
+    // samples from before the arm are not the step's
+    client.start_telemetry();
+    for k in 1..=20 {
+        set_pressures(client, [BASE_BAR * k as f32 / 20.0; 4])?;
+        collect(client, 0.05, 0, &mut samples, state)?;
+    }
+    collect(client, SETTLE_S, 0, &mut samples, state)?;
+    for c in 0..4 {
+        let mut p = [BASE_BAR; 4];
+        p[c] += STEP_BAR;
+        set_pressures(client, p)?;
+        collect(client, STEP_S, 2 * c + 1, &mut samples, state)?;
+        set_pressures(client, [BASE_BAR; 4])?;
+        collect(client, SETTLE_S, 2 * c + 2, &mut samples, state)?;
+    }
+    let model = model_alpha(&samples);
+    let mean = |phase: usize, of: &dyn Fn(usize) -> [f64; 2]| -> [f64; 2] {
+        let idx: Vec<usize> = (0..samples.len())
+            .filter(|&i| samples[i].phase == phase)
+            .collect();
+        let tail = &idx[idx.len().saturating_sub((WINDOW_S * 1000.0) as usize)..];
+        let n = tail.len().max(1) as f64;
+        let s = tail.iter().fold([0.0; 2], |a, &i| {
+            let v = of(i);
+            [a[0] + v[0], a[1] + v[1]]
+        });
+        [s[0] / n, s[1] / n]
+    };
+    let measured = |i: usize| samples[i].t.alpha_rad.map(f64::from);
+    let modelled = |i: usize| model[i];
+    state.tare_n = Some(mean(0, &|i| samples[i].t.force_user_n.map(f64::from)));
+    state.responses = (0..4)
+        .map(|c| {
+            let d = |f: &dyn Fn(usize) -> [f64; 2]| {
+                let (a, b) = (mean(2 * c, f), mean(2 * c + 1, f));
+                [b[0] - a[0], b[1] - a[1]]
+            };
+            ChannelResponse {
+                channel: c,
+                measured_rad: d(&measured),
+                model_rad: d(&modelled),
+            }
+        })
+        .collect();
+    Ok(())
+}
+
+/// The one entry into pressure mode. Pressure mode bypasses the joint and force loops, so
+/// a device that guards it behind a service interlock gets that request here.
+fn enter_pressure_service(client: &Client, pressure_bar: [f32; 4]) -> anyhow::Result<()> {
+    set_pressures(client, pressure_bar)
+}
+
+fn set_pressures(client: &Client, pressure_bar: [f32; 4]) -> anyhow::Result<()> {
+    Ok(client.command(RequestBody::SetMode(
+        Mode::Pressures { pressure_bar }.into(),
+    ))?)
+}
+
+/// Collects `seconds` of telemetry into `samples` (keeping the link alive), and stops at a
+/// fault, a disarm, a bound crossed or Ctrl-C.
+fn collect(
+    client: &Client,
+    seconds: f64,
+    phase: usize,
+    samples: &mut Vec<Sample>,
+    state: &mut CommissionState,
+) -> anyhow::Result<()> {
+    let stop = super::interrupted();
+    let start = Instant::now();
+    let mut last_beat = Instant::now();
+    while start.elapsed().as_secs_f64() < seconds {
+        if stop.load(Ordering::SeqCst) {
+            bail!("interrupted (Ctrl-C): vented");
+        }
+        if last_beat.elapsed() > Duration::from_millis(20) {
+            client.heartbeat()?;
+            last_beat = Instant::now();
+        }
+        let Some(t) = client.next_telemetry(Duration::from_millis(50))? else {
+            continue;
+        };
+        if t.faults != 0 || t.state != wire::State::Armed {
+            bail!(
+                "the device stopped the step (state {:?}, faults {:#06x}): vented",
+                t.state,
+                t.faults
+            );
+        }
+        // over 50 ms: one encoder count in one period alone reads as 1.6 rad/s
+        if let Some(prev) = samples.len().checked_sub(50).map(|i| samples[i].t) {
+            let dt = (t.time_us.wrapping_sub(prev.time_us) as f64 * 1e-6).max(1e-4);
+            for j in 0..2 {
+                let v = f64::from(t.alpha_rad[j] - prev.alpha_rad[j]).abs() / dt;
+                state.max_speed_rad_s = state.max_speed_rad_s.max(v);
+            }
+        }
+        let f = f64::from(t.force_user_n[0]).hypot(f64::from(t.force_user_n[1]));
+        state.max_force_n = state.max_force_n.max(f);
+        if state.max_speed_rad_s > MAX_SPEED_RAD_S || state.max_force_n > MAX_FORCE_N {
+            bail!(
+                "a bound was crossed (speed {:.2} rad/s, force {:.1} N): vented",
+                state.max_speed_rad_s,
+                state.max_force_n
+            );
+        }
+        samples.push(Sample { t, phase });
+    }
+    Ok(())
+}
+
+/// The model's joint angles for the same loop currents: the twin of the thesis's rig,
+/// free handle, driven with the currents the device reported.
+fn model_alpha(samples: &[Sample]) -> Vec<[f64; 2]> {
+    let mut twin = Twin::new(TwinConfig::thesis());
+    let mut prev = samples.first().map(|s| s.t.time_us).unwrap_or(0);
+    samples
+        .iter()
+        .map(|s| {
+            let dt = (s.t.time_us.wrapping_sub(prev) as f64 * 1e-6).max(1e-6);
+            prev = s.t.time_us;
+            twin.step(dt, s.t.current_ma.map(f64::from), &HandleCondition::Free);
+            twin.state().alpha_rad
+        })
+        .collect()
+}
+
+fn write_report(
+    path: &std::path::Path,
+    state: &CommissionState,
+    findings: &[Finding],
+    took: Duration,
+) -> anyhow::Result<()> {
+    let mut s =
+        String::from("# Commissioning report\n\n## Step 1: encoders and I/P channel map\n\n");
+    s += "| channel | joint 1 measured, rad | joint 1 model | joint 2 measured | joint 2 model |\n|---|---|---|---|---|\n";
+    for r in &state.responses {
+        s += &format!(
+            "| {} | {:+.4} | {:+.4} | {:+.4} | {:+.4} |\n",
+            r.channel + 1,
+            r.measured_rad[0],
+            r.model_rad[0],
+            r.measured_rad[1],
+            r.model_rad[1]
+        );
+    }
+    if let Some(f) = state.tare_n {
+        s += &format!(
+            "\nLoad cell at rest: ({:+.2}, {:+.2}) N (tolerance {} N)\n",
+            f[0],
+            f[1],
+            analysis::TARE_TOLERANCE_N
+        );
+    }
+    s += &format!(
+        "\nLargest joint speed {:.3} rad/s (bound {MAX_SPEED_RAD_S}), largest handle force {:.2} N (bound {MAX_FORCE_N}).\n\nTook {:.1} s.\n\n## Findings\n\n",
+        state.max_speed_rad_s,
+        state.max_force_n,
+        took.as_secs_f64()
+    );
+    if findings.is_empty() {
+        s += "none: wired as configured\n";
+    }
+    for f in findings {
+        s += &format!("- **{}**: {}. Fix: {}\n", f.fault, f.detail, f.advice);
+    }
+    std::fs::write(path, s).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))
+}

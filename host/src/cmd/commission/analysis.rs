@@ -1,0 +1,203 @@
+//! What the commissioning's measurements say about the wiring: pure functions of the
+//! measured and the model's joint motions and forces, so that each verdict is unit-tested.
+
+/// Relative tolerance of an encoder's scale: measured over model joint motion.
+pub const SCALE_TOLERANCE: f64 = 0.2;
+/// Largest force, N, the load cell may read with nothing touching the handle.
+pub const TARE_TOLERANCE_N: f64 = 3.0;
+
+/// How far joint `joint` (0-based) moved, rad, when output channel `channel` was raised.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ChannelResponse {
+    pub channel: usize,
+    /// Measured joint motion (through the device's encoders).
+    pub measured_rad: [f64; 2],
+    /// The model's joint motion for the same loop currents.
+    pub model_rad: [f64; 2],
+}
+
+/// One finding: what is wrong and the change that fixes it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Finding {
+    /// Short name of the fault (stable: tests and scripts match on it).
+    pub fault: &'static str,
+    pub detail: String,
+    pub advice: String,
+}
+
+fn joint_and_sign(d: [f64; 2]) -> (usize, f64) {
+    let j = if d[0].abs() >= d[1].abs() { 0 } else { 1 };
+    (j, d[j].signum())
+}
+
+/// The channel map and the encoders from the four single-channel steps (in channel
+/// order). An empty list: the wiring is as configured.
+pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
+    let mut findings = Vec::new();
+    let expected: Vec<(usize, f64)> = responses
+        .iter()
+        .map(|r| joint_and_sign(r.model_rad))
+        .collect();
+    let measured: Vec<(usize, f64)> = responses
+        .iter()
+        .map(|r| joint_and_sign(r.measured_rad))
+        .collect();
+    // a joint whose both channels turn it backwards: its encoder counts backwards, or its
+    // two muscles are exchanged (indistinguishable without the load cell)
+    let mut reversed_joint = [false; 2];
+    for (j, reversed) in reversed_joint.iter_mut().enumerate() {
+        let chans: Vec<usize> = (0..4).filter(|&c| expected[c].0 == j).collect();
+        *reversed = !chans.is_empty()
+            && chans
+                .iter()
+                .all(|&c| measured[c].0 == j && measured[c].1 == -expected[c].1);
+        if *reversed {
+            findings.push(Finding {
+                fault: if j == 0 { "joint1_reversed" } else { "joint2_reversed" },
+                detail: format!(
+                    "joint {} turned the wrong way for both its channels {} and {}",
+                    j + 1,
+                    chans[0] + 1,
+                    chans[1] + 1
+                ),
+                advice: format!(
+                    "either encoder {} counts backwards (set [calibration] encoder {} sign = -1) or the \
+                     joint's two muscle tubes are exchanged (thesis §2.3: swap the tubes of channels {} and {}, \
+                     or exchange [joint{}] channel_of_muscle); the load-cell step tells which",
+                    j + 1,
+                    j + 1,
+                    chans[0] + 1,
+                    chans[1] + 1,
+                    j + 1
+                ),
+            });
+        }
+    }
+    // channels that drive another channel's muscle
+    let mut wrong: Vec<(usize, usize)> = Vec::new();
+    for c in 0..4 {
+        if reversed_joint[expected[c].0] {
+            continue;
+        }
+        if measured[c] != expected[c] {
+            let drives = (0..4).find(|&e| expected[e] == measured[c]);
+            wrong.push((c, drives.unwrap_or(c)));
+        }
+    }
+    if !wrong.is_empty() {
+        let list: Vec<String> = wrong
+            .iter()
+            .map(|(c, e)| format!("channel {} drives the muscle of channel {}", c + 1, e + 1))
+            .collect();
+        findings.push(Finding {
+            fault: "channels_swapped",
+            detail: list.join("; "),
+            advice: format!(
+                "exchange the I/P converters' cables (or tubes) of channels {}",
+                wrong
+                    .iter()
+                    .map(|(c, _)| (c + 1).to_string())
+                    .collect::<Vec<_>>()
+                    .join(" and ")
+            ),
+        });
+    }
+    // scale: only once the map is right, and for joints that moved as expected
+    for j in (0..2).filter(|_| wrong.is_empty()) {
+        let chans: Vec<&ChannelResponse> = responses
+            .iter()
+            .filter(|r| {
+                joint_and_sign(r.model_rad).0 == j && measured[r.channel] == expected[r.channel]
+            })
+            .collect();
+        if chans.is_empty() {
+            continue;
+        }
+        let ratio = chans
+            .iter()
+            .map(|r| r.measured_rad[j].abs() / r.model_rad[j].abs().max(1e-9))
+            .sum::<f64>()
+            / chans.len() as f64;
+        if (ratio - 1.0).abs() > SCALE_TOLERANCE {
+            findings.push(Finding {
+                fault: if j == 0 {
+                    "encoder1_scale"
+                } else {
+                    "encoder2_scale"
+                },
+                detail: format!("joint {} moved {ratio:.2}× the model's angle", j + 1),
+                advice: format!(
+                    "encoder {} gives {ratio:.2}× the configured counts per revolution: multiply \
+                     [calibration] encoder {} counts_per_rev by {ratio:.2}",
+                    j + 1,
+                    j + 1
+                ),
+            });
+        }
+    }
+    findings
+}
+
+/// The tare: the force the load cell reads, N (user frame), with nothing on the handle.
+pub fn tare(force_at_rest_n: [f64; 2]) -> Option<Finding> {
+    let f = force_at_rest_n[0].hypot(force_at_rest_n[1]);
+    (f > TARE_TOLERANCE_N).then(|| Finding {
+        fault: "tare_offset",
+        detail: format!(
+            "the load cell reads ({:.1}, {:.1}) N with nothing on the handle (model: 0 N, tolerance {TARE_TOLERANCE_N} N)",
+            force_at_rest_n[0], force_at_rest_n[1]
+        ),
+        advice: "disarm, make sure nothing touches the handle, and run `pamctl tare`".to_string(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{channel_map, tare, ChannelResponse};
+
+    /// A rig wired as the model: channels 1 and 2 turn joint 1 either way, 3 and 4 joint 2.
+    fn right() -> [ChannelResponse; 4] {
+        let m = [[0.05, 0.01], [-0.05, -0.01], [0.0, -0.06], [0.0, 0.06]];
+        std::array::from_fn(|c| ChannelResponse {
+            channel: c,
+            measured_rad: m[c],
+            model_rad: m[c],
+        })
+    }
+
+    #[test]
+    fn a_right_wiring_has_no_finding() {
+        assert!(channel_map(&right()).is_empty());
+        assert!(tare([0.5, -0.3]).is_none());
+    }
+
+    #[test]
+    fn swapped_channels_across_joints_are_named() {
+        let mut r = right();
+        let (a, b) = (r[1].measured_rad, r[2].measured_rad);
+        r[1].measured_rad = b;
+        r[2].measured_rad = a;
+        let f = channel_map(&r);
+        assert_eq!(f.len(), 1, "{f:?}");
+        assert_eq!(f[0].fault, "channels_swapped");
+        assert!(f[0].advice.contains("channels 2 and 3"), "{}", f[0].advice);
+    }
+
+    #[test]
+    fn a_backwards_joint_and_a_wrong_scale_are_named() {
+        let mut r = right();
+        for c in [0, 1] {
+            r[c].measured_rad[0] = -r[c].measured_rad[0];
+        }
+        for c in [2, 3] {
+            r[c].measured_rad[1] *= 2.0;
+        }
+        let faults: Vec<&str> = channel_map(&r).iter().map(|f| f.fault).collect();
+        assert_eq!(faults, ["joint1_reversed", "encoder2_scale"]);
+    }
+
+    #[test]
+    fn a_tare_offset_is_named() {
+        assert_eq!(tare([8.0, 0.0]).unwrap().fault, "tare_offset");
+    }
+}
