@@ -311,15 +311,22 @@ fn emergency_stop_vents_within_a_period_and_latches_until_released() {
     assert!(state == State::Disarmed && bits == 0, "{state:?} {bits:#x}");
 }
 
-/// Telemetry for `seconds`, calling `each` between samples (on the same connection: the
-/// emulator streams to the newest connection that talks) until it says it is done.
+/// How much longer than asked [`stream_while`] waits for its requests to be done.
+const STREAM_DEADLINE_S: f64 = 10.0;
+
+/// Telemetry for at least `seconds`, calling `each` between samples (on the same connection:
+/// the emulator streams to the newest connection that talks) until it says it is done: a
+/// loaded machine may need longer for the requests, which must all be handled while the
+/// stream is watched (up to `STREAM_DEADLINE_S` more).
 fn stream_while(c: &Client, seconds: f64, mut each: impl FnMut(&Client) -> bool) -> Vec<Telemetry> {
     c.start_telemetry();
     let mut samples = Vec::new();
     let start = std::time::Instant::now();
     let mut last_beat = start;
     let mut busy = true;
-    while start.elapsed().as_secs_f64() < seconds {
+    while (start.elapsed().as_secs_f64() < seconds || busy)
+        && start.elapsed().as_secs_f64() < seconds + STREAM_DEADLINE_S
+    {
         if busy {
             busy = each(c);
         }
@@ -341,7 +348,10 @@ fn stream_while(c: &Client, seconds: f64, mut each: impl FnMut(&Client) -> bool)
             break;
         }
     }
-    assert!(!busy, "the disturbance did not finish within {seconds} s");
+    assert!(
+        !busy,
+        "the disturbance did not finish within {seconds} + {STREAM_DEADLINE_S} s"
+    );
     samples
 }
 

@@ -215,8 +215,12 @@ fn channel_steps(client: &Client, state: &mut CommissionState) -> anyhow::Result
 }
 
 /// The one entry into pressure mode. Pressure mode bypasses the joint and force loops, so
-/// a device that guards it behind a service interlock gets that request here.
+/// the device keeps it behind its service interlock, which this turns on first (the device
+/// takes it armed in idle, and clears it again at the disarm that ends every step).
 fn enter_pressure_service(client: &Client, pressure_bar: [f32; 4]) -> anyhow::Result<()> {
+    client
+        .set_service_mode(true)
+        .context("turning on the service interlock for the pressures mode")?;
     set_pressures(client, pressure_bar)
 }
 
