@@ -142,7 +142,7 @@ pub fn advice(code: ErrorCode) -> &'static str {
             "the device is built with another wire format: flash the firmware built from the same source as this pamctl"
         }
         ErrorCode::ServiceModeOff => {
-            "the pressures mode is a service mode: turn it on first with `pamctl service on` (disarmed or idle), or use `pamctl set pressures --service`"
+            "the pressures mode is a service mode behind the device's interlock: `pamctl set pressures --service` turns it on (disarmed, idle or already in the pressures mode)"
         }
     }
 }

@@ -13,7 +13,10 @@ use pam_control::safety::ceiling::TIMEOUT_RAMP_MAX_S;
 use pam_control::{Faults, Mode, SafetyConfig, State, MAX_LOOP_CURRENT_MA, VENT_CURRENT_MA};
 use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
 use pam_model::RobotParams;
-use pam_protocol::{Calibration, Config, OutputCalibration, Request, RequestBody, Version};
+use pam_protocol::{
+    Calibration, Config, OutputCalibration, ReplyData, Request, RequestBody, SessionId, Version,
+    NO_SESSION, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
+};
 use proptest::prelude::*;
 
 const OPTIONS: DeviceOptions = DeviceOptions {
@@ -36,6 +39,8 @@ enum Op {
         volts: [f32; 2],
     },
     Heartbeat,
+    /// The pressures mode's service interlock on or off.
+    Service(bool),
     Arm,
     Disarm,
     Home,
@@ -168,6 +173,7 @@ fn op() -> impl Strategy<Value = Op> {
         8 => (1u16..400, [-8i8..8, -8i8..8], [-0.5f32..0.5, -0.5f32..0.5])
             .prop_map(|(n, delta, volts)| Op::Steps { n, delta, volts }),
         4 => Just(Op::Heartbeat),
+        2 => any::<bool>().prop_map(Op::Service),
         3 => Just(Op::Arm),
         1 => Just(Op::Disarm),
         2 => Just(Op::Home),
@@ -193,11 +199,20 @@ struct Rig {
     k: u32,
     /// Periods since the controller faulted with a lone command timeout.
     ramp_periods: u32,
+    /// The session the device gave this host: every request after the handshake carries it.
+    session: SessionId,
 }
 
 impl Rig {
     fn request(&mut self, body: RequestBody) {
-        self.device.handle(&Request { id: 1, body });
+        let reply = self.device.handle(&Request {
+            id: 1,
+            body,
+            session: self.session,
+        });
+        if let Ok(ReplyData::Hello(info)) = reply.result {
+            self.session = info.session;
+        }
     }
 
     fn step(&mut self, volts: [f32; 2]) -> Result<(), TestCaseError> {
@@ -252,6 +267,7 @@ impl Rig {
                 }
             }
             Op::Heartbeat => self.request(RequestBody::Heartbeat),
+            Op::Service(enabled) => self.request(RequestBody::SetServiceMode { enabled }),
             Op::Arm => self.request(RequestBody::Arm),
             Op::Disarm => self.request(RequestBody::Disarm),
             Op::Home => self.request(RequestBody::Home),
@@ -316,7 +332,13 @@ proptest! {
             counts: [1000, 2000],
             k: 0,
             ramp_periods: 0,
+            session: NO_SESSION,
         };
+        rig.request(RequestBody::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            schema_fingerprint: SCHEMA_FINGERPRINT,
+        });
+        prop_assert!(rig.session != NO_SESSION, "the handshake gave no session");
         rig.step([0.02, -0.01])?;
         for op in &ops {
             let before = *rig.device.controller().safety();
