@@ -93,6 +93,7 @@ pub fn invalid_calibration_is_refused_and_output_calibration_applies() -> CheckR
         out.current_ma.iter().all(|&i| i == VENT_CURRENT_MA),
     )?;
     done(&mut d, RequestBody::Home)?;
+    done(&mut d, RequestBody::SetServiceMode { enabled: true })?;
     done(&mut d, RequestBody::Arm)?;
     done(
         &mut d,

@@ -84,7 +84,7 @@ pub fn arm_and_set_mode_need_a_session_of_this_schema() -> CheckResult {
     )?;
     holds("still disarmed", d.controller().state() == State::Disarmed)?;
     let s = hello(&mut d, SCHEMA_FINGERPRINT);
-    holds("first session", s == Ok(1))?;
+    holds("the first handshake's session", s == Ok(1))?;
     holds(
         "arm after the handshake",
         as_session(&mut d, 1, RequestBody::Arm) == Ok(ReplyData::Done),
@@ -126,7 +126,7 @@ pub fn setting_the_mode_takes_the_command() -> CheckResult {
     let mut d = armed_device()?;
     let second = hello(&mut d, SCHEMA_FINGERPRINT).unwrap_or(NO_SESSION);
     holds(
-        "mode from a second session",
+        "mode from another host's session",
         as_session(&mut d, second, RequestBody::SetMode(JOINT.into())) == Ok(ReplyData::Done),
     )?;
     holds("the second commands", d.commander() == second)?;
