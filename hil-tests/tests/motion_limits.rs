@@ -32,6 +32,7 @@ fn the_run_sh_joint_move_does_not_overshoot_by_a_degree() {
             file.to_str().unwrap(),
             "--duration",
             "4",
+            "--keep-alive",
             "--quiet",
         ],
     );

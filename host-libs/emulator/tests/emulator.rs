@@ -52,6 +52,7 @@ fn unequal_pressures_turn_the_twin_and_the_encoders_see_it() {
     let (emu, address) = start(HandleMode::Free);
     let c = connect(&address);
     c.command(RequestBody::Home).unwrap();
+    c.set_service_mode(true).unwrap();
     c.command(RequestBody::Arm).unwrap();
     let still = run(&c, 0.2);
     assert!(

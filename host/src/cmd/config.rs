@@ -14,7 +14,7 @@ use anyhow::Context;
 use clap::{Subcommand, ValueEnum};
 use pam_control::SafetyConfig;
 use pam_model::RobotParams;
-use pam_protocol::{Calibration, Config, ConfigSection, ReplyData, RequestBody};
+use pam_protocol::{wire, Calibration, Config, ConfigSection, ReplyData, RequestBody};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::PathBuf;
@@ -249,6 +249,17 @@ pub fn run(c: ConfigCommand, link: &LinkArgs, out: &mut dyn Write) -> anyhow::Re
                     .limits
                     .filter(|_| touched.iter().any(|s| s == "limits")),
             };
+            // While armed, the device takes a configuration only from the commander (and
+            // only one that tightens the limits): the operator who changes it takes the
+            // command, so the client that armed no longer keeps the mode alive.
+            if let ReplyData::Status(s) = client.request(RequestBody::GetStatus)? {
+                if s.state == wire::State::Armed {
+                    client
+                        .take_command()
+                        .context("taking the command of the armed device")?;
+                    writeln!(out, "took the command of the armed device")?;
+                }
+            }
             send(&client, &f, out)
         }
     }

@@ -67,6 +67,13 @@ fn recover(host: &mut Host) {
     if host.below(4) == 0 {
         change_overrun_count(host);
     }
+    // the script drives every mode, the pressures mode among them: a service mode, behind
+    // the device's interlock, which goes off at every disarm and fault
+    if let Err(e) = host.request(RequestBody::SetServiceMode { enabled: true }) {
+        if host.plant.device.controller().faults().is_none() {
+            host.problem(format!("service interlock refused while disarmed: {e:?}"));
+        }
+    }
     match host.request(RequestBody::Arm) {
         Ok(_) => host.report.arms += 1,
         // a fault latched again since the clear (a vented arm drifting past its range
@@ -204,6 +211,10 @@ fn bad_target(host: &mut Host) {
     };
     match host.request(RequestBody::SetMode(mode)) {
         Err(ErrorCode::OutOfRange) => host.report.bad_targets_refused += 1,
+        // a pressures target without the interlock is refused before its values are read
+        Err(ErrorCode::ServiceModeOff) if matches!(mode, wire::Mode::Pressures { .. }) => {
+            host.report.bad_targets_refused += 1
+        }
         other => host.problem(format!("bad target {mode:?} answered {other:?}")),
     }
     if host.plant.device.controller().mode() != before {
