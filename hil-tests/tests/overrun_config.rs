@@ -1,5 +1,5 @@
 //! The count of consecutive missed periods that latches `LOOP_OVERRUN` is part of the safety
-//! configuration (issue 12): set through `pamctl config set`, checked by the device (1–100),
+//! configuration: set through `pamctl config set`, checked by the device (1–100),
 //! and used by the emulated board's loop timing, the firmware's own
 //! (`pam_firmware_logic::cycle_stats`). Persisting it is in `tests/config_flash.rs`.
 

@@ -1,4 +1,4 @@
-//! Issue 14's force-step table: the §5.2 force steps at the nine poses on the twin, measured
+//! The force-step table: the §5.2 force steps at the nine poses on the twin, measured
 //! from the logs (`pam_twin::step_metrics`).
 //!
 //! ```sh
