@@ -147,6 +147,15 @@ pub fn describe_config(s: &Status) -> String {
     format!("{origin}{unsaved}")
 }
 
+/// Whether the pressures mode may be set.
+pub fn describe_service_mode(s: &Status) -> &'static str {
+    if s.service_mode {
+        "ON: the pressures mode may be set (off at the next disarm or fault)"
+    } else {
+        "off (`pamctl set pressures --service` turns it on)"
+    }
+}
+
 /// The board's self-report: VDDA, stack, board checks, the last CPU fault.
 pub fn describe_board(s: &Status) -> Vec<String> {
     let mut lines = Vec::new();
@@ -244,6 +253,10 @@ pub fn run(link: &LinkArgs, out: &mut dyn Write) -> anyhow::Result<()> {
             "loop: {} µs period, telemetry every {} period(s)",
             s.period_us, s.telemetry_divider
         ),
+    )?;
+    w(
+        out,
+        format!("service interlock: {}", describe_service_mode(&s)),
     )?;
     w(out, format!("config: {}", describe_config(&s)))?;
     for line in describe_board(&s) {

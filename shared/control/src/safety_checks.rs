@@ -242,8 +242,34 @@ pub fn a_dead_dithering_load_cell_faults_in_closed_loop() -> CheckResult {
     holds("vented", vented(&out.current_ma))
 }
 
+/// A configuration change is not a command: a host that keeps sending (tighter) limits while
+/// armed does not keep the arm alive. The timeout fires as if nothing had been sent.
+pub fn a_limits_change_does_not_feed_the_command_timeout() -> CheckResult {
+    let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+    holds("armed", c.arm().is_ok())?;
+    let timeout_periods = (c.safety().command_timeout_s / c.safety().period_s) as u32;
+    let mut tighter = SafetyConfig::default_1khz();
+    let mut timed_out_at = None;
+    for k in 0..3 * timeout_periods {
+        if k % 10 == 0 {
+            tighter.max_request_force_n *= 0.99;
+            holds("the tighter limits accepted", c.set_safety(tighter).is_ok())?;
+        }
+        let out = c.step(&sensors(k));
+        if out.faults.contains(Faults::COMMAND_TIMEOUT) {
+            timed_out_at = Some(k);
+            break;
+        }
+    }
+    holds(
+        "timed out one timeout after arming",
+        timed_out_at.is_some_and(|k| k <= timeout_periods + 2),
+    )
+}
+
 pam_model::register_checks!(
     the_safe_state_is_a_constant_whatever_the_parameters,
+    a_limits_change_does_not_feed_the_command_timeout,
     link_loss_ramps_to_the_vent_within_its_ceiling,
     every_safety_limit_has_a_ceiling,
     while_armed_the_limits_only_tighten,

@@ -114,11 +114,11 @@ impl Controller {
             return Err(Reject::WrongState);
         }
         self.force_loop_cfg = cfg;
-        self.accepted();
         Ok(())
     }
 
-    /// Any accepted command resets the command timeout.
+    /// An accepted command (arming, a mode, a keep-alive, a disarm or a clear) resets the
+    /// command timeout; a configuration change does not.
     fn accepted(&mut self) {
         self.periods_since_command = 0;
     }
@@ -291,8 +291,8 @@ impl Controller {
         if self.state == State::Armed && !self.safety.may_apply_while_armed(&safety) {
             return Err(Reject::WrongState);
         }
+        // a configuration is not a command: it does not keep an arm alive
         self.safety = safety;
-        self.accepted();
         Ok(())
     }
 
@@ -302,7 +302,6 @@ impl Controller {
             return Err(Reject::WrongState);
         }
         self.model = model;
-        self.accepted();
         Ok(())
     }
 

@@ -422,6 +422,11 @@ impl Device {
                 DONE
             }
             RequestBody::ClearFaults => {
+                // a failing board check (an output stage unsafe in reset, a bad supply) is a
+                // condition that persists: cleared, it would leave a period to arm in
+                if self.board.board_checks != 0 {
+                    return Err(ErrorCode::FaultStillPresent);
+                }
                 let sensors = self.last_sensors.ok_or(ErrorCode::WrongState)?;
                 self.controller.clear_faults(&sensors).map_err(error_code)?;
                 self.last_faults = Faults::NONE;
@@ -440,6 +445,7 @@ impl Device {
                 vdda_v: self.board.vdda_v,
                 stack: self.board.stack,
                 last_cpu_fault: self.board.last_cpu_fault,
+                service_mode: self.service_mode,
             })),
             RequestBody::SetMode(mode) => {
                 if !self.session_valid(session) {
@@ -459,7 +465,7 @@ impl Device {
                 ConfigSection::Limits => Config::Limits((*self.controller.safety()).into()),
             })),
             RequestBody::SetConfig(config) => {
-                // while armed, the limits are the commander's (a change feeds the timeout)
+                // while armed, the limits are the commander's (a change does not feed the timeout)
                 if armed && session != self.commander {
                     return Err(ErrorCode::NotCommander);
                 }

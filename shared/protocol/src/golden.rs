@@ -361,7 +361,7 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
         // … 02 Status: 02 Faulted, 03 Force {4 × f32, 01 feed_forward}, 80 03 faults
         // 0x180, 01 homed, e8 07 period_us, 0a divider, 03 DefaultsOtherVersion, 01 unsaved,
         // 02 board checks, 01 Some vdda 3.0, 01 Some stack (ac 02 used 300, e8 07 size
-        // 1000), 01 Some CPU fault (02 BusFault, ac 02 pc 300, 01 address)
+        // 1000), 01 Some CPU fault (02 BusFault, ac 02 pc 300, 01 address), 01 service mode
         (
             reply(Ok(ReplyData::Status(Status {
                 state: wire::State::Faulted,
@@ -383,9 +383,10 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
                     pc: 300,
                     address: 1,
                 }),
+                service_mode: true,
             }))),
             "00 ac 02 00 02 02 03 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 01 \
-            80 03 01 e8 07 0a 03 01 02 01 00 00 40 40 01 ac 02 e8 07 01 02 ac 02 01",
+            80 03 01 e8 07 0a 03 01 02 01 00 00 40 40 01 ac 02 e8 07 01 02 ac 02 01 01",
         ),
         // … 03 Config, 00 Robot: joint 1 (7 × f32, 01 00 channels, 3 × f32 segment),
         // joint 2 (… 02 03 …), muscle, pressure, ip, load cell (1.0 … 5.0), gain plane
@@ -530,7 +531,7 @@ fn the_schema_fingerprint_is_pinned() {
     // the same commit as the golden bytes above.
     println!("SCHEMA_FINGERPRINT = {SCHEMA_FINGERPRINT:#010x}");
     assert_eq!(
-        SCHEMA_FINGERPRINT, 0xcf75_e4ae,
+        SCHEMA_FINGERPRINT, 0x4b63_98ee,
         "{SCHEMA_FINGERPRINT:#010x}"
     );
 }

@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 /// `DeviceInfo::session`, `Heartbeat` from the commander only, `TakeCommand`,
 /// `SetServiceMode`, four error
 /// codes (`NoSession`, `NotCommander`, `SchemaMismatch`, `ServiceModeOff`).
-pub const PROTOCOL_VERSION: u16 = 7;
+pub const PROTOCOL_VERSION: u16 = 8;
 
 /// Fingerprint of the wire format: FNV-1a over [`PROTOCOL_VERSION`] and the shape of
 /// [`Request`] and [`DeviceMessage`] (every type they contain, see [`crate::wire::schema`]),
@@ -275,6 +275,9 @@ wire_struct! {
         pub stack: Option<StackUsage>,
         /// The CPU fault exception that ended the previous run, if one did.
         pub last_cpu_fault: Option<CpuFault>,
+        /// The service interlock is on: the pressures mode may be set (`SetServiceMode`;
+        /// cleared at every disarm and fault).
+        pub service_mode: bool,
     }
 }
 

@@ -148,6 +148,7 @@ fn every_device_message() -> Vec<DeviceMessage> {
             pc: 0x0800_1234,
             address: 0x4000_0000,
         }),
+        service_mode: true,
     };
     let info = device_info();
     let mut v: Vec<DeviceMessage> = [

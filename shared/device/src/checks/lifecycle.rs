@@ -87,6 +87,36 @@ pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
     holds("vented at once", out.current_ma.iter().all(|&i| i == 4.0))
 }
 
+/// A board whose output stage can drive current while the MCU is in reset (the first
+/// revision, or a board that does not identify itself: the firmware reads its straps at
+/// boot) never arms: its `SELF_CHECK` cannot be cleared, so not even one period is left to
+/// arm in, and the host sees why.
+pub fn a_board_unsafe_in_reset_never_arms() -> CheckResult {
+    let mut d = device();
+    d.set_board_health(BoardHealth {
+        board_checks: pam_protocol::BOARD_CHECK_OUTPUT_STAGE,
+        ..d.board_health()
+    });
+    steps(&mut d, 1, 0);
+    done(&mut d, RequestBody::Home)?;
+    refused(&mut d, RequestBody::Arm, ErrorCode::WrongState)?;
+    refused(
+        &mut d,
+        RequestBody::ClearFaults,
+        ErrorCode::FaultStillPresent,
+    )?;
+    refused(&mut d, RequestBody::Arm, ErrorCode::WrongState)?;
+    let out = steps(&mut d, 1, 1);
+    holds("vented", out.current_ma.iter().all(|&i| i == 4.0))?;
+    let s = status(&mut d)?;
+    holds(
+        "the status says why",
+        s.board_checks == pam_protocol::BOARD_CHECK_OUTPUT_STAGE
+            && s.faults & Faults::SELF_CHECK.0 != 0
+            && d.controller().state() != State::Armed,
+    )
+}
+
 pub fn home_zeroes_the_angle_and_is_refused_while_armed() -> CheckResult {
     let mut d = device();
     let t = steps(&mut d, 1, 0)

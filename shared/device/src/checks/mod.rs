@@ -164,6 +164,7 @@ pam_model::register_checks!(
     boots_disarmed_unhomed_and_vented,
     hello_answers_versions_and_refuses_another_protocol,
     arm_needs_homing_and_disarm_vents,
+    a_board_unsafe_in_reset_never_arms,
     home_zeroes_the_angle_and_is_refused_while_armed,
     encoder_counts_survive_counter_wrap_both_ways,
     encoder_calibration_sets_scale_and_sign,

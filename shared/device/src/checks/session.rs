@@ -179,7 +179,9 @@ pub fn pressures_mode_needs_the_service_interlock() -> CheckResult {
         ErrorCode::WrongState,
     )?;
     done(&mut d, RequestBody::Disarm)?;
+    holds("the status shows it off", !status(&mut d)?.service_mode)?;
     done(&mut d, RequestBody::SetServiceMode { enabled: true })?;
+    holds("the status shows it on", status(&mut d)?.service_mode)?;
     done(&mut d, RequestBody::Arm)?;
     done(&mut d, RequestBody::SetMode(pressures))?;
     // off leaves the pressures mode at once
@@ -193,5 +195,8 @@ pub fn pressures_mode_needs_the_service_interlock() -> CheckResult {
     // a disarm ends it
     done(&mut d, RequestBody::SetServiceMode { enabled: true })?;
     done(&mut d, RequestBody::Disarm)?;
-    holds("off after a disarm", !d.service_mode())
+    holds(
+        "off after a disarm",
+        !d.service_mode() && !status(&mut d)?.service_mode,
+    )
 }
