@@ -42,7 +42,7 @@ use embassy_stm32::interrupt::Priority;
 use embassy_stm32::pac;
 use embassy_stm32::peripherals::{
     ADC1, ADC2, FLASH, IWDG, PA0, PA1, PA11, PA12, PA5, PB0, PB1, PB12, PB13, PB14, PB15, PB2, PC0,
-    PC1, PC10, PC11, PC12, PC6, PC7, PC8, PC9, TIM2, TIM3, TIM5, USB,
+    PC1, PC10, PC11, PC12, PC6, PC7, PC8, PC9, RNG, TIM2, TIM3, TIM5, USB,
 };
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{Peri, Peripherals};
@@ -229,6 +229,14 @@ pub type LoadCellAdcSlave = ADC2;
 pub type UsbPeripheral = USB;
 
 embassy_stm32::bind_interrupts!(
+    /// The random number generator's interrupt (the boot's draw polls; the driver wants it
+    /// bound).
+    pub struct RngIrqs {
+        RNG => embassy_stm32::rng::InterruptHandler<RNG>;
+    }
+);
+
+embassy_stm32::bind_interrupts!(
     /// The USB peripheral's interrupt (low priority: `LINK_PRIORITY`).
     pub struct UsbIrqs {
         USB_LP => embassy_stm32::usb::InterruptHandler<USB>;
@@ -298,6 +306,9 @@ pub struct Board {
     /// The board revision's straps (read once at boot).
     pub strap0: Peri<'static, PC10>,
     pub strap1: Peri<'static, PC11>,
+    /// The random number generator (on the 48 MHz clock): the session tokens' nonce, drawn
+    /// once at boot.
+    pub rng: Peri<'static, RNG>,
 }
 
 impl Board {
@@ -342,6 +353,7 @@ impl Board {
             flash: p.FLASH,
             strap0: p.PC10,
             strap1: p.PC11,
+            rng: p.RNG,
         }
     }
 }

@@ -143,6 +143,14 @@ fn read_board_revision(
     BoardRevision::from_straps(s0.is_high(), s1.is_high())
 }
 
+/// The session tokens' nonce for this boot, from the random number generator (its driver
+/// discards the first word and re-seeds on a seed or clock error; the generator is then
+/// switched off).
+fn draw_boot_nonce(rng: embassy_stm32::Peri<'static, embassy_stm32::peripherals::RNG>) -> u32 {
+    let mut rng = embassy_stm32::rng::Rng::new(rng, board::RngIrqs);
+    rng.next_u32()
+}
+
 #[entry]
 fn main() -> ! {
     // Before anything can reset again: why did the last reset happen, and did a CPU fault
@@ -163,6 +171,7 @@ fn main() -> ! {
     // the stop's handler writes the outputs' safe compares: after they exist
     let estop = estop::EStop::new(board.estop);
     let board_revision = read_board_revision(board.strap0, board.strap1);
+    let boot_nonce = draw_boot_nonce(board.rng);
     fault_board::paint_stack();
     info!(
         "pam-firmware {}: STM32G474RE at 170 MHz, reset cause {}, stack guard {}, board revision {} (outputs safe in reset: {})",
@@ -198,6 +207,7 @@ fn main() -> ! {
             firmware_version: FIRMWARE_VERSION,
             // the encoder driver delivers 64-bit extended counts, passed on as u32
             encoder_counter_bits: 32,
+            boot_nonce,
         },
     );
     device.boot_config(match store.as_mut() {

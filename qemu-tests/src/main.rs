@@ -193,6 +193,7 @@ fn main() -> ! {
                 patch: 0,
             },
             encoder_counter_bits: 16,
+            boot_nonce: 0,
         },
     );
     let req = |body| Request {

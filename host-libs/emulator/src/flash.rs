@@ -101,6 +101,7 @@ mod tests {
                     patch: 0,
                 },
                 encoder_counter_bits: 16,
+                boot_nonce: 0,
             },
         );
         s.save(&d.stored_config()).unwrap();

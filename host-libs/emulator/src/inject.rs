@@ -275,6 +275,7 @@ mod tests {
             DeviceOptions {
                 firmware_version: crate::emulator_version(),
                 encoder_counter_bits: 16,
+                boot_nonce: 0,
             },
         )
     }

@@ -75,6 +75,7 @@ impl Plant {
             DeviceOptions {
                 firmware_version: emulator_version(),
                 encoder_counter_bits: ENCODER_COUNTER_BITS,
+                boot_nonce: boot_nonce(),
             },
         );
         // the rig's calibration: the twin's encoder resolution
@@ -270,4 +271,13 @@ impl Plant {
             HandleMode::Operator => HandleCondition::Free,
         }
     }
+}
+
+/// A number for the device's session tokens that differs at every start of the emulator, as
+/// the board's random number generator draws one at every boot: std's hasher keys come
+/// from the operating system's randomness.
+fn boot_nonce() -> u32 {
+    use std::hash::BuildHasher;
+    let state = std::collections::hash_map::RandomState::new();
+    state.hash_one(std::time::SystemTime::now()) as u32
 }

@@ -108,6 +108,7 @@ fn serve(listener: TcpListener, options: Options, stop: &AtomicBool, corrupted: 
                 patch: 1,
             },
             encoder_counter_bits: 16,
+            boot_nonce: 0,
         },
     );
     let mut client: Option<TcpStream> = None;

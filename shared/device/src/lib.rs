@@ -91,6 +91,11 @@ pub struct DeviceOptions {
     pub firmware_version: Version,
     /// Width of the encoder counters (16 or 32).
     pub encoder_counter_bits: u8,
+    /// A number drawn at every boot (the MCU's random number generator; the emulator's
+    /// operating system): the session tokens are the boot's handshakes masked by it, so a
+    /// token a host kept from before a reset is refused after it, however many handshakes
+    /// follow. 0 leaves the tokens 1, 2, 3… (tests).
+    pub boot_nonce: u32,
 }
 
 /// Pressures above this are never allowed, whatever parameters the host sends (the
@@ -112,8 +117,9 @@ pub struct Device {
     config_origin: ConfigOrigin,
     config_unsaved: bool,
     board: BoardHealth,
-    /// Sessions issued since boot (`Hello` replies): 1..=`sessions_issued` are valid.
-    sessions_issued: SessionId,
+    /// Handshakes since boot (`Hello` replies): the tokens of 1..=`sessions_issued`, masked
+    /// by the boot's nonce, are sessions.
+    sessions_issued: u32,
     /// The session whose control requests feed the command timeout ([`NO_SESSION`]: none).
     commander: SessionId,
     /// The pressures mode's service interlock.
@@ -154,7 +160,7 @@ impl Device {
             config_origin: ConfigOrigin::DefaultsNoStorage,
             config_unsaved: false,
             board: BoardHealth::default(),
-            sessions_issued: NO_SESSION,
+            sessions_issued: 0,
             commander: NO_SESSION,
             service_mode: false,
         }
@@ -307,7 +313,18 @@ impl Device {
     }
 
     fn session_valid(&self, session: SessionId) -> bool {
-        session != NO_SESSION && session <= self.sessions_issued
+        let count = session ^ self.options.boot_nonce;
+        session != NO_SESSION && count != 0 && count <= self.sessions_issued
+    }
+
+    /// The next handshake's token: its count masked by the boot's nonce, never
+    /// [`NO_SESSION`] (the one count the mask would turn into it is skipped).
+    fn issue_session(&mut self) -> SessionId {
+        self.sessions_issued = self.sessions_issued.saturating_add(1);
+        if self.sessions_issued ^ self.options.boot_nonce == NO_SESSION {
+            self.sessions_issued = self.sessions_issued.saturating_add(1);
+        }
+        self.sessions_issued ^ self.options.boot_nonce
     }
 
     /// A control request of `session`: it becomes the commander and feeds the timeout.
@@ -334,14 +351,14 @@ impl Device {
                     return Err(ErrorCode::SchemaMismatch);
                 }
                 // a new session never takes the command: it is only allowed to ask for it
-                self.sessions_issued = self.sessions_issued.saturating_add(1);
+                let session = self.issue_session();
                 Ok(ReplyData::Hello(DeviceInfo {
                     protocol_version: PROTOCOL_VERSION,
                     schema_fingerprint: SCHEMA_FINGERPRINT,
                     firmware_version: self.options.firmware_version,
                     period_us: self.period_us(),
                     params_hash: pam_protocol::params_hash(&self.controller.model().params),
-                    session: self.sessions_issued,
+                    session,
                 }))
             }
             RequestBody::Heartbeat => {

@@ -26,6 +26,7 @@ const OPTIONS: DeviceOptions = DeviceOptions {
         patch: 0,
     },
     encoder_counter_bits: 16,
+    boot_nonce: 0,
 };
 
 /// One thing the host (or time) does.

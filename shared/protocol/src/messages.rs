@@ -49,8 +49,10 @@ pub type RequestId = u16;
 pub const UNKNOWN_REQUEST_ID: RequestId = 0;
 
 /// A host's session with the device: issued by the device in the `Hello` reply, carried by
-/// every later request of that host.
-pub type SessionId = u16;
+/// every later request of that host. A token, not a count: the device masks its count of
+/// handshakes with a number drawn at boot, so a token from before a reset is not a
+/// session after it.
+pub type SessionId = u32;
 
 /// The session of a host that has not done the handshake.
 pub const NO_SESSION: SessionId = 0;

@@ -88,7 +88,7 @@ fn every_request() -> Vec<Request> {
         .map(|(i, b)| Request {
             id: (i as u16 + 1) * 1000,
             body: *b,
-            session: i as u16,
+            session: u32::from(i as u16),
         })
         .collect()
 }
@@ -471,7 +471,7 @@ fn same_bits<T: serde::Serialize>(a: &T, b: &T) -> bool {
 proptest! {
     #[test]
     fn any_set_mode_round_trips(id in any::<u16>(), mode in arb_mode()) {
-        let r = Request { id, body: RequestBody::SetMode(mode.into()), session: id };
+        let r = Request { id, body: RequestBody::SetMode(mode.into()), session: u32::from(id) };
         let out = feed(&mut FrameDecoder::<Request>::new(), &frame_of(&r));
         prop_assert_eq!(out.len(), 1);
         let got = out[0].unwrap();

@@ -72,6 +72,7 @@ impl Rig {
                     patch: 0,
                 },
                 encoder_counter_bits: 16,
+                boot_nonce: 0,
             },
         );
         let store = ConfigStore::new(Flash::new(), 0).expect("two pages fit");

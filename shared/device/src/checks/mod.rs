@@ -15,6 +15,7 @@ pub(crate) const OPTIONS: DeviceOptions = DeviceOptions {
         patch: 0,
     },
     encoder_counter_bits: 16,
+    boot_nonce: 0,
 };
 
 /// A device after the host's handshake: the host's session is [`SESSION`].
@@ -182,6 +183,7 @@ pam_model::register_checks!(
     no_configuration_moves_the_safe_state_or_loosens_a_limit,
     telemetry_divider_and_sequence,
     arm_and_set_mode_need_a_session_of_this_schema,
+    a_session_does_not_survive_a_reboot,
     only_the_commander_feeds_the_command_timeout,
     setting_the_mode_takes_the_command,
     pressures_mode_needs_the_service_interlock,

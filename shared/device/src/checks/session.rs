@@ -56,6 +56,59 @@ const JOINT: Mode = Mode::Joint {
     stiffness_nm_per_rad: [20.0, 20.0],
 };
 
+/// A token kept from before a reset is no session after it, however many handshakes the
+/// new boot has answered; a guess is no session either. Each boot draws its own nonce.
+pub fn a_session_does_not_survive_a_reboot() -> CheckResult {
+    let boot = |nonce: u32| {
+        let mut d = Device::new(
+            RobotParams::thesis(),
+            SafetyConfig::default_1khz(),
+            DeviceOptions {
+                boot_nonce: nonce,
+                ..OPTIONS
+            },
+        );
+        steps(&mut d, 1, 0);
+        d
+    };
+    let mut before = boot(0x9e37_79b9);
+    let mut kept = [NO_SESSION; 5];
+    for slot in kept.iter_mut() {
+        *slot = hello(&mut before, SCHEMA_FINGERPRINT).map_err(|_| Failure {
+            what: "a handshake before the reset",
+            got: 0.0,
+            expected: 1.0,
+            tolerance: 0.0,
+            index: 0,
+        })?;
+    }
+    holds(
+        "the tokens are not the count of handshakes",
+        kept.iter().zip(1u32..).all(|(&t, n)| t != n),
+    )?;
+    let mut after = boot(0x7f4a_7c15);
+    for k in 0..20 {
+        let _ = hello(&mut after, SCHEMA_FINGERPRINT);
+        as_session(&mut after, NO_SESSION, RequestBody::Home).ok();
+        for &token in &kept {
+            holds(
+                "a token from before the reset cannot arm",
+                as_session(&mut after, token, RequestBody::Arm) == Err(ErrorCode::NoSession),
+            )?;
+        }
+        // nor a guess at the count of handshakes
+        holds(
+            "a count is no token",
+            as_session(&mut after, k + 1, RequestBody::Arm) == Err(ErrorCode::NoSession),
+        )?;
+    }
+    let own = hello(&mut after, SCHEMA_FINGERPRINT).unwrap_or(NO_SESSION);
+    holds(
+        "the new boot's own token arms",
+        as_session(&mut after, own, RequestBody::Arm) == Ok(ReplyData::Done),
+    )
+}
+
 pub fn arm_and_set_mode_need_a_session_of_this_schema() -> CheckResult {
     let mut d = Device::new(RobotParams::thesis(), SafetyConfig::default_1khz(), OPTIONS);
     steps(&mut d, 1, 0);
