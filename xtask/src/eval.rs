@@ -38,8 +38,13 @@ struct Section {
     runs: fn(quick: bool) -> Vec<Vec<String>>,
 }
 
+/// The words of a command; a trailing `--` with no arguments after it is left out.
 fn words(s: &str) -> Vec<String> {
-    s.split_whitespace().map(String::from).collect()
+    let mut w: Vec<String> = s.split_whitespace().map(String::from).collect();
+    if w.last().is_some_and(|l| l == "--") {
+        w.pop();
+    }
+    w
 }
 
 fn confusion(args: &str) -> Vec<String> {
@@ -396,9 +401,15 @@ fn section(s: &Section, quick: bool, stamp: &str) -> (String, bool) {
 
 /// The arguments after `--` (the example's own), or all of them.
 fn after_dashes(args: &[String]) -> String {
-    match args.iter().position(|a| a == "--") {
+    let own = match args.iter().position(|a| a == "--") {
         Some(i) => args[i + 1..].join(" "),
+        None if args.first().is_some_and(|a| a == "run") => String::new(),
         None => args.join(" "),
+    };
+    if own.is_empty() {
+        "(no arguments)".into()
+    } else {
+        own
     }
 }
 

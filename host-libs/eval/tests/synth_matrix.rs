@@ -203,9 +203,9 @@ fn loop_names_the_hidden_effect_whatever_the_operator_does() {
 /// The fast floor: the first logs of [`loop_names_the_hidden_effect_of_independent_logs`]'s
 /// plan (every family of both experiments once, five controls).
 const FAST_CASES: usize = 20;
-/// Measured FAST_RIGHT/20 and 0/5 false alarms; the floor is one log under that.
+/// Measured 19/20 and 0/5 false alarms; the floor is one log under that.
 const FAST_FLOOR_ACCURACY: f64 = FAST_RIGHT_FLOOR / FAST_CASES as f64;
-const FAST_RIGHT_FLOOR: f64 = 19.0;
+const FAST_RIGHT_FLOOR: f64 = 18.0;
 
 #[test]
 fn loop_names_the_hidden_effect_of_the_first_independent_logs() {
