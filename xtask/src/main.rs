@@ -7,6 +7,8 @@
 //! - `qemu-bench`  instruction counts and f32-vs-f64 precision on the Cortex-M4F, with libm
 //!   and with micromath.
 //! - `bench`       criterion benchmarks on the host.
+//! - `eval`        `[--quick] [--only NAME] [--list]`: the evaluation suites (pam-eval, the
+//!   twin's tables, the QEMU counts); writes docs/results.md ([`eval`]).
 //! - `firmware`    release build of the board firmware, with its flash and static-RAM size.
 //! - `fuzz`        the cargo-fuzz targets (`cargo +nightly fuzz run`, [`fuzz`]).
 //! - `soak`        `[--hours H] [--seed S]`: hours of emulated operation with random targets
@@ -17,6 +19,7 @@
 //! Works from any directory and with `CARGO_TARGET_DIR` set, absolute or relative to where
 //! `cargo xtask` runs ([`target_dir`]).
 
+mod eval;
 mod fault_table;
 mod fuzz;
 mod target_dir;
@@ -36,11 +39,12 @@ fn main() {
         },
         Some("firmware") => firmware().map(|_| 0).unwrap_or(1),
         Some("bench") => run_status(cargo_in(&root()).args(["bench", "-p", "pam-model"])),
+        Some("eval") => eval::eval(&args[1..]),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("soak") => soak(&args[1..]),
         Some("fault-table") => fault_table::fault_table(&args[1..]),
         _ => {
-            eprintln!("usage: cargo xtask <test | qemu-fault-paths | qemu-bench | bench | firmware | fuzz | soak | fault-table>");
+            eprintln!("usage: cargo xtask <test | eval | qemu-fault-paths | qemu-bench | bench | firmware | fuzz | soak | fault-table>");
             2
         }
     };

@@ -78,7 +78,7 @@ fn nothing_hidden_on_the_thesis_protocol_gives_none() {
 /// as drawn, and the verdict's family (`None` for "none").
 fn synth_x_then_y(index: u64) -> (pam_synth::Family, Option<String>) {
     use pam_synth::case::StepOrder;
-    let plan = pam_synth::judge::plan(320, 440_000, Some(pam_synth::Experiment::Step));
+    let plan = pam_synth::balanced::plan(320, 440_000, Some(pam_synth::Experiment::Step));
     let spec = pam_synth::CaseSpec {
         step_order: StepOrder::XThenY,
         ..plan[index as usize].clone()

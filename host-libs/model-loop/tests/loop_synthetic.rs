@@ -128,7 +128,7 @@ fn velocity_squared_is_found_with_its_coefficient() {
 /// At 1 ms only: on this simulator (Cartesian stiffness, joint-space cubic) at 50 ms the
 /// loop ranks pose_dependence above nonlinear_stiffness (both reduce the error; see the
 /// report). On the twin, whose stiffness is in joint space like the rig's, it is found at
-/// 50 ms too (tests/twin_loop.rs).
+/// 50 ms too (pam-eval's tests/twin_loop.rs).
 #[test]
 fn nonlinear_stiffness_is_found_with_its_cubic_coefficient() {
     for (k, &(dt, noise, dur)) in REGIMES.iter().enumerate().skip(1) {

@@ -31,7 +31,7 @@ use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_model_loop::diagnose::{diagnose, Settings};
 use pam_model_loop::effects::Experiment as LoopExperiment;
-use pam_synth::judge::plan;
+use pam_synth::balanced::plan;
 use pam_synth::{generate, Family, Shape};
 use serde_json::Value;
 

@@ -8,7 +8,7 @@ use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_model_loop::diagnose::{diagnose, Settings};
 use pam_model_loop::effects::Experiment as LoopExperiment;
-use pam_synth::judge::plan;
+use pam_synth::balanced::plan;
 use pam_synth::{generate, Experiment, Family};
 
 fn diagnosis_on(threads: usize, trial: &Trial, experiment: LoopExperiment) -> String {

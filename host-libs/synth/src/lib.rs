@@ -10,12 +10,12 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
+pub mod balanced;
 pub mod case;
 mod dyn_effects;
 mod dynamic;
 mod effect;
 pub mod error;
-pub mod judge;
 pub mod motion;
 pub mod nuisance;
 pub mod plan;

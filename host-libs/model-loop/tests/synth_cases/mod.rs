@@ -4,7 +4,7 @@
 
 use pam_ident::Trial;
 use pam_model_loop::diagnose::Diagnosis;
-use pam_synth::judge::plan;
+use pam_synth::balanced::plan;
 use pam_synth::{generate, CaseSpec, Experiment, Shape};
 
 /// The case with `seed` of the plan from `seed0` (of `experiment`, or both), checked to be

@@ -2,7 +2,7 @@
 # The loop against twin logs stripped to the log-format-v1 columns (no metadata): one line per
 # (experiment, hidden effect, period) with the verdict and the effect named first. Build first:
 #   cargo build --release -p pamctl
-# then: bash host-libs/ident/eval/matrix.sh   (OUT=dir for the logs, default /tmp/eval; KEEP=comma list of
+# then: bash host-libs/eval/scripts/matrix.sh   (OUT=dir for the logs, default /tmp/eval; KEEP=comma list of
 # the columns kept, default all eleven; PERIODS, POINT, POSE, STIFFNESS, STEPS_ONLY=1 and
 # SIMARGS (e.g. "--noise 1 --duration 45") vary the cases, DYN_SPECS replaces the dynamic
 # specs and DYN_ONLY=1 skips the step tests; needs python3)

@@ -5,7 +5,7 @@
 //! plus the load cell's noise): the identification's own bias, with no robot in it.
 //!
 //! ```sh
-//! cargo run --release -p pam-model-loop --example impedance_bias -- K B [M] [POINT] [SECONDS]
+//! cargo run --release -p pam-eval --example impedance_bias -- K B [M] [POINT] [SECONDS]
 //! ```
 
 use pam_ident::msd;

@@ -1,14 +1,14 @@
 //! Judging the model loop against the truth, through the diagnosis's JSON only (so the
 //! loop's Rust types can change freely), and the confusion matrix of many cases. Shared
-//! by `host-libs/model-loop/examples/confusion.rs` and `host-libs/model-loop/tests/synth_matrix.rs`.
+//! by the `confusion` example and the `synth_matrix` suite.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 use serde_json::Value;
 
-use crate::case::{CaseSpec, Experiment, Family, Shape, PERIODS_S, TONE_MAX_PERIOD_S};
-use crate::truth::Truth;
+use pam_synth::case::Family;
+use pam_synth::truth::Truth;
 
 /// What the loop said, read from `serde_json::to_value(&diagnosis)`.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -106,58 +106,6 @@ pub struct CaseResult {
     pub seconds: f64,
     /// Set when the log could not be generated or diagnosed.
     pub error: Option<String>,
-}
-
-/// A balanced plan of `n` cases from seed `seed0`: every fourth a control, the others
-/// cycling over every (experiment, shape) of the effect families and `unexplained`.
-pub fn plan(n: usize, seed0: u64, experiment: Option<Experiment>) -> Vec<CaseSpec> {
-    let exps: Vec<Experiment> = match experiment {
-        Some(e) => vec![e],
-        None => Experiment::ALL.to_vec(),
-    };
-    // alternate the experiments so a short plan covers both
-    let per_exp: Vec<Vec<(Experiment, Shape)>> = exps
-        .iter()
-        .map(|&e| {
-            Shape::ALL
-                .into_iter()
-                .filter(|s| *s != Shape::Control && s.experiments().contains(&e))
-                .map(|s| (e, s))
-                .collect()
-        })
-        .collect();
-    let longest = per_exp.iter().map(Vec::len).max().unwrap_or(0);
-    let mut slots: Vec<(Experiment, Shape)> = Vec::new();
-    for k in 0..longest {
-        for list in &per_exp {
-            slots.push(list[k % list.len()]);
-        }
-    }
-    let mut out = Vec::with_capacity(n);
-    let (mut k_effect, mut k_control) = (0usize, 0usize);
-    for i in 0..n {
-        let seed = seed0 + i as u64;
-        let spec = if i % 4 == 3 {
-            let e = exps[k_control % exps.len()];
-            k_control += 1;
-            CaseSpec::random(seed, Some(e), Some(Family::None))
-        } else {
-            let (e, s) = slots[k_effect % slots.len()];
-            k_effect += 1;
-            CaseSpec::random(seed, Some(e), Some(s.family())).and_then(|mut c| {
-                if s.needs_fast_sampling() && c.dt_s > TONE_MAX_PERIOD_S {
-                    c.dt_s = PERIODS_S[(seed % 3) as usize];
-                    c.duration_s = c
-                        .duration_s
-                        .min(crate::case::MAX_SAMPLES as f64 * c.dt_s)
-                        .round();
-                }
-                c.with_shape(s)
-            })
-        };
-        out.push(spec.expect("every planned case is valid"));
-    }
-    out
 }
 
 /// One line per case.

@@ -2,7 +2,7 @@
 //! diagnosed and judged through the diagnosis's JSON; per-case lines, the confusion matrix,
 //! accuracy, false alarms and timings.
 //!
-//! `cargo run -p pam-model-loop --release --example confusion -- --logs 300 --seed0 1000
+//! `cargo run -p pam-eval --release --example confusion -- --logs 300 --seed0 1000
 //!  [--experiment dynamic|step] [--family F] [--period-s DT] [--jobs 2] [--out DIR] [--json FILE] [--only SEED,SEED] [--set NAME=VALUE] [--step-order alternating|x_then_y]
 //!  [--nuisance none|random|jitter=J,drops=R,heavy_tails,spikes=R,lsb=N]
 //!  [--motion sines|multisine|reach_and_hold|circles|random]
@@ -13,12 +13,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
+use pam_eval::judge::{self, CaseResult, LoopSays, Outcome};
 use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_model_loop::diagnose::{diagnose, Settings};
 use pam_model_loop::effects::Experiment as LoopExperiment;
+use pam_synth::balanced;
 use pam_synth::case::{StepLevelsPlan, StepOrder};
-use pam_synth::judge::{self, CaseResult, LoopSays, Outcome};
 use pam_synth::{generate, CaseSpec, Experiment, Family, MotionPlan, NuisancePlan};
 
 struct Args {
@@ -184,7 +185,7 @@ fn main() {
         std::fs::create_dir_all(dir).expect("creating --out");
     }
     let specs = match a.family {
-        None => judge::plan(a.logs, a.seed0, a.experiment),
+        None => balanced::plan(a.logs, a.seed0, a.experiment),
         Some(f) => (0..a.logs as u64)
             .map(|i| CaseSpec::random(a.seed0 + i, a.experiment, Some(f)))
             .collect::<Result<Vec<_>, _>>()

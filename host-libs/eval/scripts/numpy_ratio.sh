@@ -5,7 +5,7 @@
 # script fits one mass-spring-damper by np.linalg.lstsq (the thesis's eq. 4.28 regression:
 # no base variants, no effects, no cross-validation), so the ratio is what the whole
 # diagnosis costs against one naive fit.
-#   bash host-libs/ident/eval/numpy_ratio.sh        (needs python3; installs numpy with pip if missing)
+#   bash host-libs/eval/scripts/numpy_ratio.sh        (needs python3; installs numpy with pip if missing)
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
 python3 -c 'import numpy' 2>/dev/null || python3 -m pip install --quiet numpy

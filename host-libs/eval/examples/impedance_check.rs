@@ -3,7 +3,7 @@
 //! in transparent mode (K = 0).
 //!
 //! ```sh
-//! cargo run --release -p pam-model-loop --example impedance_check -- [POINT] [SECONDS] [EFFECT]
+//! cargo run --release -p pam-eval --example impedance_check -- [POINT] [SECONDS] [EFFECT]
 //! ```
 
 use pam_ident::msd;

@@ -1,0 +1,13 @@
+//! `pam-eval`: how well the model loop does, measured.
+//!
+//! - [`judge`]: scores a diagnosis (its JSON) against the truth a generator hid in the log,
+//!   and draws the confusion matrix of many cases.
+//! - `tests/`: the accuracy suites. `cargo test -p pam-eval` runs the fast regression floors
+//!   (a few representative cases per family); the full suites (`synth_matrix`, `twin_loop`)
+//!   need `--features suites` and run under `cargo xtask eval`.
+//! - `examples/`: the research runs whose figures docs/results.md shows (`confusion`,
+//!   `impedance_bias`, `impedance_check`); `cargo xtask eval` runs them and writes the page.
+//! - `scripts/`: the loop through pamctl on twin logs (`matrix.sh`), the recorded diagnoses
+//!   of a fixed set of logs (`behaviour.sh`), and the speed against numpy (`numpy_ratio.sh`).
+
+pub mod judge;
