@@ -378,8 +378,18 @@ pub fn unattainable_joint_request_is_clamped_and_flagged() -> CheckResult {
         .is_ok(),
     )?;
     // the torque request rises at its rate limit (20 N·m/s) and passes what the muscles
-    // can give after ≈ 3.8 s (the still arm's imbalance is judged 3 s after that)
-    let out = run_steps(&mut c, 4500, 0);
+    // can give after ≈ 3.8 s; a hand holds the arm still against it (a still arm that
+    // reads no force is an encoder that does not see it move)
+    let mut out = c.step(&sensors(0));
+    for k in 1..4500 {
+        c.heartbeat();
+        out = c.step(&crate::motion_checks::held(
+            &c,
+            [0.0; 2],
+            out.pressure_bar,
+            k,
+        ));
+    }
     holds(
         "torque clamp flagged",
         out.limited.contains(Limited::TORQUE),

@@ -1,5 +1,6 @@
 //! The closed force loop's guard: a large, a persistent or an oscillating error latches
-//! `Faults::CONTROL_UNSTABLE` (the supervisor vents).
+//! `Faults::CONTROL_UNSTABLE` (the supervisor vents). And [`EncoderMotion`], the encoders'
+//! plausibility in the modes whose pressures do not follow the handle.
 
 use crate::force_loop::ForceLoopConfig;
 use pam_model::Vec2;
@@ -157,5 +158,83 @@ impl Guard {
         } else {
             None
         }
+    }
+}
+
+/// A change of the muscles' torque at the measured angle, N·m, that moves a free arm
+/// (≈ 10° at the thesis's lowest joint-1 stiffness, many hundred counts), far above what
+/// the joints' friction holds.
+pub const UNSEEN_MOTION_TORQUE_NM: f32 = 10.0;
+/// A handle that keeps the arm from moving carries the change: the load cell's torque moves
+/// by ≈ 0.57 of the model's on the rig (Table 5.2), 1.0 on the model. Less than this
+/// fraction of it is a handle that does not hold.
+pub const UNSEEN_MOTION_HELD_FRACTION: f32 = 0.25;
+/// How long the change must stay unseen, s: the converters follow a step in ≈ 0.4 s
+/// (Table 5.2), and a free arm moves as soon as its torque does.
+pub const UNSEEN_MOTION_TIME_S: f32 = 1.5;
+
+/// The encoders' plausibility where the pressures are the command (joint and pressures
+/// modes), per joint: the muscles' torque at the measured angle (τ_model(α, P), the
+/// commanded pressures) and the torque the load cell says holds the arm (Jᵀ F), both as
+/// they were when the angle last changed. A torque that has since changed by more than
+/// [`UNSEEN_MOTION_TORQUE_NM`] with the held torque following by less than
+/// [`UNSEEN_MOTION_HELD_FRACTION`] of it, for [`UNSEEN_MOTION_TIME_S`], the angle
+/// bit-identical all along, is an arm the encoder does not see moving. A held or blocked
+/// handle carries the change and is not judged; neither is a joint at a range end, where
+/// a hard stop holds what no sensor reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct EncoderMotion {
+    started: bool,
+    alpha_rad: Vec2<f32>,
+    torque_nm: Vec2<f32>,
+    held_nm: Vec2<f32>,
+    unseen_s: Vec2<f32>,
+}
+
+impl EncoderMotion {
+    pub(crate) const fn new() -> Self {
+        EncoderMotion {
+            started: false,
+            alpha_rad: [0.0; 2],
+            torque_nm: [0.0; 2],
+            held_nm: [0.0; 2],
+            unseen_s: [0.0; 2],
+        }
+    }
+
+    pub(crate) fn reset(&mut self) {
+        self.started = false;
+    }
+
+    /// One armed period with finite sensors: the angle, (τ_model, Jᵀ F), whether each joint
+    /// is inside its judged range. True once a joint's motion has gone unseen.
+    pub(crate) fn update(
+        &mut self,
+        alpha_rad: Vec2<f32>,
+        (torque_nm, held_nm): (Vec2<f32>, Vec2<f32>),
+        in_range: [bool; 2],
+        dt_s: f32,
+    ) -> bool {
+        let mut unseen = false;
+        for j in 0..2 {
+            if !self.started || alpha_rad[j] != self.alpha_rad[j] || !in_range[j] {
+                self.alpha_rad[j] = alpha_rad[j];
+                self.torque_nm[j] = torque_nm[j];
+                self.held_nm[j] = held_nm[j];
+                self.unseen_s[j] = 0.0;
+                continue;
+            }
+            let moved = (torque_nm[j] - self.torque_nm[j]).abs();
+            let held = (held_nm[j] - self.held_nm[j]).abs();
+            // NaN compares false: an undefined torque never counts
+            if moved > UNSEEN_MOTION_TORQUE_NM && held < UNSEEN_MOTION_HELD_FRACTION * moved {
+                self.unseen_s[j] += dt_s;
+            } else {
+                self.unseen_s[j] = 0.0;
+            }
+            unseen |= self.unseen_s[j] >= UNSEEN_MOTION_TIME_S;
+        }
+        self.started = true;
+        unseen
     }
 }

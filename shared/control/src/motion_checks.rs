@@ -20,6 +20,22 @@ fn at(alpha_rad: [f32; 2], k: u32) -> Sensors {
     }
 }
 
+/// A handle held still at `alpha_rad`: the load cell reads the force that balances what the
+/// muscles make there for the commanded `pressure_bar` (the torque a hand or a block takes).
+pub(crate) fn held(c: &Controller, alpha_rad: [f32; 2], pressure_bar: [f32; 4], k: u32) -> Sensors {
+    let m = c.model();
+    let torque = m.direct(alpha_rad, m.joint_pressures_bar(pressure_bar));
+    let jt_inv = m.kinematics.jacobian(alpha_rad).transpose().inverse();
+    let user = jt_inv.map_or([0.0; 2], |j| j.mul_vec([torque[0].0, torque[1].0]));
+    let mut s = at(alpha_rad, k);
+    let sensor = m.kinematics.user_to_sensor(alpha_rad, user);
+    s.force_sensor_n = [
+        s.force_sensor_n[0] + sensor[0],
+        s.force_sensor_n[1] + sensor[1],
+    ];
+    s
+}
+
 fn armed(mode: Mode) -> Result<Controller, Failure> {
     let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
     holds("armed", c.arm().is_ok())?;
@@ -33,15 +49,15 @@ const MOVE: Mode = Mode::Joint {
     stiffness_nm_per_rad: [95.0, 40.0],
 };
 
-/// A joint target 10° away is not a step: 100 ms after it the muscles pull the still arm
+/// A joint target 10° away is not a step: 100 ms after it the muscles pull the held arm
 /// with almost no torque, 2.5 s after it with the whole spring K·Δα.
 pub fn a_joint_target_is_approached_from_where_the_arm_is() -> CheckResult {
     let mut c = armed(MOVE)?;
     let torque_at = |c: &mut Controller, from: u32, to: u32| {
-        let mut out = c.step(&at([0.0; 2], from));
+        let mut out = c.step(&held(c, [0.0; 2], c.pressure_bar, from));
         for k in from + 1..to {
             c.heartbeat();
-            out = c.step(&at([0.0; 2], k));
+            out = c.step(&held(c, [0.0; 2], out.pressure_bar, k));
         }
         let m = c.model();
         m.direct([0.0; 2], m.joint_pressures_bar(out.pressure_bar))[0].0
@@ -246,6 +262,46 @@ pub fn a_stuck_encoder_faults_in_impedance_mode() -> CheckResult {
     )
 }
 
+/// In joint mode a stuck encoder hides the arm's motion from the speed guard. A move of
+/// 0.12 rad at 120 N·m/rad changes the muscles' torque at the stuck angle by ≈ 14 N·m with
+/// nothing holding the handle: faulted within 6 s (at 0.2 rad the balance check's
+/// tolerance, 8 + 116 · 0.2 N·m, is above that change, so it alone never judges). The same
+/// move with the angle following is no fault.
+pub fn a_stuck_encoder_faults_in_joint_mode() -> CheckResult {
+    let from = [0.2, 0.0];
+    let mode = Mode::Joint {
+        alpha_rad: [0.32, 0.0],
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [120.0, 40.0],
+    };
+    let run = |follow: bool| -> Result<(Faults, [f32; 4]), Failure> {
+        let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+        c.step(&at(from, 0));
+        holds("armed", c.arm().is_ok())?;
+        holds("mode accepted", c.set_mode(mode).is_ok())?;
+        let mut out = c.step(&at(from, 0));
+        for k in 1..6000u32 {
+            c.heartbeat();
+            // a free arm follows its reference: 0.12 rad in ≈ 1.2 s
+            let a = if follow {
+                from[0] + 0.12 * (k as f32 / 1200.0).min(1.0)
+            } else {
+                from[0]
+            };
+            out = c.step(&at([a, from[1]], k));
+            if out.state != State::Armed {
+                break;
+            }
+        }
+        Ok((out.faults, out.current_ma))
+    };
+    let (faults, _) = run(true)?;
+    holds("an arm that follows is no stuck encoder", faults.is_none())?;
+    let (faults, current_ma) = run(false)?;
+    holds("stuck: faulted", faults.contains(Faults::STATIC_IMBALANCE))?;
+    holds("vented", current_ma.iter().all(|&i| i == VENT_CURRENT_MA))
+}
+
 pam_model::register_checks!(
     a_joint_target_is_approached_from_where_the_arm_is,
     the_joint_reference_is_rate_and_acceleration_limited,
@@ -253,4 +309,5 @@ pam_model::register_checks!(
     the_joint_speed_is_supervised_in_every_mode,
     pressures_mode_bounds_co_contraction_and_imbalance,
     a_stuck_encoder_faults_in_impedance_mode,
+    a_stuck_encoder_faults_in_joint_mode,
 );

@@ -5,6 +5,7 @@ use pam_model::Vec2;
 
 use crate::faults::Faults;
 use crate::mode::{Mode, Sensors, State};
+use crate::plausibility::{torques_at_nm, STOP_BAND_RAD};
 use crate::safety::LOADCELL_AMPLIFIER_FULL_SCALE_V;
 use crate::supervisor::Controller;
 
@@ -99,6 +100,11 @@ impl Controller {
         } else {
             self.balance.reset();
         }
+        if !(armed && finite) {
+            self.unseen_motion.reset();
+        } else if self.unseen_motion_judged(&pose) {
+            faults = faults.with(Faults::STATIC_IMBALANCE);
+        }
         // the arm moving faster than any mode may move it; a jump is the encoder's fault,
         // not a motion. The closed loops watch the handle's speed themselves (a tighter
         // bound: 0.5 m/s is ≈ 0.7 rad/s at joint 1's lever), so there the joint speed
@@ -122,6 +128,31 @@ impl Controller {
             self.state = State::Faulted;
         }
         pose
+    }
+
+    /// The encoders in the modes whose pressures are the command (joint, pressures): a
+    /// torque change the arm should follow, not seen by the encoder nor carried by the
+    /// handle ([`crate::guard::EncoderMotion`]). Other modes and states start it afresh.
+    #[inline(always)]
+    fn unseen_motion_judged(&mut self, pose: &Pose) -> bool {
+        if !matches!(self.mode, Mode::Joint { .. } | Mode::Pressures { .. }) {
+            self.unseen_motion.reset();
+            return false;
+        }
+        let torques = torques_at_nm(
+            &self.model,
+            pose.alpha_rad,
+            &pose.trig,
+            pose.force_user_n,
+            self.pressure_bar,
+        );
+        let j = &self.model.params.joints;
+        let in_range = [0, 1].map(|k| {
+            pose.alpha_rad[k] >= j[k].alpha_min_rad + STOP_BAND_RAD
+                && pose.alpha_rad[k] <= j[k].alpha_max_rad - STOP_BAND_RAD
+        });
+        self.unseen_motion
+            .update(pose.alpha_rad, torques, in_range, self.safety.period_s)
     }
 
     /// The measured pose's trigonometry and the handle force in the user frame.

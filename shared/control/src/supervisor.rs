@@ -11,6 +11,7 @@ pub use crate::safety::{
 };
 
 use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
+use crate::guard::EncoderMotion;
 use crate::impedance::{
     Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_MASS_KG,
     MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
@@ -44,6 +45,8 @@ pub struct Controller {
     pub(crate) speed: SpeedMonitor,
     /// The encoders' plausibility in impedance mode.
     pub(crate) encoders: EncoderWatch,
+    /// The encoders' plausibility in joint and pressures modes.
+    pub(crate) unseen_motion: EncoderMotion,
     /// The last command was clamped on its way out (the force loop's anti-windup).
     pub(crate) last_saturated: bool,
 }
@@ -69,6 +72,7 @@ impl Controller {
             shaper: JointShaper::new(),
             speed: SpeedMonitor::new(),
             encoders: EncoderWatch::new(),
+            unseen_motion: EncoderMotion::new(),
             last_saturated: false,
         }
     }
