@@ -6,6 +6,7 @@
 //! The state file makes the procedure resumable and refuses to go on after a failure.
 
 mod analysis;
+mod apply;
 mod blocked;
 mod loadcell;
 mod report;
@@ -60,6 +61,10 @@ pub struct CommissionArgs {
     /// Also write the report as an HTML page with the steps' plots.
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
+    /// Write the fixes the configuration record can take (encoder sign and counts, load-cell
+    /// gain) to the device and persist them; the next run checks them.
+    #[arg(long)]
+    pub apply: bool,
     /// Start again from the first step even after a failure.
     #[arg(long)]
     pub restart: bool,
@@ -150,6 +155,32 @@ pub fn run(args: CommissionArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow
         Err(StepError::Findings(_)) => {
             for f in &findings {
                 writeln!(out, "FAULT {}: {}\n  fix: {}", f.fault, f.detail, f.advice)?;
+            }
+            if args.apply {
+                let client = super::connect(link)?;
+                let done = apply::apply(&client, &findings)?;
+                writeln!(
+                    out,
+                    "wrote to the configuration record and persisted: {}; run `pamctl commission` again to check",
+                    done.join(", ")
+                )?;
+                // the fixed step runs again; an encoder's fix re-runs step 1 too
+                let step1 = findings.iter().any(|f| {
+                    matches!(
+                        f.fix,
+                        Some(
+                            analysis::ConfigFix::EncoderSign(_)
+                                | analysis::ConfigFix::EncoderScale(..)
+                        )
+                    )
+                });
+                state.failed = None;
+                state.findings.clear();
+                if step1 {
+                    state.passed.clear();
+                    state.reversed_joint = None;
+                }
+                save(&args.state, &state)?;
             }
             bail!(
                 "commissioning stopped at the step `{}` with {} finding(s); vented",

@@ -187,11 +187,16 @@ fn loadcell_step(
         ];
     }
     let mut findings = diagnose(&m, pose, &map, state.reversed_joint);
-    // the tare, against the model's 0 N at zero command
-    findings.extend(tare(base_x));
+    // the tare, against the model's 0 N at zero command; with a joint read backwards the
+    // force mode models another pose and its zero-force pressures push (step 1 checked the
+    // tare with the handle free)
+    if state.reversed_joint.is_none() {
+        findings.extend(tare(base_x));
+    }
     if state.reversed_joint.is_some() && findings.is_empty() {
         // a reversal step 1 saw must be explained here
         findings.push(Finding {
+            fix: None,
             fault: "joint_reversed_unexplained",
             detail: "a joint turned backwards with the handle free, and the blocked handle could not say why".into(),
             advice: "check the joint's encoder sign and its muscle tubes one at a time".into(),
@@ -266,6 +271,7 @@ fn closed_loop_step(
     let mut findings = Vec::new();
     if (rise - CLOSED_STEP_N).abs() > tol || (end[1] - base[1]).abs() > tol || overshoot > 0.5 {
         findings.push(Finding {
+            fix: None,
             fault: "closed_loop_step",
             detail: format!(
                 "the closed loop reached {rise:+.2} N for {CLOSED_STEP_N} N (overshoot {:.0}%)",

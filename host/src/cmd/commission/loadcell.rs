@@ -9,7 +9,7 @@
 //! encoder changes nothing at the neutral pose (the pose is its zero), so M ≈ I tells it
 //! from exchanged muscles.
 
-use super::analysis::Finding;
+use super::analysis::{ConfigFix, Finding};
 use pam_model::{Mat2, RobotModel, Vec2};
 
 /// Largest element of |A − expected| still taken as a match.
@@ -59,7 +59,7 @@ pub fn diagnose(
         return out;
     }
     // the fault in the load cell's own frame: A = Rᵀ M R
-    let r = Mat2::rotation(alpha_rad[0] + alpha_rad[1]);
+    let r = sensor_frame(model, alpha_rad);
     let a = r.transpose().mul(m).mul(&r);
     let near = |x: f64, y: f64| (x - y).abs() < MATRIX_TOLERANCE;
     let [[a00, a01], [a10, a11]] = a.0;
@@ -69,6 +69,7 @@ pub fn diagnose(
         for (axis, g) in [a00, a11].into_iter().enumerate() {
             if near(g, -1.0) {
                 out.push(Finding {
+                    fix: None,
                     fault: "loadcell_inverted",
                     detail: format!(
                         "the load cell's {} axis reads {g:+.2}× the force (model: +1)",
@@ -81,6 +82,7 @@ pub fn diagnose(
                 });
             } else if !near(g, 1.0) {
                 out.push(Finding {
+                    fix: (g > 0.0).then_some(ConfigFix::LoadCellGain(axis, g)),
                     fault: "loadcell_gain",
                     detail: format!(
                         "the load cell's {} axis reads {g:.2}× the model's force (eq. 2.1)",
@@ -96,6 +98,7 @@ pub fn diagnose(
         // exchanged ADC inputs: each channel read with the other's gain, so the two
         // off-diagonal terms are the gains' ratio and its inverse
         out.push(Finding {
+            fix: None,
             fault: "loadcell_axes_swapped",
             detail: "the load cell's x channel reads the z force and z the x force".into(),
             advice: "exchange the load cell's two channels at the ADC inputs (ADC1 ↔ ADC2)".into(),
@@ -104,6 +107,7 @@ pub fn diagnose(
         let deg = a10.atan2(a00).to_degrees();
         if deg.abs() > ANGLE_TOLERANCE_DEG {
             out.push(Finding {
+                fix: None,
                 fault: "loadcell_rotated",
                 detail: format!(
                     "the load cell is turned {deg:+.1}° on the handle (eq. 2.6–2.7 expect 0°, tolerance {ANGLE_TOLERANCE_DEG}°)"
@@ -117,6 +121,7 @@ pub fn diagnose(
     }
     if out.is_empty() {
         out.push(Finding {
+            fix: None,
             fault: "loadcell_unexplained",
             detail: format!(
                 "the blocked handle's forces follow [[{a00:.2}, {a01:.2}], [{a10:.2}, {a11:.2}]] × the command in the load cell's frame (model: identity)"
@@ -127,9 +132,18 @@ pub fn diagnose(
     out
 }
 
+/// The rotation from the load cell's frame to the user frame at the pose (eq. 2.6–2.7: by
+/// θ1 + θ2, the thesis's angles, which the joint angles α reach through their offsets).
+pub fn sensor_frame(model: &RobotModel<f64>, alpha_rad: Vec2<f64>) -> Mat2<f64> {
+    let x = model.kinematics.sensor_to_user(alpha_rad, [1.0, 0.0]);
+    let z = model.kinematics.sensor_to_user(alpha_rad, [0.0, 1.0]);
+    Mat2::new(x[0], z[0], x[1], z[1])
+}
+
 fn muscles_exchanged(joint: usize) -> Finding {
     let (a, b) = (2 * joint + 1, 2 * joint + 2);
     Finding {
+        fix: None,
         fault: if joint == 0 {
             "joint1_muscles_exchanged"
         } else {
@@ -149,6 +163,7 @@ fn muscles_exchanged(joint: usize) -> Finding {
 
 fn encoder_inverted(joint: usize) -> Finding {
     Finding {
+        fix: Some(ConfigFix::EncoderSign(joint)),
         fault: if joint == 0 {
             "encoder1_inverted"
         } else {
@@ -168,7 +183,7 @@ fn encoder_inverted(joint: usize) -> Finding {
 
 #[cfg(test)]
 mod tests {
-    use super::{diagnose, force_map};
+    use super::{diagnose, force_map, sensor_frame};
     use pam_model::{Mat2, RobotModel};
 
     fn faults(m: Mat2<f64>, rev: Option<usize>) -> Vec<&'static str> {
@@ -189,7 +204,7 @@ mod tests {
     fn each_load_cell_fault_is_named() {
         let model = RobotModel::thesis();
         let at = [0.3, 0.4];
-        let r = Mat2::rotation(0.7);
+        let r = sensor_frame(&model, at);
         let in_user = |a: Mat2<f64>| r.mul(&a).mul(&r.transpose());
         let name = |a: Mat2<f64>| -> Vec<&'static str> {
             diagnose(&model, at, &in_user(a), None)
