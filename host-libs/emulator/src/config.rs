@@ -241,9 +241,13 @@ impl Miswire {
     ) -> [f64; 2] {
         let d = [volts[0] - offset_v[0], volts[1] - offset_v[1]];
         let out = match *self {
+            // the cell turns on the handle: the force turns in front of the bridges, each
+            // with its own gain
             Miswire::LoadCellRotated { deg } => {
                 let (s, c) = deg.to_radians().sin_cos();
-                [c * d[0] - s * d[1], s * d[0] + c * d[1]]
+                let f = [d[0] * gain_n_per_v[0], d[1] * gain_n_per_v[1]];
+                let r = [c * f[0] - s * f[1], s * f[0] + c * f[1]];
+                [r[0] / gain_n_per_v[0], r[1] / gain_n_per_v[1]]
             }
             Miswire::LoadCellInverted { axis } => {
                 let mut o = d;

@@ -6,10 +6,14 @@
 //! The state file makes the procedure resumable and refuses to go on after a failure.
 
 mod analysis;
+mod apply;
+mod blocked;
+mod loadcell;
+mod report;
 
 use crate::LinkArgs;
 use analysis::{channel_map, tare, ChannelResponse, Finding};
-use anyhow::{anyhow, bail, Context};
+use anyhow::{bail, Context};
 use clap::Args;
 use pam_control::Mode;
 use pam_link::Client;
@@ -31,9 +35,20 @@ const SETTLE_S: f64 = 1.0;
 const STEP_S: f64 = 1.5;
 /// Averaging window at the end of each phase, s.
 const WINDOW_S: f64 = 0.2;
-/// Bounds every sample must stay within: joint speed, rad/s; handle force, N (free handle).
+/// Bounds every sample of step 1 must stay within: joint speed, rad/s; handle force, N
+/// (free handle).
 const MAX_SPEED_RAD_S: f64 = 2.0;
 const MAX_FORCE_N: f64 = 15.0;
+
+/// What the handle is doing now, as the person at the rig says.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HandleNow {
+    /// Nothing touches the handle: step 1 (encoders, channel map).
+    Free,
+    /// The handle is blocked at the neutral pose (§5.2 set-up): the load cell, the converters,
+    /// the closed force loop.
+    Blocked,
+}
 
 #[derive(Args, Debug)]
 pub struct CommissionArgs {
@@ -43,9 +58,34 @@ pub struct CommissionArgs {
     /// Write the commissioning report (Markdown) to FILE.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
+    /// Also write the report as an HTML page with the steps' plots.
+    #[arg(long, value_name = "FILE")]
+    pub html: Option<PathBuf>,
+    /// Write the fixes the configuration record can take (encoder sign and counts, load-cell
+    /// gain) to the device and persist them; the next run checks them.
+    #[arg(long)]
+    pub apply: bool,
     /// Start again from the first step even after a failure.
     #[arg(long)]
     pub restart: bool,
+    /// What holds the handle now: step 1 runs with it free, the later steps with it blocked.
+    #[arg(long, value_enum, default_value = "free")]
+    pub handle: HandleNow,
+}
+
+/// The bounds of one step and the largest values the telemetry showed during it.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct StepRecord {
+    pub name: String,
+    pub speed_bound_rad_s: f64,
+    pub force_bound_n: f64,
+    pub max_speed_rad_s: f64,
+    pub max_force_n: f64,
+    pub seconds: f64,
+    /// Telemetry at 50 Hz for the report's plots: t s, α1, α2 rad, Fx, Fy N, Fx ref, Fy ref N.
+    pub trace: Vec<[f64; 7]>,
+    /// Measured values and checks: (what, measured, expected, tolerance / margin).
+    pub checks: Vec<[String; 4]>,
 }
 
 /// What the state file keeps between runs.
@@ -57,8 +97,13 @@ struct CommissionState {
     failed: Option<String>,
     responses: Vec<ChannelResponse>,
     tare_n: Option<[f64; 2]>,
-    max_speed_rad_s: f64,
-    max_force_n: f64,
+    /// The joint step 1 saw turn backwards for both its channels: its encoder or its
+    /// muscles, which the blocked handle tells apart.
+    reversed_joint: Option<usize>,
+    steps: Vec<StepRecord>,
+    /// Findings of the step that failed, for the report.
+    findings: Vec<[String; 3]>,
+    seconds: f64,
 }
 
 /// One recorded sample and the phase it belongs to.
@@ -80,76 +125,207 @@ pub fn run(args: CommissionArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow
             args.state.display()
         );
     }
-    if state.passed.iter().any(|s| s == "channels") {
-        writeln!(
-            out,
-            "step 1 (encoders and channel map): passed earlier, skipped"
-        )?;
+    let passed = |state: &CommissionState, s: &str| state.passed.iter().any(|p| p == s);
+    let step1_done = passed(&state, "channels") || state.reversed_joint.is_some();
+    let result = if !step1_done {
+        if args.handle != HandleNow::Free {
+            bail!("step 1 moves the arm: unblock the handle and run `pamctl commission --handle free`");
+        }
+        step_channels(&args, link, &mut state, out)
+    } else if args.handle != HandleNow::Blocked {
+        writeln!(out, "step 1 (encoders and channel map): done earlier")?;
+        Ok(())
     } else {
-        let client = super::connect(link)?;
-        writeln!(
-            out,
-            "step 1: encoders and I/P channel map. With the arm resting at the neutral pose (taken as the \
-             encoders' zero), the handle free and nobody near the arm, every muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
-             the joint the model names turns the way it says. Bounds: {MAX_SPEED_RAD_S} rad/s, {MAX_FORCE_N} N.",
-            BASE_BAR + STEP_BAR
-        )?;
-        let result = channel_steps(&client, &mut state);
-        // vented whatever happened
-        let vented = client.command(RequestBody::Disarm);
-        result?;
-        vented?;
-        let mut findings = channel_map(state.responses.as_slice().try_into()?);
-        findings.extend(state.tare_n.and_then(tare));
-        for r in &state.responses {
-            writeln!(
-                out,
-                "  channel {}: joints moved ({:+.4}, {:+.4}) rad, model ({:+.4}, {:+.4}) rad",
-                r.channel + 1,
-                r.measured_rad[0],
-                r.measured_rad[1],
-                r.model_rad[0],
-                r.model_rad[1]
-            )?;
-        }
-        if let Some(f) = state.tare_n {
-            writeln!(
-                out,
-                "  at rest the load cell reads ({:+.2}, {:+.2}) N",
-                f[0], f[1]
-            )?;
-        }
-        writeln!(
-            out,
-            "  largest joint speed {:.3} rad/s (bound {MAX_SPEED_RAD_S}), largest handle force {:.2} N (bound {MAX_FORCE_N})",
-            state.max_speed_rad_s, state.max_force_n
-        )?;
-        if findings.is_empty() {
-            state.passed.push("channels".into());
-            writeln!(out, "step 1 passed: vented")?;
-        } else {
-            state.failed = Some("channels".into());
-        }
-        save(&args.state, &state)?;
-        if let Some(path) = &args.report {
-            write_report(path, &state, &findings, started.elapsed())?;
-        }
-        if !findings.is_empty() {
+        blocked::run_all(link, &mut state, out)
+    };
+    state.seconds += started.elapsed().as_secs_f64();
+    let findings: Vec<Finding> = match &result {
+        Err(StepError::Findings(f)) => f.clone(),
+        _ => Vec::new(),
+    };
+    save(&args.state, &state)?;
+    if let Some(path) = &args.report {
+        report::markdown(path, &state)?;
+    }
+    if let Some(path) = &args.html {
+        report::html(path, &state)?;
+    }
+    match result {
+        Ok(()) => {}
+        Err(StepError::Findings(_)) => {
             for f in &findings {
                 writeln!(out, "FAULT {}: {}\n  fix: {}", f.fault, f.detail, f.advice)?;
             }
+            if args.apply {
+                let client = super::connect(link)?;
+                let done = apply::apply(&client, &findings)?;
+                writeln!(
+                    out,
+                    "wrote to the configuration record and persisted: {}; run `pamctl commission` again to check",
+                    done.join(", ")
+                )?;
+                // the fixed step runs again; an encoder's fix re-runs step 1 too
+                let step1 = findings.iter().any(|f| {
+                    matches!(
+                        f.fix,
+                        Some(
+                            analysis::ConfigFix::EncoderSign(_)
+                                | analysis::ConfigFix::EncoderScale(..)
+                        )
+                    )
+                });
+                state.failed = None;
+                state.findings.clear();
+                if step1 {
+                    state.passed.clear();
+                    state.reversed_joint = None;
+                }
+                save(&args.state, &state)?;
+            }
             bail!(
-                "commissioning stopped at step 1 with {} finding(s); vented",
+                "commissioning stopped at the step `{}` with {} finding(s); vented",
+                state.failed.as_deref().unwrap_or("?"),
                 findings.len()
             );
         }
+        Err(StepError::Other(e)) => return Err(e),
     }
+    let all = ["channels", "loadcell", "converters", "closed_loop"];
+    if all.iter().all(|s| passed(&state, s)) {
+        writeln!(
+            out,
+            "commissioning done: every step passed, {:.1} s on the rig in all",
+            state.seconds
+        )?;
+    } else if args.handle == HandleNow::Free {
+        writeln!(
+            out,
+            "next: block the handle at the neutral pose (§5.2 set-up), then run `pamctl commission --handle blocked`"
+        )?;
+    }
+    Ok(())
+}
+
+/// Why a step stopped: what it found wrong, or anything else (link, fault, bound, Ctrl-C).
+pub enum StepError {
+    Findings(Vec<Finding>),
+    Other(anyhow::Error),
+}
+
+macro_rules! step_error_from {
+    ($($t:ty),*) => {$(
+        impl From<$t> for StepError {
+            fn from(e: $t) -> Self {
+                StepError::Other(e.into())
+            }
+        }
+    )*};
+}
+step_error_from!(
+    anyhow::Error,
+    std::io::Error,
+    pam_link::LinkError,
+    std::array::TryFromSliceError
+);
+
+/// Records the findings of step `name` in `state`: passed when there is none.
+fn conclude(
+    state: &mut CommissionState,
+    name: &str,
+    findings: Vec<Finding>,
+    out: &mut dyn Write,
+) -> Result<(), StepError> {
+    if findings.is_empty() {
+        state.passed.push(name.into());
+        writeln!(out, "step `{name}` passed: vented")?;
+        return Ok(());
+    }
+    state.failed = Some(name.into());
+    state.findings = findings
+        .iter()
+        .map(|f| [f.fault.to_string(), f.detail.clone(), f.advice.clone()])
+        .collect();
+    Err(StepError::Findings(findings))
+}
+
+/// Prints the largest speed and force of the step that just ran against its bounds.
+fn print_bounds(out: &mut dyn Write, r: &StepRecord) -> std::io::Result<()> {
     writeln!(
         out,
-        "commissioning done in {:.1} s",
-        started.elapsed().as_secs_f64()
+        "  {}: largest joint speed {:.3} rad/s (bound {}), largest handle force {:.2} N (bound {}), {:.1} s",
+        r.name, r.max_speed_rad_s, r.speed_bound_rad_s, r.max_force_n, r.force_bound_n, r.seconds
+    )
+}
+
+fn step_channels(
+    _args: &CommissionArgs,
+    link: &LinkArgs,
+    state: &mut CommissionState,
+    out: &mut dyn Write,
+) -> Result<(), StepError> {
+    let client = super::connect(link)?;
+    writeln!(
+        out,
+        "step 1: encoders and I/P channel map. With the arm resting at the neutral pose (taken as the \
+         encoders' zero), the handle free and nobody near the arm, every muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
+         the joint the model names turns the way it says. Bounds: {MAX_SPEED_RAD_S} rad/s, {MAX_FORCE_N} N.",
+        BASE_BAR + STEP_BAR
     )?;
-    Ok(())
+    let mut record = StepRecord {
+        name: "channels".into(),
+        speed_bound_rad_s: MAX_SPEED_RAD_S,
+        force_bound_n: MAX_FORCE_N,
+        ..StepRecord::default()
+    };
+    let t0 = Instant::now();
+    let result = channel_steps(&client, state, &mut record);
+    // vented whatever happened
+    let vented = client.command(RequestBody::Disarm);
+    record.seconds = t0.elapsed().as_secs_f64();
+    state.steps.push(record.clone());
+    print_bounds(out, &record)?;
+    result?;
+    vented?;
+    let mut findings = channel_map(state.responses.as_slice().try_into()?);
+    findings.extend(state.tare_n.and_then(tare));
+    for r in &state.responses {
+        writeln!(
+            out,
+            "  channel {}: joints moved ({:+.4}, {:+.4}) rad, model ({:+.4}, {:+.4}) rad",
+            r.channel + 1,
+            r.measured_rad[0],
+            r.measured_rad[1],
+            r.model_rad[0],
+            r.model_rad[1]
+        )?;
+    }
+    if let Some(f) = state.tare_n {
+        writeln!(
+            out,
+            "  at rest the load cell reads ({:+.2}, {:+.2}) N",
+            f[0], f[1]
+        )?;
+    }
+    // a joint turned backwards, and nothing else: the blocked handle tells which
+    let reversed: Vec<usize> = findings
+        .iter()
+        .filter_map(|f| match f.fault {
+            "joint1_reversed" => Some(0),
+            "joint2_reversed" => Some(1),
+            _ => None,
+        })
+        .collect();
+    if reversed.len() == 1 && findings.len() == 1 {
+        let f = &findings[0];
+        writeln!(out, "  {}: {}\n  {}", f.fault, f.detail, f.advice)?;
+        state.reversed_joint = Some(reversed[0]);
+        writeln!(
+            out,
+            "step 1 ends open: the load-cell step with the handle blocked names the fault"
+        )?;
+        return Ok(());
+    }
+    conclude(state, "channels", findings, out)
 }
 
 fn save(path: &std::path::Path, state: &CommissionState) -> anyhow::Result<()> {
@@ -159,7 +335,11 @@ fn save(path: &std::path::Path, state: &CommissionState) -> anyhow::Result<()> {
 
 /// Arms in pressure mode (the one entry into it) at the base pressures, steps each channel,
 /// and fills `state` with the responses, the tare and the largest speed and force.
-fn channel_steps(client: &Client, state: &mut CommissionState) -> anyhow::Result<()> {
+fn channel_steps(
+    client: &Client,
+    state: &mut CommissionState,
+    record: &mut StepRecord,
+) -> anyhow::Result<()> {
     client.command(RequestBody::SetTelemetry { divider: 1 })?;
     // the encoders' zero: the arm rests at the neutral pose, vented and disarmed
     client.command(RequestBody::Home)?;
@@ -171,16 +351,16 @@ fn channel_steps(client: &Client, state: &mut CommissionState) -> anyhow::Result
     client.start_telemetry();
     for k in 1..=20 {
         set_pressures(client, [BASE_BAR * k as f32 / 20.0; 4])?;
-        collect(client, 0.05, 0, &mut samples, state)?;
+        collect(client, 0.05, 0, &mut samples, record)?;
     }
-    collect(client, SETTLE_S, 0, &mut samples, state)?;
+    collect(client, SETTLE_S, 0, &mut samples, record)?;
     for c in 0..4 {
         let mut p = [BASE_BAR; 4];
         p[c] += STEP_BAR;
         set_pressures(client, p)?;
-        collect(client, STEP_S, 2 * c + 1, &mut samples, state)?;
+        collect(client, STEP_S, 2 * c + 1, &mut samples, record)?;
         set_pressures(client, [BASE_BAR; 4])?;
-        collect(client, SETTLE_S, 2 * c + 2, &mut samples, state)?;
+        collect(client, SETTLE_S, 2 * c + 2, &mut samples, record)?;
     }
     let model = model_alpha(&samples);
     let mean = |phase: usize, of: &dyn Fn(usize) -> [f64; 2]| -> [f64; 2] {
@@ -237,7 +417,7 @@ fn collect(
     seconds: f64,
     phase: usize,
     samples: &mut Vec<Sample>,
-    state: &mut CommissionState,
+    state: &mut StepRecord,
 ) -> anyhow::Result<()> {
     let stop = super::interrupted();
     let start = Instant::now();
@@ -270,12 +450,27 @@ fn collect(
         }
         let f = f64::from(t.force_user_n[0]).hypot(f64::from(t.force_user_n[1]));
         state.max_force_n = state.max_force_n.max(f);
-        if state.max_speed_rad_s > MAX_SPEED_RAD_S || state.max_force_n > MAX_FORCE_N {
+        if state.max_speed_rad_s > state.speed_bound_rad_s
+            || state.max_force_n > state.force_bound_n
+        {
             bail!(
                 "a bound was crossed (speed {:.2} rad/s, force {:.1} N): vented",
                 state.max_speed_rad_s,
                 state.max_force_n
             );
+        }
+        if t.seq % 20 == 0 {
+            // 0 N outside the force modes (a JSON number: the state file keeps the trace)
+            let f = t.force_ref_n.unwrap_or([0.0; 2]);
+            state.trace.push([
+                start_s(samples, &t),
+                f64::from(t.alpha_rad[0]),
+                f64::from(t.alpha_rad[1]),
+                f64::from(t.force_user_n[0]),
+                f64::from(t.force_user_n[1]),
+                f64::from(f[0]),
+                f64::from(f[1]),
+            ]);
         }
         samples.push(Sample { t, phase });
     }
@@ -298,44 +493,20 @@ fn model_alpha(samples: &[Sample]) -> Vec<[f64; 2]> {
         .collect()
 }
 
-fn write_report(
-    path: &std::path::Path,
-    state: &CommissionState,
-    findings: &[Finding],
-    took: Duration,
-) -> anyhow::Result<()> {
-    let mut s =
-        String::from("# Commissioning report\n\n## Step 1: encoders and I/P channel map\n\n");
-    s += "| channel | joint 1 measured, rad | joint 1 model | joint 2 measured | joint 2 model |\n|---|---|---|---|---|\n";
-    for r in &state.responses {
-        s += &format!(
-            "| {} | {:+.4} | {:+.4} | {:+.4} | {:+.4} |\n",
-            r.channel + 1,
-            r.measured_rad[0],
-            r.model_rad[0],
-            r.measured_rad[1],
-            r.model_rad[1]
-        );
-    }
-    if let Some(f) = state.tare_n {
-        s += &format!(
-            "\nLoad cell at rest: ({:+.2}, {:+.2}) N (tolerance {} N)\n",
-            f[0],
-            f[1],
-            analysis::TARE_TOLERANCE_N
-        );
-    }
-    s += &format!(
-        "\nLargest joint speed {:.3} rad/s (bound {MAX_SPEED_RAD_S}), largest handle force {:.2} N (bound {MAX_FORCE_N}).\n\nTook {:.1} s.\n\n## Findings\n\n",
-        state.max_speed_rad_s,
-        state.max_force_n,
-        took.as_secs_f64()
-    );
-    if findings.is_empty() {
-        s += "none: wired as configured\n";
-    }
-    for f in findings {
-        s += &format!("- **{}**: {}. Fix: {}\n", f.fault, f.detail, f.advice);
-    }
-    std::fs::write(path, s).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))
+/// Seconds since the step's first sample.
+fn start_s(samples: &[Sample], t: &Telemetry) -> f64 {
+    let t0 = samples.first().map_or(t.time_us, |s| s.t.time_us);
+    t.time_us.wrapping_sub(t0) as f64 * 1e-6
+}
+
+/// The mean of `of` over the last `WINDOW_S` of phase `phase`.
+fn phase_mean(samples: &[Sample], phase: usize, of: &dyn Fn(&Telemetry) -> [f64; 2]) -> [f64; 2] {
+    let idx: Vec<&Sample> = samples.iter().filter(|s| s.phase == phase).collect();
+    let tail = &idx[idx.len().saturating_sub((WINDOW_S * 1000.0) as usize)..];
+    let n = tail.len().max(1) as f64;
+    let s = tail.iter().fold([0.0; 2], |a, s| {
+        let v = of(&s.t);
+        [a[0] + v[0], a[1] + v[1]]
+    });
+    [s[0] / n, s[1] / n]
 }

@@ -16,9 +16,22 @@ pub struct ChannelResponse {
     pub model_rad: [f64; 2],
 }
 
+/// A fix the configuration record can take (`pamctl commission --apply`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConfigFix {
+    /// Negate encoder `0`'s sign.
+    EncoderSign(usize),
+    /// Multiply encoder `0`'s counts per revolution by `1`.
+    EncoderScale(usize, f64),
+    /// Divide load-cell axis `0`'s gain by `1` (positive: the device refuses a sign change).
+    LoadCellGain(usize, f64),
+}
+
 /// One finding: what is wrong and the change that fixes it.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Finding {
+    /// The change to the configuration record that fixes it, when there is one.
+    pub fix: Option<ConfigFix>,
     /// Short name of the fault (stable: tests and scripts match on it).
     pub fault: &'static str,
     pub detail: String,
@@ -38,9 +51,28 @@ pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
         .iter()
         .map(|r| joint_and_sign(r.model_rad))
         .collect();
+    // each joint's motion over the four channels against the model's: an encoder with a
+    // wrong count scales all of its joint's motions (an exchange of channels keeps the
+    // sums), so the joint a channel moved is judged on motions divided by that scale
+    let joint_scale: Vec<f64> = (0..2)
+        .map(|j| {
+            let m: f64 = responses.iter().map(|r| r.measured_rad[j].abs()).sum();
+            let e: f64 = responses.iter().map(|r| r.model_rad[j].abs()).sum();
+            if m > 0.0 && e > 0.0 {
+                m / e
+            } else {
+                1.0
+            }
+        })
+        .collect();
     let measured: Vec<(usize, f64)> = responses
         .iter()
-        .map(|r| joint_and_sign(r.measured_rad))
+        .map(|r| {
+            joint_and_sign([
+                r.measured_rad[0] / joint_scale[0],
+                r.measured_rad[1] / joint_scale[1],
+            ])
+        })
         .collect();
     // a joint whose both channels turn it backwards: its encoder counts backwards, or its
     // two muscles are exchanged (indistinguishable without the load cell)
@@ -53,6 +85,7 @@ pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
                 .all(|&c| measured[c].0 == j && measured[c].1 == -expected[c].1);
         if *reversed {
             findings.push(Finding {
+                fix: None,
                 fault: if j == 0 { "joint1_reversed" } else { "joint2_reversed" },
                 detail: format!(
                     "joint {} turned the wrong way for both its channels {} and {}",
@@ -90,6 +123,7 @@ pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
             .map(|(c, e)| format!("channel {} drives the muscle of channel {}", c + 1, e + 1))
             .collect();
         findings.push(Finding {
+            fix: None,
             fault: "channels_swapped",
             detail: list.join("; "),
             advice: format!(
@@ -120,6 +154,7 @@ pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
             / chans.len() as f64;
         if (ratio - 1.0).abs() > SCALE_TOLERANCE {
             findings.push(Finding {
+                fix: Some(ConfigFix::EncoderScale(j, ratio)),
                 fault: if j == 0 {
                     "encoder1_scale"
                 } else {
@@ -142,6 +177,7 @@ pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
 pub fn tare(force_at_rest_n: [f64; 2]) -> Option<Finding> {
     let f = force_at_rest_n[0].hypot(force_at_rest_n[1]);
     (f > TARE_TOLERANCE_N).then(|| Finding {
+        fix: None,
         fault: "tare_offset",
         detail: format!(
             "the load cell reads ({:.1}, {:.1}) N with nothing on the handle (model: 0 N, tolerance {TARE_TOLERANCE_N} N)",
@@ -194,6 +230,17 @@ mod tests {
         }
         let faults: Vec<&str> = channel_map(&r).iter().map(|f| f.fault).collect();
         assert_eq!(faults, ["joint1_reversed", "encoder2_scale"]);
+    }
+
+    #[test]
+    fn a_small_encoder_count_is_a_scale_not_a_swap() {
+        let mut r = right();
+        // joint 2 reads half its motion, less than joint 1's coupled motion for channel 3
+        r[2].model_rad = [0.055, -0.08];
+        r[2].measured_rad = [0.055, -0.04];
+        r[3].measured_rad[1] *= 0.5;
+        let faults: Vec<&str> = channel_map(&r).iter().map(|f| f.fault).collect();
+        assert_eq!(faults, ["encoder2_scale"]);
     }
 
     #[test]
