@@ -107,14 +107,6 @@ pub struct ForceLoopConfig {
 /// (the load cell's noise is 0.15 N).
 pub const COMPLIANCE_FORCE_MIN_N: f32 = 2.0;
 
-/// The compliance the loop's gains assume until the handle force has changed by
-/// [`COMPLIANCE_FORCE_MIN_N`], m/N: a relaxed hand (1000 N/m) seen through
-/// [`ForceLoopConfig::handle_deadband_m`] after a few newtons, four times
-/// [`ForceLoopConfig::compliance_ref_m_per_n`] (gains ≈ 0.44 of the design's). A block
-/// shows itself within the first 2 N of a step (≈ 7 ms at the reference's rate) and gets
-/// the design's gains from there.
-pub const UNSHOWN_HOLDER_COMPLIANCE_M_PER_N: f32 = 2e-4;
-
 /// Largest multiplier of the designed feedback gains a mode may request: the design's gain
 /// margin (2–3, docs/closed-loop.md), so no accepted scale is far past the edge of
 /// stability; the guard catches a loop driven to it.
@@ -198,9 +190,6 @@ pub struct ForceLoop {
     measured_rate_n_s: Vec2<f32>,
     guard: Guard,
     handle_seen: bool,
-    /// The force at the handle has changed by [`COMPLIANCE_FORCE_MIN_N`] since the loop
-    /// started: what holds the handle has shown what it is.
-    holder_shown: bool,
     handle0_m: Vec2<f32>,
     force0_n: Vec2<f32>,
     compliance_m_per_n: f32,
@@ -253,7 +242,6 @@ impl ForceLoop {
             measured_rate_n_s: [0.0; 2],
             guard: Guard::new(),
             handle_seen: false,
-            holder_shown: false,
             handle0_m: [0.0; 2],
             force0_n: [0.0; 2],
             compliance_m_per_n: 0.0,
@@ -321,32 +309,19 @@ impl ForceLoop {
             measured_n[1] - self.force0_n[1],
         ];
         let travel_m = ((dx[0] * dx[0] + dx[1] * dx[1]).sqrt() - cfg.handle_deadband_m).max(0.0);
-        let df_n = (df[0] * df[0] + df[1] * df[1]).sqrt();
-        self.holder_shown |= df_n >= COMPLIANCE_FORCE_MIN_N;
-        let force_n = df_n.max(COMPLIANCE_FORCE_MIN_N);
+        let force_n = (df[0] * df[0] + df[1] * df[1])
+            .sqrt()
+            .max(COMPLIANCE_FORCE_MIN_N);
         let c = travel_m / force_n;
         let decayed = self.compliance_m_per_n * (1.0 - dt_s).max(0.0);
         // NaN: keeps the decayed value (the guard trips on a non-finite force anyway)
         self.compliance_m_per_n = if c > decayed { c } else { decayed };
     }
 
-    /// The compliance the gains are set for, m/N: the one seen, and, while the force has
-    /// not yet moved enough to tell a block from a hand, at least
-    /// [`UNSHOWN_HOLDER_COMPLIANCE_M_PER_N`]. A handle held still is both: only a force
-    /// change shows which, and the first step is the wrong time to bet on a block.
-    fn gain_compliance_m_per_n(&self) -> f32 {
-        if self.handle_seen && !self.holder_shown {
-            self.compliance_m_per_n
-                .max(UNSHOWN_HOLDER_COMPLIANCE_M_PER_N)
-        } else {
-            self.compliance_m_per_n
-        }
-    }
-
     /// The feedback gains' factor for the compliance seen.
     fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
         let s = cfg.compliant_gain_scale;
-        s + (1.0 - s) / (1.0 + self.gain_compliance_m_per_n() / cfg.compliance_ref_m_per_n)
+        s + (1.0 - s) / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n)
     }
 
     /// How much of the gain plane's correction the feed-forward gets, 0–1: all of it at a
@@ -357,7 +332,7 @@ impl ForceLoop {
     /// feedback takes back within the step (§5.2 tables) but the gentle feedback against a
     /// hand does not: without the plane the feed-forward can only fall short of the force.
     pub fn plane_weight(&self, cfg: &ForceLoopConfig) -> f32 {
-        let w = 1.0 / (1.0 + self.gain_compliance_m_per_n() / cfg.compliance_ref_m_per_n);
+        let w = 1.0 / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n);
         w * w
     }
 

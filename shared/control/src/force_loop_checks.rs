@@ -279,9 +279,7 @@ pub fn a_force_the_plant_cannot_give_is_a_persistent_error() -> CheckResult {
     // a load cell that reads nothing (but dithers): the error stays at the target
     let mut plant = Plant::new(0.0);
     let mut c = armed(closed([0.0; 2], 1.0));
-    // through the tensioning ramp: the loop starts as it ends
-    let ramp = (crate::motion::ARM_RAMP_S * 1000.0) as u32;
-    run(&mut c, &mut plant, ramp + 200);
+    run(&mut c, &mut plant, 200);
     holds("accepted", c.set_mode(closed([20.0, 0.0], 1.0)).is_ok())?;
     let cfg = *c.force_loop_config();
     let r = run(&mut c, &mut plant, 2000);

@@ -76,7 +76,17 @@ impl Controller {
                     Mode::ForceClosedLoop { .. } => self.closed_loop_target(pose),
                     Mode::Impedance { .. } => self.impedance_target(pose),
                 };
+                let closed_loop = matches!(
+                    self.mode,
+                    Mode::ForceClosedLoop { .. } | Mode::Impedance { .. }
+                );
                 let target_bar = if self.arm_ramp.done() {
+                    target_bar
+                } else if closed_loop {
+                    // the closed loops enter bumplessly from the measured force and keep
+                    // their own guard; what the handle holder is, they learn from the force
+                    // their entry puts on it (the ramp would hide it from their first step)
+                    self.arm_ramp.finish();
                     target_bar
                 } else {
                     self.tensioning(pose, target_bar)
