@@ -61,8 +61,8 @@ fn unequal_pressures_turn_the_twin_and_the_encoders_see_it() {
         still.alpha_rad
     );
     // joint 1's pair (channels 0, 1): one muscle at 2.1 bar, the other vented (the pressures
-    // mode's largest imbalance). The free arm swings (the twin's arm is lightly damped): look
-    // at the largest excursion.
+    // mode's largest imbalance), reached as the tensioning ramp ends (1 s). The free arm
+    // swings (the twin's arm is lightly damped): look at the largest excursion.
     c.command(RequestBody::SetMode(
         Mode::Pressures {
             pressure_bar: [2.1, 0.1, 1.5, 1.5],
@@ -73,7 +73,7 @@ fn unequal_pressures_turn_the_twin_and_the_encoders_see_it() {
     c.start_telemetry();
     let start = Instant::now();
     let mut largest: f32 = 0.0;
-    while start.elapsed() < Duration::from_millis(800) {
+    while start.elapsed() < Duration::from_millis(1800) {
         c.heartbeat().unwrap();
         while let Some(t) = c.next_telemetry(Duration::ZERO).unwrap() {
             largest = largest.max(t.alpha_rad[0].abs());
@@ -140,7 +140,8 @@ fn blocked_handle_in_force_mode_measures_the_commanded_force() {
         .into(),
     ))
     .unwrap();
-    let t = run(&c, 0.8);
+    // the tensioning ramp (1 s) ends on the mode's command
+    let t = run(&c, 1.8);
     assert!(
         (t.force_user_n[1] + 8.0).abs() < 2.0 && t.force_user_n[0].abs() < 2.0,
         "{:?}",

@@ -30,6 +30,9 @@ fn run_steps(c: &mut Controller, n: u32, start: u32) -> StepOutput {
     out
 }
 
+/// The tensioning ramp's periods at 1 kHz, and one.
+const RAMP_PERIODS: u32 = (crate::motion::ARM_RAMP_S * 1000.0) as u32 + 1;
+
 fn is_vent(out: &StepOutput) -> bool {
     out.current_ma.iter().all(|&i| i == 4.0) && out.pressure_bar.iter().all(|&p| p == 0.1)
 }
@@ -52,11 +55,28 @@ pub fn pressures_mode_slews_to_target() -> CheckResult {
         })
         .is_ok(),
     )?;
-    let first = c.step(&sensors(0));
-    // 50 bar/s at 1 ms: at most 0.05 bar per step from the 0.1 bar vent
-    near("first step slew-limited", first.pressure_bar[2], 0.15, 1e-5)?;
+    // the tensioning ramp ends on the target: a new target after it is slew-limited
+    let ramp = RAMP_PERIODS;
+    let tensioned = run_steps(&mut c, ramp, 0);
+    near(
+        "tensioned to the target",
+        tensioned.pressure_bar[2],
+        3.0,
+        1e-4,
+    )?;
+    let target = [2.3, 2.3, 2.0, 2.0];
+    holds(
+        "new target accepted",
+        c.set_mode(Mode::Pressures {
+            pressure_bar: target,
+        })
+        .is_ok(),
+    )?;
+    let first = c.step(&sensors(ramp));
+    // 50 bar/s at 1 ms: at most 0.05 bar per step toward the target
+    near("first step slew-limited", first.pressure_bar[2], 2.95, 1e-5)?;
     holds("slew flagged", first.output_limited)?;
-    let out = run_steps(&mut c, 200, 1);
+    let out = run_steps(&mut c, 300, ramp + 1);
     for ch in 0..4 {
         near("target reached", out.pressure_bar[ch], target[ch], 1e-4)?;
     }
@@ -306,7 +326,8 @@ pub fn command_timeout_ramps_to_safe_state() -> CheckResult {
         pressure_bar: [3.5; 4],
     })
     .ok();
-    run_steps(&mut c, 200, 0);
+    // the tensioning ramp, then the pressures
+    run_steps(&mut c, RAMP_PERIODS + 300, 0);
     // host goes quiet: no heartbeat from here on
     let mut k = 0;
     let mut out = c.step(&sensors(1000));
@@ -377,17 +398,17 @@ pub fn unattainable_joint_request_is_clamped_and_flagged() -> CheckResult {
         })
         .is_ok(),
     )?;
-    // the torque request rises at its rate limit (20 N·m/s) and passes what the muscles
-    // can give after ≈ 3.8 s; a hand holds the arm still against it (a still arm that
-    // reads no force is an encoder that does not see it move)
-    let mut out = c.step(&sensors(0));
+    // after the tensioning ramp the torque request rises at its rate limit (20 N·m/s) and
+    // passes what the muscles can give after ≈ 3.8 s; a hand holds the arm still against
+    // it (a still arm that reads no force is an encoder that does not see it move)
+    let mut out = run_steps(&mut c, RAMP_PERIODS, 0);
     for k in 1..4500 {
         c.heartbeat();
         out = c.step(&crate::motion_checks::held(
             &c,
             [0.0; 2],
             out.pressure_bar,
-            k,
+            RAMP_PERIODS + k,
         ));
     }
     holds(

@@ -1,4 +1,5 @@
-//! Motion limits that hold in every mode: the joint speed the arm may reach, the soft
+//! Motion limits that hold in every mode: the tensioning ramp that brings the muscles up
+//! without moving the arm, the joint speed the arm may reach, the soft
 //! joint limits a joint target is kept within, the shaping of a joint target in
 //! firmware, and the co-contraction and imbalance a pressures command may ask for.
 //!
@@ -16,7 +17,14 @@
 //! The joint speed is supervised in every mode while armed: a low-passed speed above
 //! [`MOTION_SPEED_MAX_RAD_S`] latches `CONTROL_UNSTABLE` and the supervisor vents.
 
-use pam_model::{Real, Vec2};
+use pam_model::{Real, RobotModel, Vec2};
+
+/// How long the muscles take from the vent to a mode's command before the mode takes over,
+/// s ([`ArmRamp`]). The converters fill the more contracted muscle (the larger volume) a
+/// little later than its partner, and the joint's equilibrium moves with that lag while
+/// the pressures rise: over 1 s the handle moves at most a few millimetres on the twins
+/// (host-libs/twin/tests/arming.rs), over 0.3 s up to 17 mm.
+pub const ARM_RAMP_S: f32 = 1.0;
 
 /// A joint target is kept this far inside each end of the joint's range, rad (≈ 3°).
 pub const SOFT_LIMIT_RAD: f32 = 0.05;
@@ -49,6 +57,84 @@ pub fn pressures_within_limits(pressure_bar: &[f32; 4], pairs: [[u8; 2]; 2]) -> 
         (a - b).abs() <= PRESSURES_IMBALANCE_MAX_BAR
             && 0.5 * (a + b) <= PRESSURES_COCONTRACTION_MAX_BAR
     })
+}
+
+/// The tensioning ramp that precedes the pressures, joint and open-loop force modes (from
+/// arming, or from idle). Per joint,
+/// at the measured angle: both muscles rise from the vent to the pressure where their
+/// cable turns taut at the same instant (the first half of [`ARM_RAMP_S`]: a slack cable
+/// pulls nothing), then each muscle's pressure moves in proportion from there to the
+/// mode's own target (the second half). The model's force is linear in pressure at a
+/// given angle and zero at the taut pressure, so every cable force, and the joint's
+/// torque, is the same fraction of the mode's: a mode that holds the arm where it is asks
+/// for no torque at any instant of the ramp, and the ramp ends on the mode's command
+/// itself, with no jump for the slew limit to spread unevenly over the muscles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArmRamp {
+    elapsed_s: f32,
+}
+
+impl Default for ArmRamp {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl ArmRamp {
+    pub const fn new() -> Self {
+        ArmRamp { elapsed_s: 0.0 }
+    }
+
+    /// Start again (armed, or idle: vented).
+    pub fn reset(&mut self) {
+        *self = Self::new();
+    }
+
+    /// End the ramp: the muscles are up (a closed loop brought them).
+    pub fn finish(&mut self) {
+        self.elapsed_s = ARM_RAMP_S;
+    }
+
+    /// Whether the ramp is over.
+    pub fn done(&self) -> bool {
+        self.elapsed_s >= ARM_RAMP_S
+    }
+
+    /// One period of the ramp toward the mode's channel pressures `target_bar`: the
+    /// channel pressures, bar.
+    pub fn step(
+        &mut self,
+        model: &RobotModel<f32>,
+        measured_rad: Vec2<f32>,
+        target_bar: [f32; 4],
+        dt: f32,
+    ) -> [f32; 4] {
+        let p = &model.params;
+        self.elapsed_s += dt;
+        let s = (self.elapsed_s * (2.0 / ARM_RAMP_S)).min(2.0);
+        let (lo, hi) = (p.ip.output_min_bar, p.pressure.max_bar);
+        let target = model.joint_pressures_bar(target_bar);
+        let joint = |j: usize| {
+            let jp = &p.joints[j];
+            let a = measured_rad[j].clamp_to(jp.alpha_min_rad, jp.alpha_max_rad);
+            let pose = model.pose(j, a);
+            let taut = |m: usize| pose.muscles[m].pressure_for_force_bar(0.0).clamp_to(lo, hi);
+            if s < 1.0 {
+                let w = smoothstep(s);
+                [0, 1].map(|m| lo + w * (taut(m) - lo))
+            } else {
+                let w = smoothstep(s - 1.0);
+                [0, 1].map(|m| taut(m) + w * (target[j][m] - taut(m)))
+            }
+        };
+        model.channel_pressures_bar([joint(0), joint(1)])
+    }
+}
+
+/// 3u² − 2u³: from 0 to 1 with no rate at either end, so the converters' lag, which
+/// differs between two muscles of unequal volume, neither sets in nor ends as a step.
+fn smoothstep(u: f32) -> f32 {
+    u * u * (3.0 - 2.0 * u)
 }
 
 /// The joint mode's shaped reference: angle and rate per joint, and the torque request.

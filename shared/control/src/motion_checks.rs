@@ -3,7 +3,8 @@
 //! the host and on the Cortex-M4F under QEMU (`qemu-tests/`).
 
 use crate::motion::{
-    JointShaper, JOINT_TARGET_ACCEL_MAX_RAD_S2, JOINT_TARGET_RATE_MAX_RAD_S, SOFT_LIMIT_RAD,
+    JointShaper, ARM_RAMP_S, JOINT_TARGET_ACCEL_MAX_RAD_S2, JOINT_TARGET_RATE_MAX_RAD_S,
+    SOFT_LIMIT_RAD,
 };
 use crate::supervisor::{Controller, Faults, Mode, Reject, SafetyConfig, Sensors, State};
 use crate::VENT_CURRENT_MA;
@@ -36,12 +37,20 @@ pub(crate) fn held(c: &Controller, alpha_rad: [f32; 2], pressure_bar: [f32; 4], 
     s
 }
 
+/// Armed in `mode`, the tensioning ramp run through at rest.
 fn armed(mode: Mode) -> Result<Controller, Failure> {
     let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
     holds("armed", c.arm().is_ok())?;
     holds("mode accepted", c.set_mode(mode).is_ok())?;
+    for k in 0..RAMP_PERIODS {
+        c.heartbeat();
+        c.step(&at([0.0; 2], k));
+    }
     Ok(c)
 }
+
+/// The tensioning ramp's periods at 1 kHz.
+const RAMP_PERIODS: u32 = (ARM_RAMP_S * 1000.0) as u32 + 1;
 
 const MOVE: Mode = Mode::Joint {
     alpha_rad: [0.1745, 0.1134],
@@ -49,8 +58,9 @@ const MOVE: Mode = Mode::Joint {
     stiffness_nm_per_rad: [95.0, 40.0],
 };
 
-/// A joint target 10° away is not a step: 100 ms after it the muscles pull the held arm
-/// with almost no torque, 2.5 s after it with the whole spring K·Δα.
+/// A joint target 10° away is not a step: 100 ms after it (the muscles tensioned) the
+/// muscles pull the still arm with almost no torque, 2.5 s after it with the whole spring
+/// K·Δα.
 pub fn a_joint_target_is_approached_from_where_the_arm_is() -> CheckResult {
     let mut c = armed(MOVE)?;
     let torque_at = |c: &mut Controller, from: u32, to: u32| {
@@ -302,6 +312,66 @@ pub fn a_stuck_encoder_faults_in_joint_mode() -> CheckResult {
     holds("vented", current_ma.iter().all(|&i| i == VENT_CURRENT_MA))
 }
 
+/// Arming (and any mode after idle) tensions the muscles at the angle the arm is at and
+/// ends on the mode's own command: a mode that holds the arm there asks for no torque at
+/// any instant of the ramp (once the cables are taut the model's torque is the arm's;
+/// before, slack cables pull nothing), which takes [`ARM_RAMP_S`] instead of the slew
+/// limit's 50 ms; a pressures target is reached exactly as the ramp ends.
+pub fn the_muscles_are_tensioned_without_moving_the_arm() -> CheckResult {
+    let alpha = [0.2, -0.1];
+    let hold = Mode::Joint {
+        alpha_rad: alpha,
+        torque_nm: [0.0; 2],
+        stiffness_nm_per_rad: [95.0, 40.0],
+    };
+    let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+    holds("armed", c.arm().is_ok())?;
+    holds("mode", c.set_mode(hold).is_ok())?;
+    let mut peak_nm: f32 = 0.0;
+    let mut at_50ms = [0.0; 4];
+    let mut out = c.step(&at(alpha, 0));
+    for k in 1..RAMP_PERIODS {
+        c.heartbeat();
+        out = c.step(&at(alpha, k));
+        if k > RAMP_PERIODS / 2 {
+            let m = c.model();
+            let t = m.direct(alpha, m.joint_pressures_bar(out.pressure_bar));
+            peak_nm = peak_nm.max(t[0].0.abs()).max(t[1].0.abs());
+        }
+        if k == 50 {
+            at_50ms = out.pressure_bar;
+        }
+    }
+    holds("no torque at the arm's angle (< 0.1 N·m)", peak_nm < 0.1)?;
+    let end = out.pressure_bar;
+    holds(
+        "gradual: at 50 ms less than a tenth of the way",
+        (0..4).all(|ch| at_50ms[ch] < 0.1 + (end[ch] - 0.1) / 10.0),
+    )?;
+    holds("tensioned", end.iter().all(|&p| p > 1.0))?;
+    c.heartbeat();
+    let next = c.step(&at(alpha, RAMP_PERIODS));
+    holds(
+        "the ramp ends on the mode's command",
+        (0..4).all(|ch| (next.pressure_bar[ch] - end[ch]).abs() < 1e-3),
+    )?;
+    let target = [2.5, 1.5, 2.0, 2.0];
+    let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+    holds("armed", c.arm().is_ok())?;
+    let pressures = Mode::Pressures {
+        pressure_bar: target,
+    };
+    holds("pressures", c.set_mode(pressures).is_ok())?;
+    for k in 0..RAMP_PERIODS {
+        c.heartbeat();
+        out = c.step(&at(alpha, k));
+    }
+    holds(
+        "a pressures target reached as the ramp ends",
+        (0..4).all(|ch| (out.pressure_bar[ch] - target[ch]).abs() < 1e-4),
+    )
+}
+
 pam_model::register_checks!(
     a_joint_target_is_approached_from_where_the_arm_is,
     the_joint_reference_is_rate_and_acceleration_limited,
@@ -310,4 +380,5 @@ pam_model::register_checks!(
     pressures_mode_bounds_co_contraction_and_imbalance,
     a_stuck_encoder_faults_in_impedance_mode,
     a_stuck_encoder_faults_in_joint_mode,
+    the_muscles_are_tensioned_without_moving_the_arm,
 );

@@ -112,7 +112,7 @@ impl Controller {
         let own_guard = matches!(
             self.mode,
             Mode::ForceClosedLoop { .. } | Mode::Impedance { .. }
-        );
+        ) && self.arm_ramp.done();
         if !armed || own_guard {
             self.speed.reset();
         } else if faults.is_none() && self.speed.update(sensors.alpha_rad, self.safety.period_s) {

@@ -16,7 +16,7 @@ use crate::impedance::{
     Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_MASS_KG,
     MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
 };
-use crate::motion::{pressures_within_limits, JointShaper, SpeedMonitor};
+use crate::motion::{pressures_within_limits, ArmRamp, JointShaper, SpeedMonitor};
 use crate::plausibility::{BalanceMonitor, EncoderWatch};
 
 /// The control step's state. One period is three stages, each in its own module:
@@ -41,6 +41,8 @@ pub struct Controller {
     pub(crate) impedance: Impedance,
     /// The joint mode's shaped reference.
     pub(crate) shaper: JointShaper,
+    /// The tensioning ramp before a mode's target applies.
+    pub(crate) arm_ramp: ArmRamp,
     /// The joint speed supervision of every mode.
     pub(crate) speed: SpeedMonitor,
     /// The encoders' plausibility in impedance mode.
@@ -70,6 +72,7 @@ impl Controller {
             force_loop: ForceLoop::new(),
             impedance: Impedance::new(),
             shaper: JointShaper::new(),
+            arm_ramp: ArmRamp::new(),
             speed: SpeedMonitor::new(),
             encoders: EncoderWatch::new(),
             unseen_motion: EncoderMotion::new(),
@@ -141,6 +144,7 @@ impl Controller {
                 self.impedance.reset();
                 self.shaper.reset();
                 self.speed.reset();
+                self.arm_ramp.reset();
                 self.accepted();
                 Ok(())
             }

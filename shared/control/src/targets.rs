@@ -39,6 +39,15 @@ impl Controller {
     pub(crate) fn mode_target(&mut self, pose: &Pose) -> Command {
         let vent = self.model.params.ip.output_min_bar;
         let mut command = match self.state {
+            State::Armed if self.mode == Mode::Idle => {
+                // vented: the next mode tensions the muscles again first
+                self.arm_ramp.reset();
+                Command {
+                    target_bar: [vent; 4],
+                    limited: Limited::NONE,
+                    kind: CommandKind::Mode,
+                }
+            }
             State::Armed => {
                 let (target_bar, limited) = match self.mode {
                     Mode::Idle => ([vent; 4], Limited::NONE),
@@ -67,6 +76,21 @@ impl Controller {
                     Mode::ForceClosedLoop { .. } => self.closed_loop_target(pose),
                     Mode::Impedance { .. } => self.impedance_target(pose),
                 };
+                let closed_loop = matches!(
+                    self.mode,
+                    Mode::ForceClosedLoop { .. } | Mode::Impedance { .. }
+                );
+                let target_bar = if self.arm_ramp.done() {
+                    target_bar
+                } else if closed_loop {
+                    // the closed loops enter bumplessly from the measured force and keep
+                    // their own guard; what the handle holder is, they learn from the force
+                    // their entry puts on it (the ramp would hide it from their first step)
+                    self.arm_ramp.finish();
+                    target_bar
+                } else {
+                    self.tensioning(pose, target_bar)
+                };
                 Command {
                     target_bar,
                     limited,
@@ -91,6 +115,21 @@ impl Controller {
             command.kind = CommandKind::Vent;
         }
         command
+    }
+
+    /// The tensioning ramp toward the mode's target. The mode's own state starts afresh
+    /// every period of it, so the mode begins where the ramp leaves the arm, its loops
+    /// without a history of commands that never reached the muscles.
+    #[cold]
+    #[inline(never)]
+    fn tensioning(&mut self, pose: &Pose, target_bar: [f32; 4]) -> [f32; 4] {
+        self.shaper.reset();
+        self.force_loop.reset();
+        self.impedance.reset();
+        self.encoders.reset();
+        let dt = self.safety.period_s;
+        self.arm_ramp
+            .step(&self.model, pose.alpha_rad, target_bar, dt)
     }
 
     /// Joint mode: the target shaped from where the arm is (rate and acceleration

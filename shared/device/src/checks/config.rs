@@ -104,7 +104,8 @@ pub fn invalid_calibration_is_refused_and_output_calibration_applies() -> CheckR
             .into(),
         ),
     )?;
-    let out = steps_alive(&mut d, 200, 2);
+    // through the tensioning ramp (1 s)
+    let out = steps_alive(&mut d, 1100, 2);
     let t = out.telemetry.unwrap_or_else(unreachable_telemetry);
     holds("pressurised", t.current_ma.iter().all(|&i| i > 9.0))?;
     near(

@@ -80,10 +80,11 @@ pub fn arm_needs_homing_and_disarm_vents() -> CheckResult {
             .into(),
         ),
     )?;
-    let out = steps_alive(&mut d, 50, 1);
+    // the tensioning ramp (1 s) first
+    let out = steps_alive(&mut d, 1100, 1);
     holds("pressurised", out.current_ma.iter().all(|&i| i > 9.0))?;
     done(&mut d, RequestBody::Disarm)?;
-    let out = steps(&mut d, 1, 60);
+    let out = steps(&mut d, 1, 1110);
     holds("vented at once", out.current_ma.iter().all(|&i| i == 4.0))
 }
 

@@ -49,7 +49,8 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
             .into(),
         ),
     )?;
-    let out = steps_alive(&mut d, 200, 1);
+    // the tensioning ramp (1 s) ends on the pressures
+    let out = steps_alive(&mut d, 1100, 1);
     let t = out.telemetry.unwrap_or_else(unreachable_telemetry);
     near("channel 3 pressure", t.pressure_cmd_bar[2], 3.0, 1e-5)?;
     holds(
@@ -75,7 +76,7 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
             .into(),
         ),
     )?;
-    let t = steps_alive(&mut d, 200, 300)
+    let t = steps_alive(&mut d, 200, 1200)
         .telemetry
         .unwrap_or_else(unreachable_telemetry);
     holds(
@@ -99,7 +100,7 @@ pub fn each_mode_reaches_the_outputs() -> CheckResult {
             .into(),
         ),
     )?;
-    let t = steps_alive(&mut d, 200, 600)
+    let t = steps_alive(&mut d, 200, 1500)
         .telemetry
         .unwrap_or_else(unreachable_telemetry);
     holds(
