@@ -4,6 +4,7 @@
 
 use std::collections::BTreeMap;
 
+use pam_effect_id::EffectId;
 use serde::Serialize;
 use serde_json::Value;
 
@@ -21,23 +22,6 @@ pub struct LoopSays {
     pub top_improvement: Option<f64>,
 }
 
-/// The catalog ids of the loop before it carried family names.
-fn family_of_id(id: &str) -> Option<&'static str> {
-    Some(match id {
-        "carrier_ball_friction" => "friction",
-        "velocity_squared" => "drag",
-        "muscle_hysteresis" => "hysteresis",
-        "cable_slip" => "backlash",
-        "nonlinear_stiffness" => "stiffness_nonlinearity",
-        "pose_dependence" => "pose_dependence",
-        "loadcell_drift" => "drift",
-        "transport_delay" => "delay",
-        "asymmetric_ip_rates" => "rate_limits",
-        "pressure_saturation" => "saturation",
-        _ => return None,
-    })
-}
-
 fn name_of(v: &Value) -> Option<String> {
     match v {
         Value::String(s) => Some(s.clone()),
@@ -51,10 +35,12 @@ pub fn read(v: &Value) -> LoopSays {
     let first = &v["effects"][0];
     let named = if verdict == "effect" {
         first["family"].as_str().map(str::to_string).or_else(|| {
+            // a diagnosis without family names: its catalog id names the family
             first["id"].as_str().map(|id| {
-                family_of_id(id)
-                    .map(str::to_string)
-                    .unwrap_or(id.to_string())
+                id.parse::<EffectId>()
+                    .ok()
+                    .and_then(EffectId::family)
+                    .map_or(id.to_string(), |f| f.name().to_string())
             })
         })
     } else {

@@ -38,8 +38,6 @@ pub enum IdentError {
     TooFewPoses { axis: &'static str, poses: usize },
     #[error("unknown experiment `{0}` (dynamic | step)")]
     UnknownExperiment(String),
-    #[error("unknown family `{name}` (known: {known})")]
-    UnknownFamily { name: String, known: String },
     #[error("unknown effect `{name}` (known: {known})")]
     UnknownEffect { name: String, known: String },
     /// Any of the above, in a named log.
@@ -69,7 +67,7 @@ impl IdentError {
             TooFewBins { .. } => "record a longer dynamic trial or widen the band (--band-rad-s)",
             TooFewPoses { .. } => "give the step logs of at least three poses per axis",
             UnknownExperiment(_) => "use --experiment dynamic or --experiment step",
-            UnknownFamily { .. } | UnknownEffect { .. } => "docs/model-loop.md lists the families and their shapes",
+            UnknownEffect { .. } => "docs/model-loop.md lists the families and their shapes",
             InLog { source, .. } => source.help(),
         }
     }

@@ -2,6 +2,7 @@
 //! duration, noise and the relative size the effect is scaled to. `CaseSpec::random`
 //! draws a balanced case from a seed.
 
+use pam_effect_id::Family as EffectFamily;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -39,7 +40,7 @@ impl Experiment {
     }
 }
 
-/// The truth label. The effect families carry the model loop's `Family` names; `None` is a
+/// The truth label. The effect families are the model loop's ([`EffectFamily`]); `None` is a
 /// control and `Unexplained` a structure outside the loop's catalog.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, PartialOrd, Ord)]
 #[serde(rename_all = "snake_case")]
@@ -74,20 +75,31 @@ impl Family {
         Family::Unexplained,
     ];
 
+    /// The model loop's family this label names; `None` for the control and for a
+    /// structure outside the families.
+    pub fn effect_family(self) -> Option<EffectFamily> {
+        use EffectFamily as F;
+        Some(match self {
+            Family::None | Family::Unexplained => return None,
+            Family::Friction => F::Friction,
+            Family::Drag => F::Drag,
+            Family::Hysteresis => F::Hysteresis,
+            Family::Backlash => F::Backlash,
+            Family::StiffnessNonlinearity => F::StiffnessNonlinearity,
+            Family::PoseDependence => F::PoseDependence,
+            Family::Drift => F::Drift,
+            Family::Delay => F::Delay,
+            Family::RateLimits => F::RateLimits,
+            Family::Saturation => F::Saturation,
+        })
+    }
+
+    /// The snake_case name: the model loop's family name, `none` or `unexplained`.
     pub fn name(self) -> &'static str {
-        match self {
-            Family::None => "none",
-            Family::Friction => "friction",
-            Family::Drag => "drag",
-            Family::Hysteresis => "hysteresis",
-            Family::Backlash => "backlash",
-            Family::StiffnessNonlinearity => "stiffness_nonlinearity",
-            Family::PoseDependence => "pose_dependence",
-            Family::Drift => "drift",
-            Family::Delay => "delay",
-            Family::RateLimits => "rate_limits",
-            Family::Saturation => "saturation",
-            Family::Unexplained => "unexplained",
+        match (self, self.effect_family()) {
+            (_, Some(f)) => f.name(),
+            (Family::None, None) => "none",
+            _ => "unexplained",
         }
     }
 

@@ -181,3 +181,16 @@ fn step_levels_lie_where_they_say() {
         generate(&spec).unwrap().log_text
     );
 }
+
+#[test]
+fn truth_labels_cover_the_model_loops_families_by_their_names() {
+    let labelled: Vec<pam_effect_id::Family> = Family::ALL
+        .into_iter()
+        .filter_map(Family::effect_family)
+        .collect();
+    assert_eq!(labelled, pam_effect_id::Family::ALL);
+    for f in Family::ALL {
+        let json = serde_json::to_string(&f).unwrap();
+        assert_eq!(json, format!("\"{}\"", f.name()));
+    }
+}

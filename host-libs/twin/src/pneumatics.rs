@@ -36,7 +36,7 @@
 //! that the vent after a fault takes the seconds Table 5.1 measured, not the second order's
 //! tenths.
 
-use crate::effects::{Ctx, Effect, EffectError, ParamInfo};
+use crate::effects::{Ctx, Effect, EffectError, EffectId, ParamInfo};
 
 /// Parameters of the air path. Sources in the field docs; every value is an estimate where
 /// the thesis gives none.
@@ -172,8 +172,8 @@ const FILL_NAMES: [&str; 4] = ["fill_1_s", "fill_2_s", "fill_3_s", "fill_4_s"];
 const EXHAUST_NAMES: [&str; 4] = ["exhaust_1_s", "exhaust_2_s", "exhaust_3_s", "exhaust_4_s"];
 
 impl Effect for ConverterRates {
-    fn id(&self) -> &'static str {
-        "converter_rates"
+    fn id(&self) -> EffectId {
+        EffectId::ConverterRates
     }
     fn summary(&self) -> &'static str {
         "Per-channel flow limits of the I/P converters, filling slower than exhausting (Table 5.1), with a spread between channels."
@@ -207,7 +207,11 @@ impl Effect for ConverterRates {
         } else if name == "span_bar" {
             self.span_bar = value;
         } else {
-            return Err(EffectError::unknown_param(self.id(), name, &self.params()));
+            return Err(EffectError::unknown_param(
+                self.id().name(),
+                name,
+                &self.params(),
+            ));
         }
         Ok(())
     }

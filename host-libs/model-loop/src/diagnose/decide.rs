@@ -15,8 +15,8 @@ use super::Loop;
 use super::ModelFit;
 use super::Settings;
 use crate::effects::Experiment;
-use crate::effects::Family;
 use crate::effects::ModelEffect;
+use crate::effects::{self, Family};
 use pam_ident::trial::Trial;
 use pam_model::RobotModel;
 use pam_numerics::stats::rms;
@@ -362,7 +362,7 @@ impl<'l, 'a> Judge<'l, 'a> {
             report: EffectReport {
                 id: e
                     .family()
-                    .map(|x| x.catalog_id())
+                    .map(|x| x.catalog_id().name())
                     .unwrap_or(e.id())
                     .to_string(),
                 family: e.family(),
@@ -402,7 +402,8 @@ impl<'l, 'a> Judge<'l, 'a> {
                 if d.t < self.settings.ambiguity_t {
                     if ambiguous.is_empty() {
                         ambiguous.push(fa);
-                        separating_experiment = Some(fa.separating_experiment(fb).to_string());
+                        separating_experiment =
+                            Some(effects::separating_experiment(fa, fb).to_string());
                     }
                     ambiguous.push(fb);
                 }

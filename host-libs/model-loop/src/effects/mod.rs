@@ -50,122 +50,35 @@ impl Experiment {
     }
 }
 
-/// The physical family an effect belongs to: what the user learns ("friction",
-/// "hysteresis", …). A family holds several shapes (the catalog's effects and their shape
-/// grids); reports name the family first, then the best shape.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Family {
-    Friction,
-    Drag,
-    Hysteresis,
-    Backlash,
-    StiffnessNonlinearity,
-    PoseDependence,
-    Drift,
-    Delay,
-    RateLimits,
-    Saturation,
-}
+pub use pam_effect_id::Family;
 
-impl Family {
-    pub const ALL: [Family; 10] = [
-        Family::Friction,
-        Family::Drag,
-        Family::Hysteresis,
-        Family::Backlash,
-        Family::StiffnessNonlinearity,
-        Family::PoseDependence,
-        Family::Drift,
-        Family::Delay,
-        Family::RateLimits,
-        Family::Saturation,
-    ];
-
-    /// The id the family's effects have always been reported under, shared with the
-    /// digital twin's effect of that family (`--json`'s `id`).
-    pub fn catalog_id(self) -> &'static str {
-        match self {
-            Family::Friction => "carrier_ball_friction",
-            Family::Drag => "velocity_squared",
-            Family::Hysteresis => "muscle_hysteresis",
-            Family::Backlash => "cable_slip",
-            Family::StiffnessNonlinearity => "nonlinear_stiffness",
-            Family::PoseDependence => "pose_dependence",
-            Family::Drift => "loadcell_drift",
-            Family::Delay => "transport_delay",
-            Family::RateLimits => "asymmetric_ip_rates",
-            Family::Saturation => "pressure_saturation",
+/// The experiment that tells families `a` and `b` apart when a log cannot.
+pub fn separating_experiment(a: Family, b: Family) -> &'static str {
+    use Family::*;
+    let pair = if a <= b { (a, b) } else { (b, a) };
+    match pair {
+        (StiffnessNonlinearity, PoseDependence) => {
+            "repeat the dynamic trial at the neutral pose with larger excursions on both sides of the equilibrium: a cubic is odd in the displacement, a pose-dependent stiffness even"
         }
-    }
-
-    /// The experiment that tells this family apart from `other` when a log cannot.
-    pub fn separating_experiment(self, other: Family) -> &'static str {
-        use Family::*;
-        let pair = if self <= other {
-            (self, other)
-        } else {
-            (other, self)
-        };
-        match pair {
-            (StiffnessNonlinearity, PoseDependence) => {
-                "repeat the dynamic trial at the neutral pose with larger excursions on both sides of the equilibrium: a cubic is odd in the displacement, a pose-dependent stiffness even"
-            }
-            (Friction, Drag) => {
-                "move the handle at two clearly different speeds: friction keeps its size, drag grows with the speed squared"
-            }
-            (Friction, Hysteresis) | (Hysteresis, Backlash) | (Friction, Backlash) => {
-                "move with small reversals (a few mm) and with large ones: friction acts at every reversal alike, hysteresis turns over a small excursion, backlash shows as a dead band in position"
-            }
-            (Hysteresis, Drift) | (Drift, Saturation) | (Hysteresis, Saturation) => {
-                "steps of both signs and two sizes, approached from above and from below: hysteresis follows the direction of the last step, saturation the size, drift the time"
-            }
-            (Delay, RateLimits) => {
-                "steps of two clearly different sizes: a dead time is the same for both, a rate limit makes the large step slower"
-            }
-            (Delay, _) | (_, Delay) => {
-                "sample faster (≤ 5 ms) and include quick reversals or small fast steps: a pure delay shifts every frequency by the same time"
-            }
-            (Drift, _) | (_, Drift) => {
-                "a longer trial with rests at the start and the end: drift grows with time, the other effect does not"
-            }
-            _ => "repeat the trial at a second pose and with larger excursions (or steps of both signs and two sizes)",
+        (Friction, Drag) => {
+            "move the handle at two clearly different speeds: friction keeps its size, drag grows with the speed squared"
         }
-    }
-
-    /// The plain snake_case word used in reports and `--json`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Family::Friction => "friction",
-            Family::Drag => "drag",
-            Family::Hysteresis => "hysteresis",
-            Family::Backlash => "backlash",
-            Family::StiffnessNonlinearity => "stiffness_nonlinearity",
-            Family::PoseDependence => "pose_dependence",
-            Family::Drift => "drift",
-            Family::Delay => "delay",
-            Family::RateLimits => "rate_limits",
-            Family::Saturation => "saturation",
+        (Friction, Hysteresis) | (Hysteresis, Backlash) | (Friction, Backlash) => {
+            "move with small reversals (a few mm) and with large ones: friction acts at every reversal alike, hysteresis turns over a small excursion, backlash shows as a dead band in position"
         }
-    }
-}
-
-impl std::fmt::Display for Family {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Family {
-    type Err = pam_ident::IdentError;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Family::ALL
-            .into_iter()
-            .find(|f| f.name() == s)
-            .ok_or_else(|| pam_ident::IdentError::UnknownFamily {
-                name: s.to_string(),
-                known: Family::ALL.map(|f| f.name()).join(", "),
-            })
+        (Hysteresis, Drift) | (Drift, Saturation) | (Hysteresis, Saturation) => {
+            "steps of both signs and two sizes, approached from above and from below: hysteresis follows the direction of the last step, saturation the size, drift the time"
+        }
+        (Delay, RateLimits) => {
+            "steps of two clearly different sizes: a dead time is the same for both, a rate limit makes the large step slower"
+        }
+        (Delay, _) | (_, Delay) => {
+            "sample faster (≤ 5 ms) and include quick reversals or small fast steps: a pure delay shifts every frequency by the same time"
+        }
+        (Drift, _) | (_, Drift) => {
+            "a longer trial with rests at the start and the end: drift grows with time, the other effect does not"
+        }
+        _ => "repeat the trial at a second pose and with larger excursions (or steps of both signs and two sizes)",
     }
 }
 
@@ -490,10 +403,11 @@ pub fn lookup<'a>(
             .iter()
             .find(|e| e.id() == id)
             .or_else(|| {
-                let family: Option<Family> = id
-                    .parse()
-                    .ok()
-                    .or_else(|| Family::ALL.into_iter().find(|f| f.catalog_id() == id));
+                let family: Option<Family> = id.parse().ok().or_else(|| {
+                    Family::ALL
+                        .into_iter()
+                        .find(|f| f.catalog_id().name() == id)
+                });
                 catalog
                     .iter()
                     .find(|e| family.is_some() && e.family() == family)

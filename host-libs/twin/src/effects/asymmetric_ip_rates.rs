@@ -5,7 +5,7 @@
 //! The converter's flow saturates: the muscle pressure can rise at most span/inflation_s and
 //! fall at most span/deflation_s. Small steps (Table 5.2) stay below the limits.
 
-use super::{effect_params, Ctx, Effect};
+use super::{effect_params, Ctx, Effect, EffectId};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct AsymmetricIpRates {
@@ -26,8 +26,8 @@ impl Default for AsymmetricIpRates {
 }
 
 impl Effect for AsymmetricIpRates {
-    fn id(&self) -> &'static str {
-        "asymmetric_ip_rates"
+    fn id(&self) -> EffectId {
+        EffectId::AsymmetricIpRates
     }
     fn summary(&self) -> &'static str {
         "Flow saturation of the I/P converters, slower to inflate than to deflate (Table 5.1)."

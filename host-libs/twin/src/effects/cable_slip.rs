@@ -7,7 +7,7 @@
 //! excess. Torques on the segment then come from muscles that are no longer where the model
 //! thinks: the equilibrium creeps, and the creep stays.
 
-use super::{effect_params, Ctx, Effect};
+use super::{effect_params, Ctx, Effect, EffectId};
 use pam_model::Vec2;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -40,8 +40,8 @@ impl CableSlip {
 }
 
 impl Effect for CableSlip {
-    fn id(&self) -> &'static str {
-        "cable_slip"
+    fn id(&self) -> EffectId {
+        EffectId::CableSlip
     }
     fn summary(&self) -> &'static str {
         "Joint-1 cable: backlash in the pulley groove and slip when the carried torque exceeds the groove's hold."

@@ -9,7 +9,7 @@
 //! handle velocity, smoothed over `smoothing_m_s` so it is a continuous force the integrator
 //! can follow; a viscous part for the ball's rolling resistance.
 
-use super::{effect_params, smooth_sign, Ctx, Effect, HandleForces};
+use super::{effect_params, smooth_sign, Ctx, Effect, EffectId, HandleForces};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct CarrierBallFriction {
@@ -33,8 +33,8 @@ impl Default for CarrierBallFriction {
 }
 
 impl Effect for CarrierBallFriction {
-    fn id(&self) -> &'static str {
-        "carrier_ball_friction"
+    fn id(&self) -> EffectId {
+        EffectId::CarrierBallFriction
     }
     fn summary(&self) -> &'static str {
         "Dry (Coulomb, smoothed) plus viscous friction of the carrier ball on the table, acting at the handle against its velocity; on the arm side of the load cell by default, so the load cell sees the hand push through it."

@@ -3,7 +3,7 @@
 //! Adds `offset + drift·t` (in newtons, converted to volts through the cell's gain) to each
 //! channel. Joint angles, pressures and the true force are unchanged.
 
-use super::{effect_params, Ctx, Effect, RawSensors};
+use super::{effect_params, Ctx, Effect, EffectId, RawSensors};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoadcellDrift {
@@ -25,8 +25,8 @@ impl Default for LoadcellDrift {
 }
 
 impl Effect for LoadcellDrift {
-    fn id(&self) -> &'static str {
-        "loadcell_drift"
+    fn id(&self) -> EffectId {
+        EffectId::LoadcellDrift
     }
     fn summary(&self) -> &'static str {
         "Offset plus linear drift of both load-cell channels (sensor frame)."

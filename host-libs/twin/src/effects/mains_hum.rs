@@ -4,7 +4,7 @@
 //! model tools should flag data containing it as unexplained. Sampled at the thesis's 50 ms
 //! it aliases to DC (50 Hz × 0.05 s = 2.5 cycles: alternating sign), at 1 ms it is a clean tone.
 
-use super::{effect_params, Ctx, Effect, RawSensors};
+use super::{effect_params, Ctx, Effect, EffectId, RawSensors};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct MainsHum {
@@ -24,14 +24,11 @@ impl Default for MainsHum {
 }
 
 impl Effect for MainsHum {
-    fn id(&self) -> &'static str {
-        "mains_hum"
+    fn id(&self) -> EffectId {
+        EffectId::MainsHum
     }
     fn summary(&self) -> &'static str {
         "Mains pickup: a sinusoidal tone added to both load-cell channels. Not a physical effect of the robot."
-    }
-    fn in_model_catalog(&self) -> bool {
-        false
     }
     effect_params! {
         amplitude_n, "N", "tone amplitude on each channel";

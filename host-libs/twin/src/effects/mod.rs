@@ -24,6 +24,7 @@
 
 use std::fmt;
 
+pub use pam_effect_id::EffectId;
 use pam_model::{RobotParams, Vec2};
 
 mod asymmetric_ip_rates;
@@ -108,18 +109,18 @@ pub struct ParamInfo {
 
 /// A physical effect. Hooks mutate the value of their stage in place.
 pub trait Effect: Send {
-    /// Stable snake_case id (shared with the model tools).
-    fn id(&self) -> &'static str;
+    /// Stable id (shared with the model tools).
+    fn id(&self) -> EffectId;
     /// One paragraph: the physics, and where the defaults come from.
     fn summary(&self) -> &'static str;
     /// The parameters with their present values.
     fn params(&self) -> Vec<ParamInfo>;
     /// Sets one parameter by name.
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), EffectError>;
-    /// Whether the model catalog describes this effect. `false` marks a disturbance the
-    /// model tools should report as unexplained.
+    /// Whether the model catalog describes this effect (its id has a family). `false` marks
+    /// a disturbance the model tools should report as unexplained.
     fn in_model_catalog(&self) -> bool {
-        true
+        self.id().family().is_some()
     }
     fn boxed_clone(&self) -> Box<dyn Effect>;
     /// Back to the initial state; `seed` is this effect's own stream.
@@ -209,7 +210,7 @@ pub fn catalog() -> Vec<Box<dyn Effect>> {
 
 /// The stable ids, in catalog order.
 pub fn ids() -> Vec<&'static str> {
-    catalog().iter().map(|e| e.id()).collect()
+    catalog().iter().map(|e| e.id().name()).collect()
 }
 
 /// Builds one effect from `id` or `id:name=value,name=value`.
@@ -221,7 +222,7 @@ pub fn parse(spec: &str) -> Result<Box<dyn Effect>, EffectError> {
     };
     let mut effect = catalog()
         .into_iter()
-        .find(|e| e.id() == id)
+        .find(|e| e.id().name() == id)
         .ok_or_else(|| EffectError {
             message: format!("unknown effect `{id}` (known: {})", ids().join(", ")),
         })?;
@@ -324,7 +325,7 @@ impl EffectSet {
 
     pub(crate) fn reset(&mut self, seed: u64) {
         for e in &mut self.effects {
-            let s = crate::rng::Rng::derive(seed, e.id()).next_u64();
+            let s = crate::rng::Rng::derive(seed, e.id().name()).next_u64();
             e.reset(s);
         }
     }
@@ -339,7 +340,7 @@ macro_rules! effect_params {
         fn set_param(&mut self, name: &str, value: f64) -> Result<(), $crate::effects::EffectError> {
             match name {
                 $(stringify!($field) => { self.$field = value; Ok(()) })*
-                _ => Err($crate::effects::EffectError::unknown_param(self.id(), name, &self.params())),
+                _ => Err($crate::effects::EffectError::unknown_param(self.id().name(), name, &self.params())),
             }
         }
         fn boxed_clone(&self) -> Box<dyn $crate::effects::Effect> {

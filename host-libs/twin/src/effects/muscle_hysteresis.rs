@@ -6,7 +6,7 @@
 //! muscle being stretched (ε̇ < 0) pulls harder than on the way back. Proportional to force
 //! because the braid's normal load grows with pressure.
 
-use super::{effect_params, Ctx, Effect, MuscleView};
+use super::{effect_params, Ctx, Effect, EffectId, MuscleView};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct MuscleHysteresis {
@@ -28,8 +28,8 @@ impl Default for MuscleHysteresis {
 }
 
 impl Effect for MuscleHysteresis {
-    fn id(&self) -> &'static str {
-        "muscle_hysteresis"
+    fn id(&self) -> EffectId {
+        EffectId::MuscleHysteresis
     }
     fn summary(&self) -> &'static str {
         "Direction-dependent muscle force (Dahl friction of the braid), proportional to the force."

@@ -6,7 +6,7 @@
 //! muscle (Δε < 0) pulls harder, a shortened one less; for a joint pair this is a restoring
 //! torque growing with the cube of the excursion, invisible to a linearisation at the centre.
 
-use super::{effect_params, Ctx, Effect, MuscleView};
+use super::{effect_params, Ctx, Effect, EffectId, MuscleView};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct NonlinearStiffness {
@@ -22,8 +22,8 @@ impl Default for NonlinearStiffness {
 }
 
 impl Effect for NonlinearStiffness {
-    fn id(&self) -> &'static str {
-        "nonlinear_stiffness"
+    fn id(&self) -> EffectId {
+        EffectId::NonlinearStiffness
     }
     fn summary(&self) -> &'static str {
         "Cubic stiffening of each cable force with its stretch from the neutral pretension: a restoring torque ∝ excursion³ the linear KBM cannot represent."

@@ -6,7 +6,7 @@
 //! cable wrap changing with the pose). Steady-state pressures, as a gauge would read them,
 //! are unchanged: only the force they make.
 
-use super::{effect_params, Ctx, Effect};
+use super::{effect_params, Ctx, Effect, EffectId};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct PoseDependence {
@@ -26,8 +26,8 @@ impl Default for PoseDependence {
 }
 
 impl Effect for PoseDependence {
-    fn id(&self) -> &'static str {
-        "pose_dependence"
+    fn id(&self) -> EffectId {
+        EffectId::PoseDependence
     }
     fn summary(&self) -> &'static str {
         "Pose-dependent gain from muscle pressure to force: the effective pressure is scaled by a plane in (α1, α2)."

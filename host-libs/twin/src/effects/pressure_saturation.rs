@@ -5,7 +5,7 @@
 //! Commands above `knee_bar` are compressed smoothly toward `max_bar` (tanh), so forces
 //! that need high pressures fall short while low-pressure work is unchanged.
 
-use super::{effect_params, Ctx, Effect};
+use super::{effect_params, Ctx, Effect, EffectId};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct PressureSaturation {
@@ -23,8 +23,8 @@ impl Default for PressureSaturation {
 }
 
 impl Effect for PressureSaturation {
-    fn id(&self) -> &'static str {
-        "pressure_saturation"
+    fn id(&self) -> EffectId {
+        EffectId::PressureSaturation
     }
     fn summary(&self) -> &'static str {
         "Soft saturation of the delivered pressure above a knee toward a maximum below 5 bar."

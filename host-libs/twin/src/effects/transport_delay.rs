@@ -5,7 +5,7 @@
 
 use std::collections::VecDeque;
 
-use super::{effect_params, Ctx, Effect};
+use super::{effect_params, Ctx, Effect, EffectId};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransportDelay {
@@ -23,8 +23,8 @@ impl Default for TransportDelay {
 }
 
 impl Effect for TransportDelay {
-    fn id(&self) -> &'static str {
-        "transport_delay"
+    fn id(&self) -> EffectId {
+        EffectId::TransportDelay
     }
     fn summary(&self) -> &'static str {
         "Pure transport delay of the pressure command (Table 5.1: < 0.05 s)."

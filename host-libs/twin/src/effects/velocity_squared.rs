@@ -7,7 +7,7 @@
 //! carrier ball's rolling losses growing with speed, the operator's grip), so the model
 //! tools can test a quadratic term.
 
-use super::{effect_params, Ctx, Effect, HandleForces};
+use super::{effect_params, Ctx, Effect, EffectId, HandleForces};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct VelocitySquared {
@@ -24,8 +24,8 @@ impl Default for VelocitySquared {
 }
 
 impl Effect for VelocitySquared {
-    fn id(&self) -> &'static str {
-        "velocity_squared"
+    fn id(&self) -> EffectId {
+        EffectId::VelocitySquared
     }
     fn summary(&self) -> &'static str {
         "Quadratic drag −c·|v|·v on the handle (Coriolis/centrifugal terms are already in the base dynamics and negligible at hand speeds)."
