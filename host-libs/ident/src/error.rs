@@ -34,6 +34,11 @@ pub enum IdentError {
     NoForceReference,
     #[error("only {bins} spectral bins below {band_rad_s} rad/s: the trial is too short for a frequency fit")]
     TooFewBins { bins: usize, band_rad_s: f64 },
+    #[error("the {fit} fit {termination}: its parameters are not finite numbers")]
+    FitNotFinite {
+        fit: &'static str,
+        termination: pam_numerics::lm::Termination,
+    },
     #[error("the gain plane needs at least 3 poses per axis; axis {axis} has {poses}")]
     TooFewPoses { axis: &'static str, poses: usize },
     #[error("unknown experiment `{0}` (dynamic | step)")]
@@ -65,6 +70,7 @@ impl IdentError {
             }
             NoForceReference => "record the step test with `pamctl experiment step`, which logs fx_ref_n and fy_ref_n",
             TooFewBins { .. } => "record a longer dynamic trial or widen the band (--band-rad-s)",
+            FitNotFinite { .. } => "look for rows of the log where the force or the motion jumps or overflows; a fit of a cleaner stretch of the trial may converge",
             TooFewPoses { .. } => "give the step logs of at least three poses per axis",
             UnknownExperiment(_) => "use --experiment dynamic or --experiment step",
             UnknownEffect { .. } => "docs/model-loop.md lists the families and their shapes",

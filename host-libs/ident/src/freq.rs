@@ -5,7 +5,7 @@
 
 use crate::msd::{self, matrix_report, sym, AxisScore, MatrixReport};
 use crate::trial::Prepared;
-use pam_numerics::lm;
+use pam_numerics::lm::{self, LmSummary};
 use pam_numerics::spectrum::amplitude_spectrum;
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -20,6 +20,9 @@ pub struct FreqFit {
     /// The time-domain scores of these parameters on the held-out 20 % (Fig. 4.13–4.14).
     pub test: [AxisScore; 2],
     pub start: Vec<MatrixReport>,
+    /// How the Levenberg–Marquardt fit ended (a fit that ran out of iterations is still
+    /// reported, with this saying so).
+    pub lm: LmSummary,
     #[serde(skip)]
     pub omega: Vec<f64>,
     #[serde(skip)]
@@ -67,11 +70,18 @@ pub fn fit(p: &Prepared, start: &[f64], band_rad_s: f64) -> Result<FreqFit, crat
         }
     };
     let lower = [(3, 0.0), (5, 0.0), (6, 0.0), (8, 0.0)];
-    let (theta, _) = lm::minimize(start, &lower, 2 * n, 200, resid);
+    let report = lm::minimize(start, &lower, 2 * n, 200, resid);
+    if !report.is_finite() {
+        return Err(crate::IdentError::FitNotFinite {
+            fit: "frequency",
+            termination: report.termination,
+        });
+    }
+    let theta = &report.theta;
     let mut model = [Vec::with_capacity(n), Vec::with_capacity(n)];
     let mut meas = [Vec::with_capacity(n), Vec::with_capacity(n)];
     for (j, &k) in idx.iter().enumerate() {
-        let a = model_amp(&theta, omega[j], vx.amplitude[k], vy.amplitude[k]);
+        let a = model_amp(theta, omega[j], vx.amplitude[k], vy.amplitude[k]);
         model[0].push(a[0]);
         model[1].push(a[1]);
         meas[0].push(fx.amplitude[k]);
@@ -82,7 +92,7 @@ pub fn fit(p: &Prepared, start: &[f64], band_rad_s: f64) -> Result<FreqFit, crat
         msd::score(&meas[1], &model[1]).r2,
     ];
     let cols = msd::msd_columns(p);
-    let pred = pam_numerics::lsq::predict(&cols, &theta, p.len());
+    let pred = pam_numerics::lsq::predict(&cols, theta, p.len());
     let (test, _) = msd::scores(p, &f, &pred);
     Ok(FreqFit {
         band_rad_s,
@@ -99,6 +109,7 @@ pub fn fit(p: &Prepared, start: &[f64], band_rad_s: f64) -> Result<FreqFit, crat
             matrix_report("B", sym(&start[3..6])),
             matrix_report("K", sym(&start[6..9])),
         ],
+        lm: report.summary(),
         omega,
         force_amp: meas,
         model_amp: model,

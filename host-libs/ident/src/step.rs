@@ -8,7 +8,8 @@
 
 use crate::step_detection::detect_steps;
 use crate::trial::Prepared;
-use pam_numerics::lm;
+use pam_numerics::lm::{self, LmSummary};
+use pam_numerics::second_order::SecondOrderStep;
 use pam_numerics::stats::mean;
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -200,7 +201,7 @@ pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], y_start: f64, out: &mut 
     };
     let mut y = y_start;
     let mut yd = 0.0;
-    let zoh = Zoh::new(p.zeta, p.omega_n_rad_s, dt);
+    let zoh = SecondOrderStep::new(p.omega_n_rad_s, p.zeta, dt);
     for i in 0..n {
         out[i] = y;
         let target = p.gain * u[i];
@@ -210,68 +211,33 @@ pub fn simulate(p: &StepParams, t_s: &[f64], u: &[f64], y_start: f64, out: &mut 
     }
 }
 
-/// Exact discretisation of e'' + 2ζωn e' + ωn² e = 0 over one sample.
-struct Zoh {
-    phi: [[f64; 2]; 2],
+/// A whole-response fit of one axis and how its Levenberg–Marquardt ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AxisFit {
+    pub params: StepParams,
+    pub lm: LmSummary,
 }
 
-impl Zoh {
-    fn new(zeta: f64, wn: f64, dt: f64) -> Self {
-        let a = [[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]];
-        // scaling and squaring of a Taylor series
-        let norm = (a[1][0].abs() + a[1][1].abs()).max(1.0) * dt;
-        let mut sq = 0;
-        while norm / f64::powi(2.0, sq) > 0.25 {
-            sq += 1;
-        }
-        let h = dt / f64::powi(2.0, sq);
-        let ah = [[0.0, h], [a[1][0] * h, a[1][1] * h]];
-        let mut phi = [[1.0, 0.0], [0.0, 1.0]];
-        let mut term = [[1.0, 0.0], [0.0, 1.0]];
-        for k in 1..14 {
-            term = mat_mul(&term, &ah);
-            for r in 0..2 {
-                for c in 0..2 {
-                    term[r][c] /= k as f64;
-                    phi[r][c] += term[r][c];
-                }
-            }
-        }
-        for _ in 0..sq {
-            phi = mat_mul(&phi, &phi);
-        }
-        Zoh { phi }
-    }
-    #[inline]
-    fn step(&self, e: f64, ed: f64) -> (f64, f64) {
-        (
-            self.phi[0][0] * e + self.phi[0][1] * ed,
-            self.phi[1][0] * e + self.phi[1][1] * ed,
-        )
+impl AxisFit {
+    /// True when the fit ended at a minimum; otherwise [`AxisFit::params`] are the last
+    /// iterate of a fit that ran out of iterations.
+    pub fn reached_a_minimum(&self) -> bool {
+        self.lm.reached_a_minimum()
     }
 }
 
-fn mat_mul(a: &[[f64; 2]; 2], b: &[[f64; 2]; 2]) -> [[f64; 2]; 2] {
-    [
-        [
-            a[0][0] * b[0][0] + a[0][1] * b[1][0],
-            a[0][0] * b[0][1] + a[0][1] * b[1][1],
-        ],
-        [
-            a[1][0] * b[0][0] + a[1][1] * b[1][0],
-            a[1][0] * b[0][1] + a[1][1] * b[1][1],
-        ],
-    ]
-}
-
-/// Least-squares fit of one axis (G, ζ, ωn) on rows [0, fit_end), from `start`.
+/// Least-squares fit of one axis (G, ζ, ωn) on rows [0, fit_end), from `start`. `None`
+/// without a force reference; an error when the fit's parameters are not finite.
 pub fn fit_axis(
     p: &Prepared,
     axis: usize,
     start: &StepParams,
     fit_end: usize,
-) -> Option<StepParams> {
-    let u = &p.force_ref_n.as_ref()?[axis];
+) -> Result<Option<AxisFit>, crate::IdentError> {
+    let Some(reference) = p.force_ref_n.as_ref() else {
+        return Ok(None);
+    };
+    let u = &reference[axis];
     let y = &p.force_n[axis];
     let n = fit_end.min(p.len());
     // the simulation runs on every sample; the residuals are taken every ≥ 5 ms so a
@@ -280,7 +246,7 @@ pub fn fit_axis(
     let sel: Vec<usize> = (0..n).step_by(stride).collect();
     let t = &p.t_s[..n];
     let init = [start.gain, start.zeta, start.omega_n_rad_s];
-    let (theta, _) = lm::minimize(&init, &[(1, 0.02), (2, 0.1)], sel.len(), 30, |v, r| {
+    let report = lm::minimize(&init, &[(1, 0.02), (2, 0.1)], sel.len(), 30, |v, r| {
         let mut buf = vec![0.0; n];
         simulate(
             &StepParams::base(v[0], v[1], v[2]),
@@ -293,7 +259,17 @@ pub fn fit_axis(
             r[j] = buf[i] - y[i];
         }
     });
-    Some(StepParams::base(theta[0], theta[1], theta[2]))
+    if !report.is_finite() {
+        return Err(crate::IdentError::FitNotFinite {
+            fit: "step-response",
+            termination: report.termination,
+        });
+    }
+    let theta = &report.theta;
+    Ok(Some(AxisFit {
+        params: StepParams::base(theta[0], theta[1], theta[2]),
+        lm: report.summary(),
+    }))
 }
 
 /// A starting point for the whole-response fit from the graphical estimates.

@@ -1,45 +1,7 @@
-//! Single-sided amplitude spectra (radix-2 FFT on a zero-padded, mean-removed signal) and
-//! the detection of narrow peaks that no smooth model explains.
+//! Single-sided amplitude spectra (a real FFT of the whole mean-removed signal, any length)
+//! and the detection of narrow peaks that no smooth model explains.
 
-use std::f64::consts::PI;
-
-fn fft_in_place(re: &mut [f64], im: &mut [f64]) {
-    let n = re.len();
-    let mut j = 0;
-    for i in 1..n {
-        let mut bit = n >> 1;
-        while j & bit != 0 {
-            j ^= bit;
-            bit >>= 1;
-        }
-        j |= bit;
-        if i < j {
-            re.swap(i, j);
-            im.swap(i, j);
-        }
-    }
-    let mut len = 2;
-    while len <= n {
-        let ang = -2.0 * PI / len as f64;
-        let (wr, wi) = (ang.cos(), ang.sin());
-        for start in (0..n).step_by(len) {
-            let (mut cr, mut ci) = (1.0, 0.0);
-            for k in 0..len / 2 {
-                let (a, b) = (start + k, start + k + len / 2);
-                let tr = re[b] * cr - im[b] * ci;
-                let ti = re[b] * ci + im[b] * cr;
-                re[b] = re[a] - tr;
-                im[b] = im[a] - ti;
-                re[a] += tr;
-                im[a] += ti;
-                let ncr = cr * wr - ci * wi;
-                ci = cr * wi + ci * wr;
-                cr = ncr;
-            }
-        }
-        len <<= 1;
-    }
-}
+use realfft::RealFftPlanner;
 
 /// Single-sided amplitude spectrum.
 #[derive(Clone, Debug)]
@@ -67,35 +29,41 @@ pub fn on_even_times<'a>(t_s: &[f64], x: &'a [f64], dt_s: f64) -> std::borrow::C
     Cow::Owned(crate::interp::linear_at(&t_s[..n], &x[..n], &grid))
 }
 
-/// Amplitude spectrum of `x` sampled every `dt_s`: |X(f)|·2/N (DC not doubled), without
-/// zero padding when `pad` is false (bins then fall on k/(N·dt) exactly for N a power of
-/// two; otherwise the signal is truncated to the largest power of two, keeping the bins
-/// honest rather than interpolated).
+/// Amplitude spectrum of `x` sampled every `dt_s`: |X(f)|·2/N (DC and the Nyquist bin not
+/// doubled) of all N samples, mean removed, without zero padding: the bins fall on k/(N·dt)
+/// exactly. The FFT is realfft's, which handles any N (mixed radix, or Bluestein's
+/// algorithm for a length with a large prime factor).
 pub fn amplitude_spectrum(x: &[f64], dt_s: f64) -> Spectrum {
-    let mut n = 1usize;
-    while n * 2 <= x.len() {
-        n *= 2;
+    let n = x.len();
+    if n < 2 {
+        // one sample: its mean removed, nothing is left
+        return Spectrum {
+            freq_hz: vec![0.0; n],
+            amplitude: vec![0.0; n],
+            re: vec![0.0; n],
+            im: vec![0.0; n],
+        };
     }
-    let m = x[..n].iter().sum::<f64>() / n as f64;
-    let mut re: Vec<f64> = x[..n].iter().map(|v| v - m).collect();
-    let mut im = vec![0.0; n];
-    if n >= 2 {
-        fft_in_place(&mut re, &mut im);
-    }
-    let half = n / 2 + 1;
+    let m = x.iter().sum::<f64>() / n as f64;
+    let mut input: Vec<f64> = x.iter().map(|v| v - m).collect();
+    let fft = RealFftPlanner::<f64>::new().plan_fft_forward(n);
+    let mut bins = fft.make_output_vec();
+    fft.process(&mut input, &mut bins)
+        .expect("the buffers come from the plan, so their lengths match it");
+    let half = bins.len();
     let df = 1.0 / (n as f64 * dt_s);
     let scale = 2.0 / n as f64;
+    // the Nyquist bin exists only for an even N
+    let unpaired = |k: usize| k == 0 || (n % 2 == 0 && k == n / 2);
     Spectrum {
         freq_hz: (0..half).map(|k| k as f64 * df).collect(),
-        amplitude: (0..half)
-            .map(|k| {
-                (re[k] * re[k] + im[k] * im[k]).sqrt()
-                    * if k == 0 || k == n / 2 { 0.5 } else { 1.0 }
-                    * scale
-            })
+        amplitude: bins
+            .iter()
+            .enumerate()
+            .map(|(k, c)| c.norm() * if unpaired(k) { 0.5 } else { 1.0 } * scale)
             .collect(),
-        re: re[..half].iter().map(|v| v * scale).collect(),
-        im: im[..half].iter().map(|v| v * scale).collect(),
+        re: bins.iter().map(|c| c.re * scale).collect(),
+        im: bins.iter().map(|c| c.im * scale).collect(),
     }
 }
 
@@ -171,7 +139,51 @@ pub fn narrow_peaks(s: &Spectrum, min_prominence: f64, min_share: f64) -> Vec<Pe
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{amplitude_spectrum, narrow_peaks};
+    use std::f64::consts::PI;
+
+    /// The spectrum against a direct DFT at lengths that are not powers of two (prime,
+    /// odd, even), every bin.
+    #[test]
+    fn matches_a_direct_dft_at_any_length() {
+        for n in [2usize, 7, 90, 1000, 1009] {
+            let x: Vec<f64> = (0..n)
+                .map(|i| (0.37 * i as f64).sin() + 0.2 * ((i * i) % 13) as f64)
+                .collect();
+            let s = amplitude_spectrum(&x, 0.01);
+            assert_eq!(s.freq_hz.len(), n / 2 + 1);
+            let m = x.iter().sum::<f64>() / n as f64;
+            for k in 0..=n / 2 {
+                let (mut re, mut im) = (0.0, 0.0);
+                for (i, v) in x.iter().enumerate() {
+                    let a = -2.0 * PI * (k * i) as f64 / n as f64;
+                    re += (v - m) * a.cos();
+                    im += (v - m) * a.sin();
+                }
+                let unpaired = k == 0 || (n % 2 == 0 && k == n / 2);
+                let amp =
+                    (re * re + im * im).sqrt() * 2.0 / n as f64 * if unpaired { 0.5 } else { 1.0 };
+                assert!((s.amplitude[k] - amp).abs() < 1e-9, "n {n} bin {k}");
+                assert!((s.re[k] - re * 2.0 / n as f64).abs() < 1e-9);
+                assert!((s.im[k] - im * 2.0 / n as f64).abs() < 1e-9);
+                assert!((s.freq_hz[k] - k as f64 / (n as f64 * 0.01)).abs() < 1e-9);
+            }
+        }
+    }
+
+    /// A tone on a bin of a length that is not a power of two keeps its full amplitude
+    /// (truncating to a power of two would put it between bins).
+    #[test]
+    fn a_tone_on_a_bin_keeps_its_amplitude() {
+        let (n, dt) = (3000usize, 0.001);
+        let x: Vec<f64> = (0..n)
+            .map(|i| 1.5 * (2.0 * PI * 50.0 * i as f64 * dt).cos())
+            .collect();
+        let s = amplitude_spectrum(&x, dt);
+        let k = 150; // 50 Hz at 1/3 Hz per bin
+        assert!((s.freq_hz[k] - 50.0).abs() < 1e-9);
+        assert!((s.amplitude[k] - 1.5).abs() < 1e-9, "{}", s.amplitude[k]);
+    }
 
     #[test]
     fn sine_amplitude_and_peak_are_found() {

@@ -28,6 +28,7 @@
 use pam_control::{ForceLoop, ForceLoopConfig};
 use pam_model::params::IpConverter;
 use pam_model::RobotParams;
+use pam_numerics::second_order::SecondOrderStep;
 use thiserror::Error;
 
 /// Most overshoot a proposal may predict, %.
@@ -209,7 +210,7 @@ pub fn predict(
     let delay_n = (plant.delay_s / dt).round() as usize;
     let (wn, zeta) = (plant.omega_n_rad_s, plant.zeta);
     // exact discretisation of y'' + 2ζωn y' + ωn² y = ωn² g u over one period (ZOH)
-    let phi = transition(zeta, wn, dt);
+    let phi = SecondOrderStep::new(wn, zeta, dt);
     let mut lp = ForceLoop::new();
     let (mut y, mut yd) = (0.0f64, 0.0f64);
     let mut queue = std::collections::VecDeque::from(vec![0.0f64; delay_n]);
@@ -229,8 +230,8 @@ pub fn predict(
         let u = queue.pop_front().unwrap_or(0.0);
         let target = plant.gain * u;
         let e = y - target;
-        let ne = phi[0][0] * e + phi[0][1] * yd;
-        yd = phi[1][0] * e + phi[1][1] * yd;
+        let (ne, nyd) = phi.step(e, yd);
+        yd = nyd;
         y = ne + target;
     }
     let fin = ys[n - n / 5..].iter().sum::<f64>() / (n / 5) as f64;
@@ -307,42 +308,6 @@ pub fn propose(plant: &StepPlant, period_s: f64) -> Result<Proposal, TuneError> 
         gain: plant.gain,
         delay_ms: plant.delay_s * 1e3,
     })
-}
-
-/// exp(A·dt) for A = [[0, 1], [−ωn², −2ζωn]] (scaling and squaring of a Taylor series).
-fn transition(zeta: f64, wn: f64, dt: f64) -> [[f64; 2]; 2] {
-    let a = [[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]];
-    let norm = (a[1][0].abs() + a[1][1].abs()).max(1.0) * dt;
-    let mut sq = 0;
-    while norm / f64::powi(2.0, sq) > 0.25 {
-        sq += 1;
-    }
-    let h = dt / f64::powi(2.0, sq);
-    let mul = |x: [[f64; 2]; 2], y: [[f64; 2]; 2]| {
-        let mut r = [[0.0; 2]; 2];
-        for i in 0..2 {
-            for j in 0..2 {
-                r[i][j] = x[i][0] * y[0][j] + x[i][1] * y[1][j];
-            }
-        }
-        r
-    };
-    let ah = [[0.0, h], [a[1][0] * h, a[1][1] * h]];
-    let mut phi = [[1.0, 0.0], [0.0, 1.0]];
-    let mut term = phi;
-    for k in 1..14 {
-        term = mul(term, ah);
-        for r in 0..2 {
-            for c in 0..2 {
-                term[r][c] /= k as f64;
-                phi[r][c] += term[r][c];
-            }
-        }
-    }
-    for _ in 0..sq {
-        phi = mul(phi, phi);
-    }
-    phi
 }
 
 #[cfg(test)]

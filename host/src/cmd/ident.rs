@@ -170,6 +170,13 @@ fn frequency(a: &FreqArgs, out: &mut impl Write) -> anyhow::Result<()> {
         f.r2_spectrum[0], f.r2_spectrum[1]
     )?;
     writeln!(out, "these parameters in the time domain, held-out 20 %: R² X {:.4}, Y {:.4} (time fit: {:.4}, {:.4})", f.test[0].r2, f.test[1].r2, t.test[0].r2, t.test[1].r2)?;
+    if !f.lm.reached_a_minimum() {
+        writeln!(
+            out,
+            "warning: the frequency fit {} after {} iterations (cost {:.4e}); its parameters are the last iterate",
+            f.lm.termination, f.lm.iterations, f.lm.cost
+        )?;
+    }
     Ok(())
 }
 
@@ -180,6 +187,8 @@ struct StepLogJson {
     pose_averages: Vec<step::PoseAverage>,
     fitted: Vec<step::StepParams>,
     transfer_functions: Vec<String>,
+    /// A whole-response fit that ran out of iterations, per axis.
+    warnings: Vec<String>,
 }
 
 #[derive(serde::Serialize)]
@@ -187,6 +196,17 @@ struct StepJson {
     logs: Vec<StepLogJson>,
     gain_plane: Option<[[f64; 3]; 2]>,
     gain_plane_error: Option<String>,
+}
+
+/// The note for a whole-response fit that did not reach a minimum.
+pub(crate) fn fit_warning(axis: usize, fit: &step::AxisFit) -> String {
+    format!(
+        "axis {}: the whole-response fit {} after {} iterations (cost {:.4e}); its parameters are the last iterate",
+        ["X", "Y"][axis],
+        fit.lm.termination,
+        fit.lm.iterations,
+        fit.lm.cost
+    )
 }
 
 fn steps(a: &StepArgs, out: &mut impl Write) -> anyhow::Result<()> {
@@ -206,12 +226,21 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> anyhow::Result<()> {
         let avg = step::pose_averages(&steps);
         let mut fitted = Vec::new();
         let mut tfs = Vec::new();
+        let mut warnings = Vec::new();
         for axis in 0..2 {
             if !steps.iter().any(|s| s.axis == axis) {
                 continue;
             }
             let init = step::initial_params(&steps, axis);
-            let f = step::fit_axis(&p, axis, &init, p.len()).unwrap_or(init);
+            let f = match step::fit_axis(&p, axis, &init, p.len())? {
+                Some(fit) => {
+                    if !fit.reached_a_minimum() {
+                        warnings.push(fit_warning(axis, &fit));
+                    }
+                    fit.params
+                }
+                None => init,
+            };
             let w = f.omega_n_rad_s;
             tfs.push(format!(
                 "{}: H(s) = {:.1} / (s² + {:.2} s + {:.1})  (G {:.3}, ζ {:.3}, ωn {:.2} rad/s)",
@@ -232,6 +261,7 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> anyhow::Result<()> {
             pose_averages: avg,
             fitted,
             transfer_functions: tfs,
+            warnings,
         });
     }
     let plane = step::fit_gain_plane(&poses);
@@ -277,6 +307,9 @@ fn steps(a: &StepArgs, out: &mut impl Write) -> anyhow::Result<()> {
         }
         for t in &l.transfer_functions {
             writeln!(out, "  least squares, whole response: {t}")?;
+        }
+        for w in &l.warnings {
+            writeln!(out, "warning: {w}")?;
         }
     }
     match (&j.gain_plane, &j.gain_plane_error) {

@@ -101,7 +101,17 @@ pub fn run(a: TuneArgs, out: &mut impl Write) -> anyhow::Result<()> {
             continue;
         }
         let init = step::initial_params(&steps, axis);
-        let f = step::fit_axis(&p, axis, &init, p.len()).unwrap_or(init);
+        let f = match step::fit_axis(&p, axis, &init, p.len())
+            .map_err(|e| anyhow!("{} axis {}: {e}", a.log.display(), ["X", "Y"][axis]))?
+        {
+            Some(fit) => {
+                if !fit.reached_a_minimum() {
+                    eprintln!("warning: {}", crate::cmd::ident::fit_warning(axis, &fit));
+                }
+                fit.params
+            }
+            None => init,
+        };
         let plant = StepPlant {
             gain: f.gain,
             zeta: f.zeta,

@@ -41,12 +41,7 @@ pub fn params_hash(params: &pam_model::RobotParams<f32>) -> u32 {
         Ok(b) => b,
         Err(_) => &[],
     };
-    let mut h: u32 = 0x811C_9DC5;
-    for &b in bytes {
-        h ^= b as u32;
-        h = h.wrapping_mul(0x0100_0193);
-    }
-    h
+    wire::schema::fnv_bytes(wire::schema::FNV_OFFSET, bytes)
 }
 
 #[cfg(test)]

@@ -547,7 +547,7 @@ impl Fit<'_> {
         // that is not among the packed parameters
         // the kept starts refined side by side (their Jacobians are parallel too); the best
         // is chosen in the starts' order, as a serial loop would
-        let refined: Vec<(f64, Response)> = starts
+        let refined: Vec<Option<(f64, Response)>> = starts
             .par_iter()
             .map(|&s0| {
                 let full = pack(&s0, extras, axes);
@@ -563,15 +563,26 @@ impl Fit<'_> {
                     f.extend_from_slice(&v[linear.start..]);
                     unpack(&f, extras, axes, &s0)
                 };
-                let (theta, _) = lm::minimize(&init, &lower_nl, n_res, 30, |v, res| {
+                let report = lm::minimize(&init, &lower_nl, n_res, 30, |v, res| {
                     // each evaluation its own buffers: the Jacobian's columns run in parallel
                     self.project(&expand(v), unit_gain, &s0, &mut Sims::new(n), Some(res));
                 });
-                self.project(&expand(&theta), unit_gain, &s0, &mut Sims::new(n), None)
+                // a start whose simulation is not finite drops out; one that ran out of its
+                // 30 iterations stays a candidate: the starts compete on their cost, and the
+                // loop's decisions rest on the scores of the one kept
+                report.is_finite().then(|| {
+                    self.project(
+                        &expand(&report.theta),
+                        unit_gain,
+                        &s0,
+                        &mut Sims::new(n),
+                        None,
+                    )
+                })
             })
             .collect();
         let mut best: Option<(f64, Response)> = None;
-        for fitted in refined {
+        for fitted in refined.into_iter().flatten() {
             if best.as_ref().is_none_or(|b| fitted.0 < b.0) {
                 best = Some(fitted);
             }

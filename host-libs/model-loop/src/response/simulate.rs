@@ -6,6 +6,7 @@ use super::Drive;
 use super::Units;
 use super::MAX_SUBSTEP_S;
 use pam_ident::held_out::HeldOut;
+use pam_numerics::second_order::SecondOrderStep;
 
 #[inline]
 fn saturate(s: f64, knee: f64, span: f64) -> f64 {
@@ -59,7 +60,7 @@ fn simulate_channels<const K: usize>(
         1
     };
     let h = d.dt_s / sub as f64;
-    let phi = transition(r.omega_n_rad_s, r.zeta, h);
+    let phi = SecondOrderStep::new(r.omega_n_rad_s, r.zeta, h);
     // an uneven log: each interval is stepped as it was, with its own sub-steps
     let uneven = d.intervals_s.as_deref();
     let substeps = |interval: f64| {
@@ -178,7 +179,7 @@ fn simulate_channels<const K: usize>(
             Some(iv) => {
                 let sub = substeps(iv[i]);
                 let h = iv[i] / sub as f64;
-                (h, sub, transition(r.omega_n_rad_s, r.zeta, h))
+                (h, sub, SecondOrderStep::new(r.omega_n_rad_s, r.zeta, h))
             }
         };
         for m in 0..sub {
@@ -249,47 +250,6 @@ fn delayed_sample(t_s: &[f64], n: usize, from: f64, h: f64, at: &mut usize) -> (
     }
 }
 
-/// The exact transition over `h` of e'' + 2ζωn e' + ωn² e = 0 (e the distance to a held
-/// set-point): e^{Ah} with A = [[0, 1], [−ωn², −2ζωn]], from A's eigenvalues μ ± q.
-#[derive(Clone, Copy, Debug)]
-struct Transition {
-    m: [[f64; 2]; 2],
-}
-
-impl Transition {
-    #[inline]
-    fn step(&self, e: f64, v: f64) -> (f64, f64) {
-        (
-            self.m[0][0] * e + self.m[0][1] * v,
-            self.m[1][0] * e + self.m[1][1] * v,
-        )
-    }
-}
-
-fn transition(omega_n: f64, zeta: f64, h: f64) -> Transition {
-    let wn2 = omega_n * omega_n;
-    let mu = -zeta * omega_n;
-    let disc = mu * mu - wn2;
-    // e^{Ah} = e^{μh} (c·I + s·(A − μI)), c and s from cosh/sinh, cos/sin or the limit
-    let (c, s) = if disc > 1e-12 * wn2.max(1e-30) {
-        let q = disc.sqrt();
-        ((q * h).cosh(), (q * h).sinh() / q)
-    } else if disc < -1e-12 * wn2.max(1e-30) {
-        let q = (-disc).sqrt();
-        ((q * h).cos(), (q * h).sin() / q)
-    } else {
-        (1.0, h)
-    };
-    let g = (mu * h).exp();
-    // A − μI = [[−μ, 1], [−ωn², −2ζωn − μ]]
-    Transition {
-        m: [
-            [g * (c - s * mu), g * s],
-            [-g * s * wn2, g * (c + s * (-2.0 * zeta * omega_n - mu))],
-        ],
-    }
-}
-
 /// `v` within [lo, hi]. Bounds that are NaN or crossed (a trial step of the fit whose rates
 /// overflowed) give NaN, which the fit's cost rejects, rather than a panic.
 fn bounded(v: f64, lo: f64, hi: f64) -> f64 {
@@ -325,34 +285,4 @@ pub(super) fn peak_rate(r: &Response, d: &Drive, n: usize, held_out: &HeldOut) -
         }
     }
     peak
-}
-
-#[cfg(test)]
-mod transition_tests {
-    use super::transition;
-
-    /// The exact step against a fine explicit integration, under-, critically and
-    /// over-damped.
-    #[test]
-    fn matches_a_fine_integration() {
-        for (wn, zeta) in [(25.0, 0.3), (40.0, 1.0), (15.0, 2.5), (220.0, 4.4)] {
-            let h = 0.005;
-            let phi = transition(wn, zeta, h);
-            let (e0, v0) = (1.0, -3.0);
-            let (mut e, mut v) = (e0, v0);
-            let n = 200_000;
-            let dt = h / n as f64;
-            for _ in 0..n {
-                let a = -wn * wn * e - 2.0 * zeta * wn * v;
-                v += dt * a;
-                e += dt * v;
-            }
-            let (pe, pv) = phi.step(e0, v0);
-            assert!((pe - e).abs() < 1e-4, "{wn} {zeta}: e {pe} vs {e}");
-            assert!(
-                (pv - v).abs() < 1e-2 * (1.0 + v.abs()),
-                "{wn} {zeta}: v {pv} vs {v}"
-            );
-        }
-    }
 }

@@ -24,6 +24,12 @@ pub const fn fnv_bytes(mut h: u32, bytes: &[u8]) -> u32 {
     h
 }
 
+// the published FNV-1a test vectors, checked at every build: `params_hash` and the schema
+// fingerprint both hash with this one function
+const _: () = assert!(fnv_bytes(FNV_OFFSET, b"") == 0x811C_9DC5);
+const _: () = assert!(fnv_bytes(FNV_OFFSET, b"a") == 0xE40C_292C);
+const _: () = assert!(fnv_bytes(FNV_OFFSET, b"foobar") == 0xBF9C_F968);
+
 pub const fn fnv_str(h: u32, s: &str) -> u32 {
     fnv_bytes(h, s.as_bytes())
 }
