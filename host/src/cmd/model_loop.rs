@@ -213,6 +213,12 @@ pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
             )?;
         }
     }
+    if let Some(last) = d.steps.last().filter(|s| !s.effects.is_empty()) {
+        writeln!(out, "final model: base + {}", last.effects.join(" + "))?;
+    }
+    for r in &d.refinements {
+        writeln!(out, "not in the final model: {}", r.evidence)?;
+    }
     for w in &d.warnings {
         writeln!(out, "warning: {w}")?;
     }

@@ -94,6 +94,25 @@ pub struct EffectReport {
     pub other_shapes: Vec<ShapeScore>,
 }
 
+/// A family the significance tests accepted after the first but that the final model leaves
+/// out: what it removes beyond the families already in the model is too little to tell it
+/// from a better shape of them (a shape outside the catalog) or from nothing.
+#[derive(Clone, Debug, Serialize)]
+pub struct Refinement {
+    /// The family's catalog id, its family and the shape that fitted.
+    pub id: String,
+    pub family: Option<Family>,
+    pub shape: String,
+    /// Share of the base model's held-out error it removes on top of the final model.
+    pub removes: f64,
+    /// The other shape of a family already in the model that removes most on top of it
+    /// (catalog effect id), and the share it removes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined_by: Option<String>,
+    pub refined_removes: f64,
+    pub evidence: String,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct StepReport {
     pub effects: Vec<String>,
@@ -121,7 +140,11 @@ pub struct Diagnosis {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub separating_experiment: Option<String>,
     pub unexplained: Vec<UnexplainedReport>,
-    /// The error falling as the accepted effects are added one by one.
+    /// The error falling as the accepted effects are added one by one: the last step is the
+    /// final model.
     pub steps: Vec<StepReport>,
+    /// Accepted families the final model leaves out, as too small beyond it to be told from
+    /// a refinement of what it holds.
+    pub refinements: Vec<Refinement>,
     pub warnings: Vec<String>,
 }

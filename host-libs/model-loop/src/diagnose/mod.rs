@@ -21,7 +21,9 @@ pub use compare::{compare, nrmse_pair, Bin, Comparison, Window};
 pub use cv::{FoldScores, FOLDS};
 use decide::effective_samples_of;
 pub use decide::{diagnose, diagnose_observed, diagnose_with, Progress};
-pub use diagnosis::{BaseReport, Diagnosis, EffectReport, ShapeScore, StepReport, Verdict};
+pub use diagnosis::{
+    BaseReport, Diagnosis, EffectReport, Refinement, ShapeScore, StepReport, Verdict,
+};
 pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
 pub use resolution::{encoder_floor, encoder_step_rad, EncoderFloor};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
@@ -84,6 +86,11 @@ pub struct Settings {
     /// Dynamic trials: the fitted mass diagonals are kept at least this share of the
     /// robot's rigid-body Cartesian inertia at the trial's pose (0 turns the floor off).
     pub mass_floor_share: f64,
+    /// A family after the first enters the final model only if it removes at least this
+    /// share of the base model's held-out error beyond what another shape of a family
+    /// already in it removes: a first effect whose true shape is not the catalog's leaves
+    /// a residual of 0.5–3 % that other families fit too (a refinement, reported as such).
+    pub min_family_gain: f64,
 }
 
 impl Default for Settings {
@@ -103,6 +110,7 @@ impl Default for Settings {
             ambiguity_t: 2.0,
             adapt_cutoff: true,
             mass_floor_share: 0.35,
+            min_family_gain: 0.03,
         }
     }
 }
