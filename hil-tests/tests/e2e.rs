@@ -116,11 +116,12 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
         "force: measured ({fx:.2}, {fy:.2}) N for (10, 0) N"
     );
 
-    // pressures: the command reaches the targets (slew-limited) and stays there
-    // a service mode: its interlock goes on from idle
+    // pressures: the command reaches the targets after the tensioning ramp (1 s from
+    // idle, `pam_control::motion::ARM_RAMP_S`) and stays there; a service mode: its
+    // interlock goes on from idle
     ok(d, &["set", "idle"]);
     ok(d, &["set", "pressures", "1.0,2.0,3.0,2.5", "--service"]);
-    let (_, log) = record(d, &tmp("pressures.csv"), "1", &[]);
+    let (_, log) = record(d, &tmp("pressures.csv"), "2", &[]);
     assert_physical(&log, 1.0, "pressures");
     for (name, want) in col::PRESSURES_CMD_BAR.iter().zip([1.0, 2.0, 3.0, 2.5]) {
         let p = mean_of_last(column(&log, name), 300);
