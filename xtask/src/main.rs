@@ -1,8 +1,9 @@
 //! `cargo xtask <command>`: the project's jobs, with no dependency beyond cargo.
 //!
-//! - `test`        every test: host suite, then the model checks and the firmware's fault
-//!   paths on the Cortex-M4F in QEMU. Prints `host: N passed, M failed` and
-//!   `qemu: N passed, M failed`.
+//! - `test`        every test: the host suite, the model checks and the firmware's fault
+//!   paths on the Cortex-M4F in QEMU, the firmware's release build; the real-time
+//!   hardware-in-the-loop tests run beside the rest ([`suite`]). Prints
+//!   `host: N passed, M failed` and `qemu: N passed, M failed`.
 //! - `qemu-fault-paths` only the firmware's fault paths in QEMU (part of `test`).
 //! - `qemu-bench`  instruction counts and f32-vs-f64 precision on the Cortex-M4F, with libm
 //!   and with micromath.
@@ -22,6 +23,7 @@
 mod eval;
 mod fault_table;
 mod fuzz;
+mod suite;
 mod target_dir;
 
 use std::io::{BufRead, BufReader};
@@ -31,7 +33,7 @@ use std::process::{exit, Command, Stdio};
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let code = match args.first().map(String::as_str) {
-        Some("test") => test(),
+        Some("test") => suite::test(),
         Some("qemu-bench") => qemu_bench(),
         Some("qemu-fault-paths") => match qemu_fault_paths() {
             (p, 0) if p > 0 => 0,
@@ -274,53 +276,6 @@ fn qemu_counts(lines: &[String]) -> Option<(u64, u64)> {
         .filter(|s| !s.is_empty())
         .map(|s| s.parse::<u64>());
     Some((nums.next()?.ok()?, nums.next()?.ok()?))
-}
-
-fn test() -> i32 {
-    // Installed before the host suite so the report's rendering test finds it; when it is
-    // missing that test fails and says how to install it.
-    ensure_chromium();
-    println!("== host: cargo test --workspace");
-    let (host_code, host_lines) = run_streaming(cargo_in(&root()).args(["test", "--workspace"]));
-    let (host_passed, mut host_failed) = cargo_test_counts(&host_lines);
-    if host_code != 0 && host_failed == 0 {
-        host_failed = 1; // build failure or crash: count it, never report green
-    }
-
-    println!("== qemu: model checks on Cortex-M4F (mps2-an386)");
-    let (mut qemu_passed, mut qemu_failed) = if ensure_qemu() {
-        let (code, lines) = run_qemu(&[]);
-        match qemu_counts(&lines) {
-            Some((p, f)) if code == 0 || f > 0 => (p, f),
-            Some((p, _)) => (p, 1),
-            None => (0, 1),
-        }
-    } else {
-        (0, 1)
-    };
-    println!("== qemu: the firmware's fault paths on Cortex-M4 (mps2-an386)");
-    let (fault_passed, fault_failed) = if ensure_qemu() {
-        qemu_fault_paths()
-    } else {
-        (0, 1)
-    };
-    qemu_passed += fault_passed;
-    qemu_failed += fault_failed;
-
-    println!("== firmware: release build for the NUCLEO-G474RE");
-    let firmware_ok = firmware().is_ok();
-
-    println!();
-    if !firmware_ok {
-        println!("firmware: build or size check FAILED");
-    }
-    println!("host: {host_passed} passed, {host_failed} failed");
-    println!("qemu: {qemu_passed} passed, {qemu_failed} failed");
-    if host_failed == 0 && qemu_failed == 0 && host_code == 0 && firmware_ok {
-        0
-    } else {
-        1
-    }
 }
 
 /// The soak test's example in release, its arguments passed on (it checks them).
