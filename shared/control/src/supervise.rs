@@ -67,7 +67,8 @@ impl Controller {
     }
 
     /// Judges one period's sensors and timing: the sample's own faults, a frozen load
-    /// cell, the static balance, the joint speed (every mode), the command timeout. New
+    /// cell, the static balance, motion the encoders do not see, the last home against the
+    /// pressures' equilibrium, the joint speed (every mode), the command timeout. New
     /// faults latch and fault the controller. Returns the measured pose, computed once for
     /// every stage.
     #[inline(always)]
