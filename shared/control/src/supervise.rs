@@ -129,7 +129,7 @@ impl Controller {
         }
         // the first rest with the muscles tensioned judges the last home
         let tensioned = self.mode != Mode::Idle && self.arm_ramp.done();
-        if !(armed && finite && tensioned) || !self.home.pending() {
+        if !(armed && finite && tensioned && self.home.pending()) {
             self.home.restart();
         } else if self
             .home
