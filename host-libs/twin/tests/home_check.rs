@@ -6,7 +6,17 @@
 use pam_control::home_check::{offset_from_equilibrium_rad, HOME_OFFSET_MAX_RAD};
 use pam_control::{Controller, Faults, Mode, SafetyConfig, Sensors, State};
 use pam_model::RobotModel;
-use pam_twin::{HandleCondition, Twin, TwinConfig};
+use pam_twin::{EffectSet, HandleCondition, Twin, TwinConfig};
+
+/// The twin: the thesis's model, the identified rig, and the identified rig with muscle
+/// hysteresis, a pose-dependent force gain and carrier friction (the emulator's
+/// `--identified-rig --with …`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Rig {
+    Thesis,
+    Identified,
+    IdentifiedWithEffects,
+}
 
 /// What the judgement said after `seconds`.
 #[derive(Debug, PartialEq)]
@@ -21,11 +31,20 @@ enum Outcome {
 /// The twin starts vented at rest at `alpha_rad`; the controller's angles are the twin's
 /// plus `offset_rad` (a home taken `offset_rad` away from the neutral pose); armed into
 /// `mode`, with a free handle, for `seconds`.
-fn run(rig: bool, alpha_rad: [f64; 2], offset_rad: [f64; 2], mode: Mode, seconds: f64) -> Outcome {
-    let mut cfg = if rig {
-        TwinConfig::identified_rig()
-    } else {
-        TwinConfig::thesis()
+fn run(rig: Rig, alpha_rad: [f64; 2], offset_rad: [f64; 2], mode: Mode, seconds: f64) -> Outcome {
+    let mut cfg = match rig {
+        Rig::Thesis => TwinConfig::thesis(),
+        Rig::Identified => TwinConfig::identified_rig(),
+        Rig::IdentifiedWithEffects => {
+            let mut cfg = TwinConfig::identified_rig();
+            cfg.effects = EffectSet::parse_list(&[
+                "muscle_hysteresis",
+                "pose_dependence",
+                "carrier_ball_friction",
+            ])
+            .expect("effects");
+            cfg
+        }
     };
     cfg.initial_alpha_rad = alpha_rad;
     let params = cfg.params;
@@ -88,6 +107,8 @@ fn a_right_home_is_never_refused_on_the_twins() {
         joint([-15.0, 20.0], [95.0, 40.0]),
         joint([12.0, -20.0], [60.0, 27.0]),
         joint([-8.0, 10.0], [120.0, 50.0]),
+        joint([12.0, -15.0], [150.0, 50.0]),
+        joint([-12.0, 15.0], [150.0, 50.0]),
         pressures([2.5; 4]),
         pressures([2.3; 4]),
         pressures([2.8, 2.3, 2.6, 2.3]),
@@ -97,14 +118,14 @@ fn a_right_home_is_never_refused_on_the_twins() {
             feed_forward: false,
         },
     ];
-    for rig in [true, false] {
+    for rig in [Rig::Identified, Rig::IdentifiedWithEffects, Rig::Thesis] {
         for mode in modes {
             for start in [[0.0, 0.0], [0.15, -0.2]] {
                 let outcome = run(rig, start, [0.0; 2], mode, 8.0);
-                println!("rig {rig}, from {start:?}, {mode:?}: {outcome:?}");
+                println!("{rig:?}, from {start:?}, {mode:?}: {outcome:?}");
                 assert!(
                     matches!(outcome, Outcome::Confirmed | Outcome::Waiting),
-                    "rig {rig}, {mode:?}: {outcome:?}"
+                    "{rig:?}, {mode:?}: {outcome:?}"
                 );
             }
         }
@@ -115,16 +136,16 @@ fn a_right_home_is_never_refused_on_the_twins() {
 fn a_home_tens_of_degrees_off_is_refused_on_the_twins() {
     // the home taken with joint 2 20° from the neutral pose;
     // the muscles at equal pressures bring it back there
-    for rig in [true, false] {
+    for rig in [Rig::Identified, Rig::IdentifiedWithEffects, Rig::Thesis] {
         for offset in [[0.0, 0.35], [0.0, -0.35]] {
             let outcome = run(rig, [0.0; 2], offset, pressures([2.5; 4]), 8.0);
-            println!("rig {rig}, offset {offset:?}: {outcome:?}");
+            println!("{rig:?}, offset {offset:?}: {outcome:?}");
             // on the thesis's twin the tensioning at the wrong angle may first pull the
             // measured angle out of the range: a fault too
             let out_of_range = Outcome::Faulted(Faults::ANGLE_OUT_OF_RANGE);
             assert!(
-                outcome == Outcome::Refused || (!rig && outcome == out_of_range),
-                "rig {rig}, offset {offset:?}: {outcome:?}"
+                outcome == Outcome::Refused || (rig == Rig::Thesis && outcome == out_of_range),
+                "{rig:?}, offset {offset:?}: {outcome:?}"
             );
         }
         // joint mode holding the measured pose pulls the arm toward the model's pose: the
@@ -139,7 +160,7 @@ fn a_home_tens_of_degrees_off_is_refused_on_the_twins() {
         assert_eq!(
             outcome,
             Outcome::Faulted(Faults::ANGLE_OUT_OF_RANGE),
-            "rig {rig}, joint mode"
+            "{rig:?}, joint mode"
         );
     }
     const { assert!(HOME_OFFSET_MAX_RAD < 0.35) };
