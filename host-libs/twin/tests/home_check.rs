@@ -1,6 +1,8 @@
 //! The home judged against the pressures' equilibrium on the twins: a right home (the
-//! encoders' zero at the twin's neutral pose) is confirmed in every mode that rests with a
-//! free handle, at poses across the range; a zero 20° off is refused. Figures with
+//! encoders' zero at the twin's neutral pose) is never refused in the modes that rest with
+//! a free handle, at poses across the range, on the thesis's twin and the identified rig
+//! (with and without its hysteresis, pose dependence and friction); a zero 20° off is.
+//! Figures (each run's outcome, the model's equilibrium's distance at its end) with
 //! `--nocapture`.
 
 use pam_control::home_check::{offset_from_equilibrium_rad, HOME_OFFSET_MAX_RAD};
@@ -123,10 +125,8 @@ fn a_right_home_is_never_refused_on_the_twins() {
             for start in [[0.0, 0.0], [0.15, -0.2]] {
                 let outcome = run(rig, start, [0.0; 2], mode, 8.0);
                 println!("{rig:?}, from {start:?}, {mode:?}: {outcome:?}");
-                assert!(
-                    matches!(outcome, Outcome::Confirmed | Outcome::Waiting),
-                    "{rig:?}, {mode:?}: {outcome:?}"
-                );
+                // the judgement of the home never refuses it (the other checks are theirs)
+                assert_ne!(outcome, Outcome::Refused, "{rig:?}, {mode:?}");
             }
         }
     }

@@ -18,12 +18,13 @@
 //! puts the measured angle θ from where the arm rests, so this distance is ≈ θ; on a right
 //! home it is the model's error in angle: across the joint, pressures and open-loop force
 //! modes, from two starting poses, the identified rig's twin rests up to 0.17 rad from the
-//! model's equilibrium (joint 2 at 40 N·m/rad), the thesis's twin within 0.011 rad
+//! model's equilibrium (joint 2 at 40 N·m/rad), 0.22 rad with muscle hysteresis, a
+//! pose-dependent force gain and carrier friction, the thesis's twin within 0.011 rad
 //! (host-libs/twin/tests/home_check.rs, `--nocapture`). Beyond [`HOME_OFFSET_MAX_RAD`]
-//! (≈ 11.5°) the home is refused: the controller latches `STATIC_IMBALANCE` (a joint at
+//! (≈ 14°) the home is refused: the controller latches `STATIC_IMBALANCE` (a joint at
 //! rest that its muscles' torque does not balance; the outputs vent) and the device
 //! forgets the home, so `Arm` answers `NotHomed` until the arm is homed again at the
-//! neutral pose. A zero off by 0.2–0.3 rad may pass at a rest where the model's error
+//! neutral pose. A zero off by 0.25–0.35 rad may pass at a rest where the model's error
 //! adds to it the other way; the static-balance check still judges every later rest.
 //!
 //! Each joint is judged once; a joint within [`STOP_BAND_RAD`] of a range end (a stop holds
@@ -39,8 +40,8 @@ use crate::plausibility::{PRESSURE_BAND_BAR, STILL_BAND_RAD, STOP_BAND_RAD};
 /// (≈ 2 Hz) has died down well within it.
 pub const HOME_SETTLE_S: f32 = 1.5;
 /// Largest distance of the measured angle from the model's equilibrium a right home shows,
-/// rad (≈ 11.5°: the model's error on the twins is up to 0.17 rad, see the module comment).
-pub const HOME_OFFSET_MAX_RAD: f32 = 0.2;
+/// rad (≈ 14°: the model's error on the twins is up to 0.22 rad, see the module comment).
+pub const HOME_OFFSET_MAX_RAD: f32 = 0.25;
 /// "A free handle": the load cell's torque at the joint below this, N·m (≈ 4 N at joint 1's
 /// 0.7 m lever, the load cell's drift between tares plus a light touch).
 pub const HOME_FREE_TORQUE_NM: f32 = 3.0;
