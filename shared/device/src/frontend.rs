@@ -96,6 +96,11 @@ impl Encoders {
         self.homed
     }
 
+    /// The zero is known to be wrong: the angles keep it, arming needs a new home.
+    pub fn forget_home(&mut self) {
+        self.homed = false;
+    }
+
     /// Accumulated counts since boot (for tests and diagnostics).
     pub fn position_counts(&self) -> [i32; 2] {
         self.position_counts

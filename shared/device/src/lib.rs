@@ -212,6 +212,10 @@ impl Device {
         if out.state == State::Faulted {
             self.service_mode = false;
         }
+        // the arm rested far from the pressures' equilibrium: the home is wrong
+        if self.controller.home_check().refused() {
+            self.encoders.forget_home();
+        }
 
         // the safe state is the fixed vent current, untrimmed; a trimmed command stays
         // within the loop range (clamp_to cannot panic and maps NaN to the low end)
@@ -419,6 +423,7 @@ impl Device {
                     return Err(ErrorCode::Implausible);
                 }
                 self.controller.reset_angle_history().map_err(error_code)?;
+                self.controller.judge_home().map_err(error_code)?;
                 self.encoders.home();
                 DONE
             }

@@ -174,6 +174,7 @@ pam_model::register_checks!(
     tare_under_load_is_refused,
     negative_load_cell_gain_is_refused,
     rehome_far_from_the_zero_is_refused,
+    a_first_home_far_from_the_pressures_equilibrium_is_refused,
     out_of_range_mode_is_refused_and_nothing_changes,
     each_mode_reaches_the_outputs,
     get_config_returns_every_section,
