@@ -49,17 +49,18 @@ impl Controller {
                 }
             }
             State::Armed => {
+                let ramp_done = self.arm_ramp.done();
                 let closed_loop = matches!(
                     self.mode,
                     Mode::ForceClosedLoop { .. } | Mode::Impedance { .. }
                 );
-                let arming = match closed_loop && !self.arm_ramp.done() {
+                let arming = match !ramp_done && closed_loop {
                     true => self.closed_loop_arming(pose),
                     false => None,
                 };
                 let (target_bar, limited) = match arming {
                     Some(arming) => arming,
-                    None => self.armed_target(pose),
+                    None => self.armed_target(pose, ramp_done),
                 };
                 Command {
                     target_bar,
@@ -87,9 +88,10 @@ impl Controller {
         command
     }
 
-    /// The armed mode's command: its target, through the tensioning ramp while that lasts.
+    /// The armed mode's command: its target, through the tensioning ramp while that lasts
+    /// (`ramp_done`: it was over when the period began).
     #[inline(always)]
-    fn armed_target(&mut self, pose: &Pose) -> ([f32; 4], Limited) {
+    fn armed_target(&mut self, pose: &Pose, ramp_done: bool) -> ([f32; 4], Limited) {
         let vent = self.model.params.ip.output_min_bar;
         let (target_bar, limited) = match self.mode {
             Mode::Idle => ([vent; 4], Limited::NONE),
@@ -118,7 +120,7 @@ impl Controller {
             Mode::ForceClosedLoop { .. } => self.closed_loop_target(pose),
             Mode::Impedance { .. } => self.impedance_target(pose),
         };
-        if self.arm_ramp.done() {
+        if ramp_done || self.arm_ramp.done() {
             (target_bar, limited)
         } else {
             (self.tensioning(pose, target_bar), limited)
