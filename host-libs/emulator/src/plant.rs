@@ -84,6 +84,7 @@ impl Plant {
             *enc = EncoderCalibration {
                 counts_per_rev: counts.max(1),
                 sign: 1,
+                zero_rad: 0.0,
             };
         }
         let reply = device.handle(&Request {
