@@ -8,11 +8,12 @@
 mod analysis;
 mod apply;
 mod blocked;
+mod converters;
 mod loadcell;
 mod report;
 
 use crate::LinkArgs;
-use analysis::{channel_map, tare, ChannelResponse, Finding};
+use analysis::{channel_map, encoder_zero, tare, ChannelResponse, Finding};
 use anyhow::{bail, Context};
 use clap::Args;
 use pam_control::Mode;
@@ -97,6 +98,9 @@ struct CommissionState {
     failed: Option<String>,
     responses: Vec<ChannelResponse>,
     tare_n: Option<[f64; 2]>,
+    /// The joints' angles at equal pressures, rad: measured and the model's equilibrium.
+    #[serde(default)]
+    zero_rad: Option<[[f64; 2]; 2]>,
     /// The joint step 1 saw turn backwards for both its channels: its encoder or its
     /// muscles, which the blocked handle tells apart.
     reversed_joint: Option<usize>,
@@ -171,6 +175,8 @@ pub fn run(args: CommissionArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow
                         Some(
                             analysis::ConfigFix::EncoderSign(_)
                                 | analysis::ConfigFix::EncoderScale(..)
+                                | analysis::ConfigFix::EncoderZero(..)
+                                | analysis::ConfigFix::ChannelMap(_)
                         )
                     )
                 });
@@ -287,6 +293,29 @@ fn step_channels(
     result?;
     vented?;
     let mut findings = channel_map(state.responses.as_slice().try_into()?);
+    if let Some([measured, model]) = state.zero_rad {
+        writeln!(
+            out,
+            "  at equal pressures the joints read ({:+.2}, {:+.2})°, the model's equilibrium ({:+.2}, {:+.2})°",
+            measured[0].to_degrees(),
+            measured[1].to_degrees(),
+            model[0].to_degrees(),
+            model[1].to_degrees()
+        )?;
+        if let Some(r) = state.steps.last_mut() {
+            r.checks = (0..2)
+                .map(|j| {
+                    blocked::check(
+                        &format!("joint {} at equal pressures − model, rad", j + 1),
+                        measured[j] - model[j],
+                        0.0,
+                        analysis::ZERO_TOLERANCE_RAD,
+                    )
+                })
+                .collect();
+        }
+        findings.extend(encoder_zero(measured, model));
+    }
     findings.extend(state.tare_n.and_then(tare));
     for r in &state.responses {
         writeln!(
@@ -341,8 +370,16 @@ fn channel_steps(
     record: &mut StepRecord,
 ) -> anyhow::Result<()> {
     client.command(RequestBody::SetTelemetry { divider: 1 })?;
-    // the encoders' zero: the arm rests at the neutral pose, vented and disarmed
-    client.command(RequestBody::Home)?;
+    // the encoders' zero: the arm rests at its homing mark, vented and disarmed; homed once
+    // per power-up (the encoders count on from there, and a re-home would move the zero
+    // the configuration's zero_rad corrects)
+    let homed = matches!(
+        client.request(RequestBody::GetStatus)?,
+        pam_protocol::ReplyData::Status(s) if s.homed
+    );
+    if !homed {
+        client.command(RequestBody::Home)?;
+    }
     client.command(RequestBody::Arm)?;
     let mut samples = Vec::new();
     // from the vent up to the base pressure slowly, in 20 steps over 1 s
@@ -378,6 +415,7 @@ fn channel_steps(
     let measured = |i: usize| samples[i].t.alpha_rad.map(f64::from);
     let modelled = |i: usize| model[i];
     state.tare_n = Some(mean(0, &|i| samples[i].t.force_user_n.map(f64::from)));
+    state.zero_rad = Some([mean(0, &measured), mean(0, &modelled)]);
     state.responses = (0..4)
         .map(|c| {
             let d = |f: &dyn Fn(usize) -> [f64; 2]| {
