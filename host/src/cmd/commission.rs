@@ -62,8 +62,9 @@ pub struct CommissionArgs {
     /// Also write the report as an HTML page with the steps' plots.
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
-    /// Write the fixes the configuration record can take (encoder sign and counts, load-cell
-    /// gain) to the device and persist them; the next run checks them.
+    /// Write the fixes the configuration record can take (encoder sign, counts and zero, the
+    /// I/P channel map, load-cell gain) to the device and persist them; the next run checks
+    /// them.
     #[arg(long)]
     pub apply: bool,
     /// Start again from the first step even after a failure.
@@ -272,9 +273,9 @@ fn step_channels(
     let client = super::connect(link)?;
     writeln!(
         out,
-        "step 1: encoders and I/P channel map. With the arm resting at the neutral pose (taken as the \
-         encoders' zero), the handle free and nobody near the arm, every muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
-         the joint the model names turns the way it says. Bounds: {MAX_SPEED_RAD_S} rad/s, {MAX_FORCE_N} N.",
+        "step 1: encoders and I/P channel map. With the arm resting at its homing mark by the neutral pose (the \
+         encoders' zero, homed once per power-up), the handle free and nobody near the arm, every muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
+         the joint the model names turns the way it says, and at equal pressures each joint reads the model's equilibrium. Bounds: {MAX_SPEED_RAD_S} rad/s, {MAX_FORCE_N} N.",
         BASE_BAR + STEP_BAR
     )?;
     let mut record = StepRecord {
@@ -415,7 +416,7 @@ fn channel_steps(
     let measured = |i: usize| samples[i].t.alpha_rad.map(f64::from);
     let modelled = |i: usize| model[i];
     state.tare_n = Some(mean(0, &|i| samples[i].t.force_user_n.map(f64::from)));
-    state.zero_rad = Some([mean(0, &measured), mean(0, &modelled)]);
+
     state.responses = (0..4)
         .map(|c| {
             let d = |f: &dyn Fn(usize) -> [f64; 2]| {
@@ -429,6 +430,23 @@ fn channel_steps(
             }
         })
         .collect();
+    // the equal pressures' pose, per joint, approached once from each side: the mean of
+    // the returns after the channels that turned it most either way cancels what the
+    // friction holds back
+    let at_rest =
+        |of: &dyn Fn(usize) -> [f64; 2], moved: &dyn Fn(&ChannelResponse) -> f64, j: usize| {
+            let by = |a: &&ChannelResponse, b: &&ChannelResponse| moved(a).total_cmp(&moved(b));
+            let up = state.responses.iter().max_by(by).map_or(0, |r| r.channel);
+            let down = state.responses.iter().min_by(by).map_or(0, |r| r.channel);
+            (mean(2 * up + 2, of)[j] + mean(2 * down + 2, of)[j]) / 2.0
+        };
+    let zero = |of: &dyn Fn(usize) -> [f64; 2], pick: fn(&ChannelResponse) -> [f64; 2]| {
+        [0, 1].map(|j| at_rest(of, &|r| pick(r)[j], j))
+    };
+    state.zero_rad = Some([
+        zero(&measured, |r| r.measured_rad),
+        zero(&modelled, |r| r.model_rad),
+    ]);
     Ok(())
 }
 

@@ -25,7 +25,7 @@ use std::io::Write;
 use std::time::Instant;
 
 /// The pressure step on one channel, bar.
-pub const STEP_BAR: f32 = 0.5;
+pub const STEP_BAR: f32 = 0.3;
 /// Force mode at zero force before the steps (its tensioning ramp is 1 s), the step, the
 /// return, s: Table 5.2's settling is 0.28–0.42 s.
 const ENTRY_S: f64 = 1.2;
@@ -288,7 +288,7 @@ pub fn converters_step(
         let (rig, model) = (fit_step(&t, &u, &y), fit_step(&t, &u, &ym));
         writeln!(
             out,
-            "  channel {}: {}; model {}",
+            "  converter {}: {}; model {}",
             c + 1,
             describe(rig),
             describe(model)
