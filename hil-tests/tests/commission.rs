@@ -109,6 +109,16 @@ fn a_rig_wired_right_commissions_with_the_model_joint_motions() {
     let line = out.lines().find(|l| l.contains("the force rose")).unwrap();
     let v = numbers(line);
     assert!((v[0] - 5.0).abs() < 0.5 && v[2] < 6.5, "{line}");
+    // at equal pressures the joints read the model's equilibrium within 0.3°
+    let line = out
+        .lines()
+        .find(|l| l.contains("at equal pressures the joints read"))
+        .unwrap_or_else(|| panic!("{out}"));
+    let v = numbers(line);
+    assert!(
+        (v[0] - v[2]).abs() < 0.3 && (v[1] - v[3]).abs() < 0.3,
+        "{line}"
+    );
     // every converter follows Table 5.2 (ωn 23.04 rad/s, ζ 0.42) within 10 %, no dead time
     // beyond 10 ms, the model's gain within 10 %
     let lines: Vec<&str> = out
@@ -209,7 +219,7 @@ fn each_miswiring_is_named_with_its_fix() {
             "to [calibration] encoder 1 zero_rad",
         ),
         (
-            "slow_converter:channel=2,tau=0.2",
+            "slow_converter:channel=2,tau=0.08",
             "converter_slow",
             "converter 2 responds slowly",
         ),
@@ -327,10 +337,13 @@ fn the_channel_map_and_the_zero_written_with_apply_pass_the_next_run() {
     assert!(out.contains("step `channels` passed"), "{out}");
     let line = out
         .lines()
-        .find(|l| l.contains("at equal pressures"))
-        .unwrap();
+        .find(|l| l.contains("at equal pressures the joints read"))
+        .unwrap_or_else(|| panic!("{out}"));
     let v = numbers(line);
-    assert!(v[0].abs() < 0.3 && v[1].abs() < 0.3, "{line}");
+    assert!(
+        (v[0] - v[2]).abs() < 0.3 && (v[1] - v[3]).abs() < 0.3,
+        "{line}"
+    );
 }
 
 /// `advice` is in `out`; an advice that ends in a measured factor (`… by 1.50`) matches

@@ -128,7 +128,7 @@ impl Miswire {
         "loadcell_axes_swapped",
         "tare_offset:x=8,z=0",
         "encoder_zero:joint=1,deg=3",
-        "slow_converter:channel=2,tau=0.2",
+        "slow_converter:channel=2,tau=0.08",
     ];
 
     /// Parses `KIND` or `KIND:PARAMS` (see [`Miswire::KINDS`]).

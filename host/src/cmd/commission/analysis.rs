@@ -5,9 +5,9 @@
 pub const SCALE_TOLERANCE: f64 = 0.2;
 /// Largest force, N, the load cell may read with nothing touching the handle.
 pub const TARE_TOLERANCE_N: f64 = 3.0;
-/// Largest difference, rad (≈ 0.6°), between a joint's angle at equal pressures and the
+/// Largest difference, rad (≈ 0.9°), between a joint's angle at equal pressures and the
 /// model's equilibrium there: the encoder's zero.
-pub const ZERO_TOLERANCE_RAD: f64 = 0.01;
+pub const ZERO_TOLERANCE_RAD: f64 = 0.015;
 
 /// How far joint `joint` (0-based) moved, rad, when output channel `channel` was raised.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

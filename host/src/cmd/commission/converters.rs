@@ -36,7 +36,7 @@ pub const TABLE_OMEGA_N_RAD_S: f64 = 23.04;
 pub const TABLE_ZETA: f64 = 0.42;
 /// Tolerances: ωn relative, ζ absolute, the gain relative to the model's.
 pub const OMEGA_TOLERANCE: f64 = 0.3;
-pub const ZETA_TOLERANCE: f64 = 0.2;
+pub const ZETA_TOLERANCE: f64 = 0.15;
 pub const GAIN_TOLERANCE: f64 = 0.3;
 /// Longest dead time, s: Table 5.1 finds the tube's delay under 0.05 s.
 pub const DEAD_TIME_MAX_S: f64 = 0.05;
@@ -195,8 +195,10 @@ pub fn judge(
             DEAD_TIME_MAX_S,
         ),
     ];
+    // a lag in front of the second order shows as a lower ωn, a dead time or a larger ζ
     let slow = rig.omega_n_rad_s < (1.0 - OMEGA_TOLERANCE) * TABLE_OMEGA_N_RAD_S
-        || rig.dead_time_s > DEAD_TIME_MAX_S;
+        || rig.dead_time_s > DEAD_TIME_MAX_S
+        || rig.zeta > TABLE_ZETA + ZETA_TOLERANCE;
     let off = (rig.omega_n_rad_s / TABLE_OMEGA_N_RAD_S - 1.0).abs() > OMEGA_TOLERANCE
         || (rig.zeta - TABLE_ZETA).abs() > ZETA_TOLERANCE
         || (rig.gain / model_gain - 1.0).abs() > GAIN_TOLERANCE;
@@ -431,7 +433,7 @@ mod tests {
             omega_n_rad_s: TABLE_OMEGA_N_RAD_S,
             dead_time_s: 0.0,
         };
-        let (t, u, y) = response(5.0, 8.0, 0.0);
+        let (t, u, y) = response(5.0, 12.0, 0.0);
         let (_, slow) = judge(1, fit_step(&t, &u, &y), Some(model));
         let slow = slow.unwrap();
         assert_eq!(slow.fault, "converter_slow");
@@ -446,6 +448,25 @@ mod tests {
             Some(model),
         );
         assert_eq!(late.unwrap().fault, "converter_slow");
+        // a converter behind a 0.08 s lag: overdamped
+        let mut lagged = 0.0;
+        let ul: Vec<f64> = u
+            .iter()
+            .map(|&x| {
+                lagged += (1.0 - (-1e-3f64 / 0.08).exp()) * (x - lagged);
+                lagged
+            })
+            .collect();
+        let mut y = vec![0.0; t.len()];
+        simulate(
+            &StepParams::base(5.0, TABLE_ZETA, TABLE_OMEGA_N_RAD_S),
+            &t,
+            &ul,
+            0.0,
+            &mut y,
+        );
+        let (_, lag) = judge(0, fit_step(&t, &u, &y), Some(model));
+        assert_eq!(lag.unwrap().fault, "converter_slow");
         let (t, u, y) = response(0.2, TABLE_OMEGA_N_RAD_S, 0.0);
         let (_, dead) = judge(3, fit_step(&t, &u, &y), Some(model));
         assert_eq!(dead.unwrap().fault, "converter_dead");
