@@ -66,9 +66,8 @@ impl Plant {
         twin_cfg.effects = config.effects.clone();
         twin_cfg.seed = config.seed;
         for m in &config.miswiring {
-            let rest = m.rest_pose_rad();
-            for j in 0..2 {
-                twin_cfg.initial_alpha_rad[j] += rest[j];
+            for (alpha, rest) in twin_cfg.initial_alpha_rad.iter_mut().zip(m.rest_pose_rad()) {
+                *alpha += rest;
             }
         }
         let counts_per_rev = twin_cfg.sensors.encoder_counts_per_rev;
