@@ -162,7 +162,8 @@ wire_struct! {
         /// The output stage (0–3) that drives each I/P channel's converter, in the model's
         /// channel order (`JointParams::channel_of_muscle` names the channels): the I/P
         /// channel map as wired, a permutation of 0–3. `[0, 1, 2, 3]`: stage c drives
-        /// channel c.
+        /// channel c (also in a configuration file written without it).
+        #[serde(default = "identity_channel_map")]
         pub output_of_channel: [u8; 4],
     }
 }
@@ -174,8 +175,10 @@ wire_struct! {
         pub counts_per_rev: u32,
         /// +1 or −1: the direction in which counts grow with α.
         pub sign: i8,
-        /// The angle, rad, the homed encoder reads at the neutral pose (the pose where the
-        /// arm was homed, measured from the neutral pose): subtracted from every reading.
+        /// The angle, rad, the homed encoder reads at the neutral pose (the homing pose's
+        /// angle from the neutral pose, negated): subtracted from every reading.
+        /// 0 in a configuration file written without it.
+        #[serde(default)]
         pub zero_rad: f32,
     }
 }
@@ -203,6 +206,10 @@ impl Default for EncoderCalibration {
 
 /// Output stage c drives I/P channel c.
 pub const IDENTITY_CHANNEL_MAP: [u8; 4] = [0, 1, 2, 3];
+
+fn identity_channel_map() -> [u8; 4] {
+    IDENTITY_CHANNEL_MAP
+}
 
 impl Default for OutputCalibration {
     fn default() -> Self {
