@@ -180,6 +180,7 @@ pam_model::register_checks!(
     get_config_returns_every_section,
     invalid_robot_parameters_are_refused_and_nothing_changes,
     invalid_calibration_is_refused_and_output_calibration_applies,
+    the_channel_map_routes_the_outputs_and_must_be_a_permutation,
     limits_are_validated_and_the_period_is_fixed_while_armed,
     no_configuration_moves_the_safe_state_or_loosens_a_limit,
     telemetry_divider_and_sequence,
