@@ -20,10 +20,9 @@ use embassy_sync::channel::Channel;
 use embassy_time::{Duration, Instant, Ticker};
 use pam_control::Faults;
 use pam_device::{BoardHealth, Device, RawSensors, StepTiming};
+use pam_firmware_logic::board_checks::board_checks;
 use pam_firmware_logic::board_revision::BoardRevision;
-use pam_firmware_logic::vdda;
 use pam_protocol::{FaultEvent, Telemetry};
-use pam_protocol::{BOARD_CHECK_ADC_DUAL, BOARD_CHECK_OUTPUT_STAGE, BOARD_CHECK_VDDA};
 
 use crate::board;
 use crate::current_output::{CurrentLoopOutputs, CHANNELS, LOOP_MIN_MA};
@@ -101,22 +100,6 @@ pub fn period_cycles(period_us: u32) -> u32 {
 
 fn saturating_us(cycles: u32) -> u16 {
     (loop_timing::ns(cycles) / 1_000).min(u32::from(u16::MAX)) as u16
-}
-
-/// The board checks failing now: an output stage that is not safe in reset, dual mode not
-/// set, or a VDDA measured out of range.
-fn board_checks(revision: BoardRevision, dual_mode_ok: bool, vdda_v: Option<f32>) -> u8 {
-    let mut checks = 0;
-    if !revision.outputs_safe_in_reset() {
-        checks |= BOARD_CHECK_OUTPUT_STAGE;
-    }
-    if !dual_mode_ok {
-        checks |= BOARD_CHECK_ADC_DUAL;
-    }
-    if vdda_v.is_some_and(|v| !vdda::in_range(v)) {
-        checks |= BOARD_CHECK_VDDA;
-    }
-    checks
 }
 
 #[embassy_executor::task]

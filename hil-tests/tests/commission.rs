@@ -109,7 +109,36 @@ fn a_rig_wired_right_commissions_with_the_model_joint_motions() {
     let line = out.lines().find(|l| l.contains("the force rose")).unwrap();
     let v = numbers(line);
     assert!((v[0] - 5.0).abs() < 0.5 && v[2] < 6.5, "{line}");
-    for step in ["Step 2: the load cell", "Step 4: first closed-loop"] {
+    // at equal pressures the joints read the model's equilibrium within 0.3°
+    let line = out
+        .lines()
+        .find(|l| l.contains("at equal pressures the joints read"))
+        .unwrap_or_else(|| panic!("{out}"));
+    let v = numbers(line);
+    assert!(
+        (v[0] - v[2]).abs() < 0.3 && (v[1] - v[3]).abs() < 0.3,
+        "{line}"
+    );
+    // every converter follows Table 5.2 (ωn 23.04 rad/s, ζ 0.42) within 10 %, no dead time
+    // beyond 10 ms, the model's gain within 10 %
+    let lines: Vec<&str> = out
+        .lines()
+        .filter(|l| l.trim_start().starts_with("converter "))
+        .collect();
+    assert_eq!(lines.len(), 4, "{out}");
+    for line in lines {
+        let v = numbers(line);
+        let [omega, zeta, td, gain, model_gain] = [v[1], v[2], v[3], v[4], v[8]];
+        assert!((omega / 23.04 - 1.0).abs() < 0.1, "{line}");
+        assert!((zeta - 0.42).abs() < 0.042, "{line}");
+        assert!(td < 0.01, "{line}");
+        assert!((gain / model_gain - 1.0).abs() < 0.1, "{line}");
+    }
+    for step in [
+        "Step 2: the load cell",
+        "Step 3: the converters",
+        "Step 4: first closed-loop",
+    ] {
         assert!(report.contains(step), "{report}");
     }
     // every channel: its joint moved within 20 % of the model's angle, the other joint less
@@ -184,6 +213,16 @@ fn each_miswiring_is_named_with_its_fix() {
             "loadcell_axes_swapped",
             "ADC1 ↔ ADC2",
         ),
+        (
+            "encoder_zero:joint=1,deg=3",
+            "encoder1_zero",
+            "to [calibration] encoder 1 zero_rad",
+        ),
+        (
+            "slow_converter:channel=2,tau=0.08",
+            "converter_slow",
+            "converter 2 responds slowly",
+        ),
     ];
     // three emulators at a time: each keeps its 1 kHz loop on a two-core machine
     for chunk in cases.chunks(3) {
@@ -252,6 +291,59 @@ fn a_fix_written_to_the_configuration_record_is_checked_again() {
     let line = out.lines().find(|l| l.contains("X step read")).unwrap();
     let v = numbers(line);
     assert!((v[5] - 10.0).abs() < 0.5, "{line}");
+}
+
+#[test]
+fn the_channel_map_and_the_zero_written_with_apply_pass_the_next_run() {
+    let _serial = exclusive();
+    let target = Target::acquire(&[
+        "--handle",
+        "blocked",
+        "--miswire",
+        "swap_channels:1,3",
+        "--miswire",
+        "encoder_zero:joint=2,deg=-2",
+    ]);
+    target.prepare(1.0);
+    let state = tmp("commission-apply-map.json");
+    let _ = std::fs::remove_file(&state);
+    let run = |args: &[&str]| {
+        let mut all = vec!["commission", "--state", state.to_str().unwrap()];
+        all.extend_from_slice(args);
+        let (code, out, err) = pamctl(&target.address, &all);
+        (code, format!("{out}{err}"))
+    };
+    let (code, out) = run(&["--restart", "--handle", "free", "--apply"]);
+    assert_ne!(code, 0, "{out}");
+    assert!(out.contains("FAULT channels_swapped:"), "{out}");
+    assert!(out.contains("FAULT encoder2_zero:"), "{out}");
+    assert!(out.contains("output_of_channel = [2, 1, 0, 3]"), "{out}");
+    let line = out
+        .lines()
+        .find(|l| l.contains("encoder 2 zero_rad = "))
+        .unwrap_or_else(|| panic!("{out}"));
+    let zero = line
+        .split("encoder 2 zero_rad = ")
+        .nth(1)
+        .and_then(|w| w.split([',', ';', ' ']).next())
+        .and_then(|w| w.parse::<f64>().ok())
+        .unwrap_or(f64::NAN);
+    // the arm was homed 2° off the neutral pose: the zero is the reading there
+    assert!((zero - 2f64.to_radians()).abs() < 0.005, "{line}");
+    // the map and the zero stored, the next run finds the joints and the channels right
+    let (code, out) = run(&["--handle", "free"]);
+    assert_eq!(code, 0, "{out}");
+    assert!(!out.contains("FAULT"), "{out}");
+    assert!(out.contains("step `channels` passed"), "{out}");
+    let line = out
+        .lines()
+        .find(|l| l.contains("at equal pressures the joints read"))
+        .unwrap_or_else(|| panic!("{out}"));
+    let v = numbers(line);
+    assert!(
+        (v[0] - v[2]).abs() < 0.3 && (v[1] - v[3]).abs() < 0.3,
+        "{line}"
+    );
 }
 
 /// `advice` is in `out`; an advice that ends in a measured factor (`… by 1.50`) matches

@@ -47,7 +47,7 @@ fn tmp(name: &str) -> std::path::PathBuf {
 fn status_of_a_fresh_device() {
     let d = TestDevice::start(Options::default());
     let out = ok(&d.address, &["status"]);
-    assert!(out.contains("device: firmware 0.9.1, protocol 8"), "{out}");
+    assert!(out.contains("device: firmware 0.9.1, protocol 9"), "{out}");
     assert!(out.contains("state: disarmed"), "{out}");
     assert!(out.contains("mode: idle"), "{out}");
     assert!(out.contains("faults: none"), "{out}");
@@ -113,7 +113,7 @@ fn protocol_version_mismatch_is_explained() {
     });
     let err = fails(&d.address, &["status"]);
     assert!(
-        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 8"),
+        err.contains("protocol version mismatch") && err.contains("pamctl speaks version 9"),
         "{err}"
     );
 }

@@ -332,11 +332,55 @@ fn main() -> ! {
         failed += 1;
         hprintln!("FAIL bench: the device left the armed state during the impedance benchmark");
     }
+    // joint mode: the shaped reference, the inverse model, and the encoders' plausibility
+    // (static balance and unseen motion) on the muscles' torque at the measured pose
+    dev.handle(&req(RequestBody::SetMode(
+        Mode::Joint {
+            alpha_rad: [0.0, 0.0],
+            torque_nm: [0.0, 0.0],
+            stiffness_nm_per_rad: [95.0, 40.0],
+        }
+        .into(),
+    )));
+    let wandering = |k: u32, w: &workload::Input<f32>| RawSensors {
+        encoder_counts: [(k & 7).wrapping_sub(4) & 0xFFFF, (k & 3) * 2],
+        loadcell_volts: [w.torque_nm[0] * 0.001, w.torque_nm[1] * 0.001],
+    };
+    // the tensioning ramp (1 s) first: the bench measures the mode's own step
+    for _ in 0..1100 {
+        dev.handle(&req(RequestBody::Heartbeat));
+        k += 1;
+        dev.step(wandering(k, &inputs[k as usize % inputs.len()]), StepTiming::default());
+    }
+    let joint_ticks = ticks(|| {
+        for _ in 0..REPS {
+            for w in inputs.iter() {
+                dev.handle(&req(RequestBody::Heartbeat));
+                k += 1;
+                black_box(dev.step(
+                    black_box(wandering(k, w)),
+                    StepTiming {
+                        time_us: k * 1000,
+                        loop_exec_us: 20,
+                        loop_jitter_us: 1,
+                    },
+                ));
+            }
+        }
+    });
+    let per_step_joint = (joint_ticks.saturating_sub(heartbeat_ticks)) as f32 * insn_per_tick / n;
+    let armed_through_joint = dev.controller().state() == State::Armed;
+    hprintln!("bench control step joint (pam-device, joint mode: shaped reference + inverse + supervisor + telemetry), f32/{}: {:.0} instructions per step; state {:?}, faults {:#x}", math, per_step_joint, dev.controller().state(), dev.controller().faults().0);
+    if !armed_through_joint {
+        failed += 1;
+        hprintln!("FAIL bench: the device left the armed state during the joint-mode benchmark");
+    }
     // the budget of one control step
     const STEP_BUDGET_INSTRUCTIONS: f32 = 5000.0;
     if per_step_cl > STEP_BUDGET_INSTRUCTIONS
         || per_step > STEP_BUDGET_INSTRUCTIONS
         || per_step_imp > STEP_BUDGET_INSTRUCTIONS
+        || per_step_joint > STEP_BUDGET_INSTRUCTIONS
     {
         failed += 1;
         hprintln!("FAIL bench: a control step takes more than {} instructions", STEP_BUDGET_INSTRUCTIONS);

@@ -13,7 +13,9 @@ pub enum HandleMode {
     /// Nothing touches the handle.
     Free,
     /// The handle is blocked (§5.2 set-up) whenever the device is armed in force mode, and
-    /// free otherwise, so that joint mode can first bring the arm to a pose.
+    /// in a pressures mode that follows a force mode in the same arming (the converters'
+    /// step of the commissioning); free otherwise, so that joint mode can first bring the
+    /// arm to a pose.
     Blocked,
     /// A hand holds the handle still where it is each time the device arms or the mode
     /// changes (at the joint target in joint mode).
@@ -105,6 +107,12 @@ pub enum Miswire {
     /// Something leaned on the handle when the tare was taken: the load cell reads this
     /// force, N, in its own frame, with the handle free.
     TareOffset { x_n: f64, z_n: f64 },
+    /// The arm rests `deg` degrees off the neutral pose at power-up (joint `joint`, 0-based),
+    /// where the procedure homes it: the encoder's zero is off by that angle.
+    EncoderZero { joint: usize, deg: f64 },
+    /// The converter of channel `channel` (0-based) is slow: its loop current reaches the
+    /// converter through a first-order lag of `tau_s` seconds (a clogged pilot or filter).
+    SlowConverter { channel: usize, tau_s: f64 },
 }
 
 impl Miswire {
@@ -119,6 +127,8 @@ impl Miswire {
         "loadcell_gain:axis=z,scale=1.5",
         "loadcell_axes_swapped",
         "tare_offset:x=8,z=0",
+        "encoder_zero:joint=1,deg=3",
+        "slow_converter:channel=2,tau=0.08",
     ];
 
     /// Parses `KIND` or `KIND:PARAMS` (see [`Miswire::KINDS`]).
@@ -202,6 +212,21 @@ impl Miswire {
                 x_n: value("x").map_or(Ok(0.0), |_| number("x"))?,
                 z_n: value("z").map_or(Ok(0.0), |_| number("z"))?,
             },
+            "encoder_zero" => Miswire::EncoderZero {
+                joint: joint()?,
+                deg: number("deg")?,
+            },
+            "slow_converter" => {
+                let channel = match value("channel").and_then(|c| c.parse::<usize>().ok()) {
+                    Some(c) if (1..=4).contains(&c) => c - 1,
+                    _ => return Err(bad("needs channel=1–4")),
+                };
+                let tau_s = number("tau")?;
+                if tau_s <= 0.0 {
+                    return Err(bad("tau must be positive (seconds)"));
+                }
+                Miswire::SlowConverter { channel, tau_s }
+            }
             _ => return Err(bad("unknown miswiring")),
         })
     }
@@ -216,6 +241,23 @@ impl Miswire {
             _ => {}
         }
         out
+    }
+
+    /// Where the arm rests at power-up, rad from the neutral pose.
+    pub fn rest_pose_rad(&self) -> [f64; 2] {
+        let mut out = [0.0; 2];
+        if let Miswire::EncoderZero { joint, deg } = *self {
+            out[joint] = deg.to_radians();
+        }
+        out
+    }
+
+    /// The channel whose converter lags, and its time constant, s.
+    pub fn converter_lag(&self) -> Option<(usize, f64)> {
+        match *self {
+            Miswire::SlowConverter { channel, tau_s } => Some((channel, tau_s)),
+            _ => None,
+        }
     }
 
     /// Encoder counts from the neutral pose as the miswired encoders give them.
@@ -283,6 +325,8 @@ mod tests {
             let volts = m.loadcell_v([0.2, 0.1], [0.0; 2], gain);
             let changed = currents != [4.0, 8.0, 12.0, 16.0]
                 || counts != [100, 200]
+                || m.rest_pose_rad() != [0.0; 2]
+                || m.converter_lag().is_some()
                 || (volts[0] - 0.2).abs() > 1e-9
                 || (volts[1] - 0.1).abs() > 1e-9;
             assert!(changed, "{text} changes nothing");
@@ -340,6 +384,9 @@ mod tests {
             "encoder_inverted",
             "encoder_counts:joint=1,scale=-1",
             "loadcell_inverted:axis=y",
+            "slow_converter:channel=5,tau=0.2",
+            "slow_converter:channel=1,tau=0",
+            "encoder_zero:joint=3,deg=1",
             "nonsense",
         ] {
             assert!(Miswire::parse(bad).is_err(), "{bad} accepted");

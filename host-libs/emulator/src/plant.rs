@@ -49,6 +49,11 @@ pub(crate) struct Plant {
     pub(crate) store: pam_config_store::ConfigStore<crate::flash::SimFlash>,
     /// Wiring mistakes of the rig, applied in order between the twin and the device.
     pub(crate) miswiring: Vec<crate::Miswire>,
+    /// The lagging converters' currents, mA (`Miswire::SlowConverter`).
+    lagged_ma: [f64; 4],
+    /// A blocked handle stays blocked in the pressures mode that follows a force mode, to
+    /// the disarm (the person holds the block for the whole blocked step).
+    blocked_this_arming: bool,
 }
 
 impl Plant {
@@ -60,6 +65,11 @@ impl Plant {
         };
         twin_cfg.effects = config.effects.clone();
         twin_cfg.seed = config.seed;
+        for m in &config.miswiring {
+            for (alpha, rest) in twin_cfg.initial_alpha_rad.iter_mut().zip(m.rest_pose_rad()) {
+                *alpha += rest;
+            }
+        }
         let counts_per_rev = twin_cfg.sensors.encoder_counts_per_rev;
         let mut twin = Twin::new(twin_cfg);
         let mut safety = SafetyConfig::default_1khz();
@@ -84,6 +94,7 @@ impl Plant {
             *enc = EncoderCalibration {
                 counts_per_rev: counts.max(1),
                 sign: 1,
+                zero_rad: 0.0,
             };
         }
         let reply = device.handle(&Request {
@@ -121,6 +132,8 @@ impl Plant {
             last_currents_ma: [4.0; 4],
             store,
             miswiring: config.miswiring.clone(),
+            lagged_ma: [4.0; 4],
+            blocked_this_arming: false,
         })
     }
 
@@ -186,6 +199,11 @@ impl Plant {
         let mut at_converters = self.board.converter_currents(self.last_currents_ma);
         for m in &self.miswiring {
             at_converters = m.at_converters(at_converters);
+            if let Some((c, tau_s)) = m.converter_lag() {
+                let a = 1.0 - (-period_s / tau_s).exp();
+                self.lagged_ma[c] += a * (at_converters[c] - self.lagged_ma[c]);
+                at_converters[c] = self.lagged_ma[c];
+            }
         }
         self.last = self.twin.step(period_s, at_converters, &handle);
         self.t_s += period_s;
@@ -241,11 +259,15 @@ impl Plant {
         }
         let armed = state == State::Armed;
         let force = matches!(mode, Mode::Force { .. } | Mode::ForceClosedLoop { .. });
+        let pressures = matches!(mode, Mode::Pressures { .. });
+        self.blocked_this_arming = armed && (force || (pressures && self.blocked_this_arming));
         // the operator moves the handle about the joint or the impedance target
         let joint = matches!(mode, Mode::Joint { .. } | Mode::Impedance { .. });
         match self.handle_mode {
             HandleMode::Free => HandleCondition::Free,
-            HandleMode::Blocked if armed && force => HandleCondition::Blocked,
+            HandleMode::Blocked if armed && (force || self.blocked_this_arming) => {
+                HandleCondition::Blocked
+            }
             HandleMode::Blocked => HandleCondition::Free,
             HandleMode::Held if armed => HandleCondition::held_at(self.hold_point),
             HandleMode::Held => HandleCondition::Free,
@@ -280,4 +302,28 @@ fn boot_nonce() -> u32 {
     use std::hash::BuildHasher;
     let state = std::collections::hash_map::RandomState::new();
     state.hash_one(std::time::SystemTime::now()) as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Plant;
+    use crate::{Miswire, SimConfig};
+
+    #[test]
+    fn an_arm_off_its_zero_rests_there_until_armed() {
+        let config = SimConfig {
+            miswiring: vec![Miswire::parse("encoder_zero:joint=1,deg=3").unwrap()],
+            ..SimConfig::default()
+        };
+        let (tx, _rx) = std::sync::mpsc::channel();
+        let mut plant = Plant::new(&config, tx).unwrap();
+        let period_us = plant.device.period_us();
+        for k in 0..2000u64 {
+            plant.period(period_us, k * u64::from(period_us), 0, 0, |_| {});
+        }
+        // vented for 2 s: where the procedure homes it, still 3° off the neutral pose
+        let alpha = plant.twin.state().alpha_rad;
+        assert!((alpha[0].to_degrees() - 3.0).abs() < 0.5, "{alpha:?}");
+        assert!(alpha[1].abs() < 0.01, "{alpha:?}");
+    }
 }

@@ -54,7 +54,7 @@ pub fn amplitude_spectrum(x: &[f64], dt_s: f64) -> Spectrum {
     let df = 1.0 / (n as f64 * dt_s);
     let scale = 2.0 / n as f64;
     // the Nyquist bin exists only for an even N
-    let unpaired = |k: usize| k == 0 || (n % 2 == 0 && k == n / 2);
+    let unpaired = |k: usize| k == 0 || (n.is_multiple_of(2) && k == n / 2);
     Spectrum {
         freq_hz: (0..half).map(|k| k as f64 * df).collect(),
         amplitude: bins

@@ -8,11 +8,12 @@
 mod analysis;
 mod apply;
 mod blocked;
+mod converters;
 mod loadcell;
 mod report;
 
 use crate::LinkArgs;
-use analysis::{channel_map, tare, ChannelResponse, Finding};
+use analysis::{channel_map, encoder_zero, tare, ChannelResponse, Finding};
 use anyhow::{bail, Context};
 use clap::Args;
 use pam_control::Mode;
@@ -61,8 +62,9 @@ pub struct CommissionArgs {
     /// Also write the report as an HTML page with the steps' plots.
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
-    /// Write the fixes the configuration record can take (encoder sign and counts, load-cell
-    /// gain) to the device and persist them; the next run checks them.
+    /// Write the fixes the configuration record can take (encoder sign, counts and zero, the
+    /// I/P channel map, load-cell gain) to the device and persist them; the next run checks
+    /// them.
     #[arg(long)]
     pub apply: bool,
     /// Start again from the first step even after a failure.
@@ -97,6 +99,9 @@ struct CommissionState {
     failed: Option<String>,
     responses: Vec<ChannelResponse>,
     tare_n: Option<[f64; 2]>,
+    /// The joints' angles at equal pressures, rad: measured and the model's equilibrium.
+    #[serde(default)]
+    zero_rad: Option<[[f64; 2]; 2]>,
     /// The joint step 1 saw turn backwards for both its channels: its encoder or its
     /// muscles, which the blocked handle tells apart.
     reversed_joint: Option<usize>,
@@ -171,6 +176,8 @@ pub fn run(args: CommissionArgs, link: &LinkArgs, out: &mut dyn Write) -> anyhow
                         Some(
                             analysis::ConfigFix::EncoderSign(_)
                                 | analysis::ConfigFix::EncoderScale(..)
+                                | analysis::ConfigFix::EncoderZero(..)
+                                | analysis::ConfigFix::ChannelMap(_)
                         )
                     )
                 });
@@ -266,9 +273,9 @@ fn step_channels(
     let client = super::connect(link)?;
     writeln!(
         out,
-        "step 1: encoders and I/P channel map. With the arm resting at the neutral pose (taken as the \
-         encoders' zero), the handle free and nobody near the arm, every muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
-         the joint the model names turns the way it says. Bounds: {MAX_SPEED_RAD_S} rad/s, {MAX_FORCE_N} N.",
+        "step 1: encoders and I/P channel map. With the arm resting at its homing mark by the neutral pose (the \
+         encoders' zero, homed once per power-up), the handle free and nobody near the arm, every muscle goes to {BASE_BAR} bar, then each channel in turn to {} bar for {STEP_S} s; expected: \
+         the joint the model names turns the way it says, and at equal pressures each joint reads the model's equilibrium. Bounds: {MAX_SPEED_RAD_S} rad/s, {MAX_FORCE_N} N.",
         BASE_BAR + STEP_BAR
     )?;
     let mut record = StepRecord {
@@ -287,6 +294,29 @@ fn step_channels(
     result?;
     vented?;
     let mut findings = channel_map(state.responses.as_slice().try_into()?);
+    if let Some([measured, model]) = state.zero_rad {
+        writeln!(
+            out,
+            "  at equal pressures the joints read ({:+.2}, {:+.2})°, the model's equilibrium ({:+.2}, {:+.2})°",
+            measured[0].to_degrees(),
+            measured[1].to_degrees(),
+            model[0].to_degrees(),
+            model[1].to_degrees()
+        )?;
+        if let Some(r) = state.steps.last_mut() {
+            r.checks = (0..2)
+                .map(|j| {
+                    blocked::check(
+                        &format!("joint {} at equal pressures − model, rad", j + 1),
+                        measured[j] - model[j],
+                        0.0,
+                        analysis::ZERO_TOLERANCE_RAD,
+                    )
+                })
+                .collect();
+        }
+        findings.extend(encoder_zero(measured, model));
+    }
     findings.extend(state.tare_n.and_then(tare));
     for r in &state.responses {
         writeln!(
@@ -341,8 +371,16 @@ fn channel_steps(
     record: &mut StepRecord,
 ) -> anyhow::Result<()> {
     client.command(RequestBody::SetTelemetry { divider: 1 })?;
-    // the encoders' zero: the arm rests at the neutral pose, vented and disarmed
-    client.command(RequestBody::Home)?;
+    // the encoders' zero: the arm rests at its homing mark, vented and disarmed; homed once
+    // per power-up (the encoders count on from there, and a re-home would move the zero
+    // the configuration's zero_rad corrects)
+    let homed = matches!(
+        client.request(RequestBody::GetStatus)?,
+        pam_protocol::ReplyData::Status(s) if s.homed
+    );
+    if !homed {
+        client.command(RequestBody::Home)?;
+    }
     client.command(RequestBody::Arm)?;
     let mut samples = Vec::new();
     // from the vent up to the base pressure slowly, in 20 steps over 1 s
@@ -378,6 +416,7 @@ fn channel_steps(
     let measured = |i: usize| samples[i].t.alpha_rad.map(f64::from);
     let modelled = |i: usize| model[i];
     state.tare_n = Some(mean(0, &|i| samples[i].t.force_user_n.map(f64::from)));
+
     state.responses = (0..4)
         .map(|c| {
             let d = |f: &dyn Fn(usize) -> [f64; 2]| {
@@ -391,6 +430,23 @@ fn channel_steps(
             }
         })
         .collect();
+    // the equal pressures' pose, per joint, approached once from each side: the mean of
+    // the returns after the channels that turned it most either way cancels what the
+    // friction holds back
+    let at_rest =
+        |of: &dyn Fn(usize) -> [f64; 2], moved: &dyn Fn(&ChannelResponse) -> f64, j: usize| {
+            let by = |a: &&ChannelResponse, b: &&ChannelResponse| moved(a).total_cmp(&moved(b));
+            let up = state.responses.iter().max_by(by).map_or(0, |r| r.channel);
+            let down = state.responses.iter().min_by(by).map_or(0, |r| r.channel);
+            (mean(2 * up + 2, of)[j] + mean(2 * down + 2, of)[j]) / 2.0
+        };
+    let zero = |of: &dyn Fn(usize) -> [f64; 2], pick: fn(&ChannelResponse) -> [f64; 2]| {
+        [0, 1].map(|j| at_rest(of, &|r| pick(r)[j], j))
+    };
+    state.zero_rad = Some([
+        zero(&measured, |r| r.measured_rad),
+        zero(&modelled, |r| r.model_rad),
+    ]);
     Ok(())
 }
 

@@ -55,7 +55,8 @@ pub struct SimArgs {
     /// Wire the emulated rig wrong (repeatable), to try `pamctl commission` against it:
     /// swap_channels:A,B, swap_joint1_muscles, encoder_inverted:joint=N,
     /// encoder_counts:joint=N,scale=S, loadcell_rotated:deg=D, loadcell_inverted:axis=x|z,
-    /// loadcell_gain:axis=x|z,scale=S, loadcell_axes_swapped, tare_offset:x=N,z=N.
+    /// loadcell_gain:axis=x|z,scale=S, loadcell_axes_swapped, tare_offset:x=N,z=N,
+    /// encoder_zero:joint=N,deg=D, slow_converter:channel=N,tau=S.
     #[arg(long = "miswire", value_name = "KIND")]
     pub miswire: Vec<String>,
     /// List the twin's effects and their parameters, then exit.

@@ -16,6 +16,7 @@ fn config(tare_v: f32) -> StoredConfig {
             encoder: Default::default(),
             load_cell: p.load_cell.into(),
             output: Default::default(),
+            output_of_channel: pam_protocol::IDENTITY_CHANNEL_MAP,
         },
         limits: SafetyConfig::default_1khz().into(),
     };

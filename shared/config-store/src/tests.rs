@@ -12,6 +12,7 @@ fn thesis() -> StoredConfig {
             encoder: Default::default(),
             load_cell: RobotParams::<f32>::thesis().load_cell.into(),
             output: Default::default(),
+            output_of_channel: pam_protocol::IDENTITY_CHANNEL_MAP,
         },
         limits: SafetyConfig::default_1khz().into(),
     }

@@ -173,8 +173,8 @@ pub const UNSEEN_MOTION_HELD_FRACTION: f32 = 0.25;
 /// (Table 5.2), and a free arm moves as soon as its torque does.
 pub const UNSEEN_MOTION_TIME_S: f32 = 1.5;
 
-/// The encoders' plausibility where the pressures are the command (joint and pressures
-/// modes), per joint: the muscles' torque at the measured angle (τ_model(α, P), the
+/// The encoders' plausibility where the pressures do not follow the handle (joint,
+/// pressures and open-loop force modes), per joint: the muscles' torque at the measured angle (τ_model(α, P), the
 /// commanded pressures) and the torque the load cell says holds the arm (Jᵀ F), both as
 /// they were when the angle last changed. A torque that has since changed by more than
 /// [`UNSEEN_MOTION_TORQUE_NM`] with the held torque following by less than

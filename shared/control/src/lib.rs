@@ -29,6 +29,7 @@
 pub mod faults;
 pub mod force_loop;
 pub mod guard;
+pub mod home_check;
 pub mod impedance;
 pub mod mode;
 pub mod motion;

@@ -312,6 +312,64 @@ pub fn a_stuck_encoder_faults_in_joint_mode() -> CheckResult {
     holds("vented", current_ma.iter().all(|&i| i == VENT_CURRENT_MA))
 }
 
+/// The stuck encoder's run in `mode`: armed at `from`, the angle following a free arm's
+/// path (`follow`) or bit-identical (stuck), nothing holding the handle, 6 s.
+fn stuck_or_following(
+    mode: Mode,
+    from: [f32; 2],
+    follow: bool,
+) -> Result<(Faults, [f32; 4]), Failure> {
+    let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+    c.step(&at(from, 0));
+    holds("armed", c.arm().is_ok())?;
+    holds("mode accepted", c.set_mode(mode).is_ok())?;
+    let mut out = c.step(&at(from, 0));
+    for k in 1..6000u32 {
+        c.heartbeat();
+        // a free arm goes where the muscles pull it: 0.12 rad in ≈ 1.2 s
+        let a = if follow {
+            from[0] + 0.12 * (k as f32 / 1200.0).min(1.0)
+        } else {
+            from[0]
+        };
+        out = c.step(&at([a, from[1]], k));
+        if out.state != State::Armed {
+            break;
+        }
+    }
+    Ok((out.faults, out.current_ma))
+}
+
+/// Pressures mode: joint 1's muscles at 2.9 and 2.1 bar turn a free arm by ≈ 0.15 rad; an
+/// encoder that does not see it faults, one that does is no fault.
+pub fn a_stuck_encoder_faults_in_pressures_mode() -> CheckResult {
+    let mode = Mode::Pressures {
+        pressure_bar: [2.1, 2.9, 2.5, 2.5],
+    };
+    let (faults, _) = stuck_or_following(mode, [0.0; 2], true)?;
+    holds("an arm that follows is no stuck encoder", faults.is_none())?;
+    let (faults, current_ma) = stuck_or_following(mode, [0.0; 2], false)?;
+    holds("stuck: faulted", faults.contains(Faults::STATIC_IMBALANCE))?;
+    holds("vented", current_ma.iter().all(|&i| i == VENT_CURRENT_MA))
+}
+
+/// Open-loop force mode at joint 1's 0.2 rad: 20 N along x asked of a free handle turns the
+/// arm; an encoder that does not see it faults (the pressures follow the stuck angle, the
+/// load cell reads nothing), one that does is no fault. At 0.2 rad the balance check's
+/// bound (8 + 116 · 0.2 N·m) is above the ≈ 14 N·m asked: it alone never judges.
+pub fn a_stuck_encoder_faults_in_open_loop_force_mode() -> CheckResult {
+    let mode = Mode::Force {
+        force_n: [20.0, 0.0],
+        stiffness_nm_per_rad: [60.0, 27.0],
+        feed_forward: false,
+    };
+    let (faults, _) = stuck_or_following(mode, [0.2, 0.0], true)?;
+    holds("an arm that follows is no stuck encoder", faults.is_none())?;
+    let (faults, current_ma) = stuck_or_following(mode, [0.2, 0.0], false)?;
+    holds("stuck: faulted", faults.contains(Faults::STATIC_IMBALANCE))?;
+    holds("vented", current_ma.iter().all(|&i| i == VENT_CURRENT_MA))
+}
+
 /// Arming (and any mode after idle) tensions the muscles at the angle the arm is at and
 /// ends on the mode's own command: a mode that holds the arm there asks for no torque at
 /// any instant of the ramp (once the cables are taut the model's torque is the arm's;
@@ -380,5 +438,7 @@ pam_model::register_checks!(
     pressures_mode_bounds_co_contraction_and_imbalance,
     a_stuck_encoder_faults_in_impedance_mode,
     a_stuck_encoder_faults_in_joint_mode,
+    a_stuck_encoder_faults_in_pressures_mode,
+    a_stuck_encoder_faults_in_open_loop_force_mode,
     the_muscles_are_tensioned_without_moving_the_arm,
 );

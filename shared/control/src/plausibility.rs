@@ -140,24 +140,24 @@ impl BalanceMonitor {
         sensors: &Sensors,
         pressure_bar: [f32; 4],
     ) -> bool {
-        let trig = model.kinematics.trig(sensors.alpha_rad);
+        let alpha = sensors.alpha_rad;
+        let trig = model.kinematics.trig(alpha);
         let force_user = Kinematics::sensor_to_user_at(&trig, sensors.force_sensor_n);
-        self.update_at(
-            model,
-            period_s,
-            (sensors.alpha_rad, &trig, force_user),
-            pressure_bar,
-        )
+        self.update_at(model, period_s, alpha, pressure_bar, || {
+            torques_at_nm(model, alpha, &trig, force_user, pressure_bar)
+        })
     }
 
-    /// [`BalanceMonitor::update`] on the pose (angles, their trigonometry, the user-frame
-    /// handle force) the control step has already computed.
+    /// [`BalanceMonitor::update`] with the torques (τ_model(α, P), Jᵀ F) of the measured
+    /// pose given by the caller ([`torques_at_nm`]): the control step computes them once for
+    /// every check, and only when one needs them (here: not while the pressures move).
     pub fn update_at(
         &mut self,
         model: &RobotModel<f32>,
         period_s: f32,
-        (alpha, trig, force_user): (Vec2<f32>, &PoseTrig<f32>, Vec2<f32>),
+        alpha: Vec2<f32>,
         pressure_bar: [f32; 4],
+        torques: impl FnOnce() -> (Vec2<f32>, Vec2<f32>),
     ) -> bool {
         let steered = !self.started
             || (0..4)
@@ -170,7 +170,8 @@ impl BalanceMonitor {
             return false;
         }
         let window_periods = (BALANCE_WINDOW_S / period_s + 0.5) as u32;
-        let r = imbalance_at_nm(model, alpha, trig, force_user, pressure_bar);
+        let (torque, held) = torques();
+        let r = [torque[0] - held[0], torque[1] - held[1]];
         let tol = tolerance_nm(alpha);
         let mut fault = false;
         // each joint has its own window: the other joint may still be settling

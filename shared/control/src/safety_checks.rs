@@ -267,6 +267,76 @@ pub fn a_limits_change_does_not_feed_the_command_timeout() -> CheckResult {
     )
 }
 
+/// Equal pressures in a joint's two muscles hold the arm at the neutral pose. A home taken
+/// with joint 2 17° from it (the zero 0.3 rad off) puts the arm, once it rests there with
+/// the muscles at 2.5 bar and a free handle, 0.3 rad from the model's equilibrium: the home
+/// is refused (`STATIC_IMBALANCE`, vented). The right home rests on the equilibrium and is
+/// confirmed. Neither the balance check (at 0.3 rad its bound is 8 + 24 · 0.3 N·m) nor the
+/// unseen motion (under 10 N·m of change) judges this rest.
+pub fn a_home_far_from_the_pressures_equilibrium_is_refused() -> CheckResult {
+    let run = |offset_rad: f32| {
+        let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+        let ok = c.judge_home().is_ok()
+            && c.arm().is_ok()
+            && c.set_mode(Mode::Pressures {
+                pressure_bar: [2.5; 4],
+            })
+            .is_ok();
+        let at = |k: u32| {
+            let mut s = sensors(k);
+            s.alpha_rad[1] = offset_rad;
+            s
+        };
+        let mut out = c.step(&at(0));
+        for k in 1..5000 {
+            c.heartbeat();
+            out = c.step(&at(k));
+            if out.state != State::Armed {
+                break;
+            }
+        }
+        (ok, out, c.home_check().refused(), c.home_check().pending())
+    };
+    let (ok, out, refused, pending) = run(0.0);
+    holds("home, arm, pressures accepted", ok)?;
+    holds("a right home: no fault", out.faults.is_none())?;
+    holds("a right home: confirmed", !refused && !pending)?;
+    let (_, out, refused, _) = run(0.3);
+    holds("a wrong home: refused", refused)?;
+    holds(
+        "a wrong home: STATIC_IMBALANCE",
+        out.faults == Faults::STATIC_IMBALANCE,
+    )?;
+    holds("a wrong home: vented", vented(&out.current_ma))?;
+    let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+    holds("armed", c.arm().is_ok())?;
+    holds(
+        "a home is refused while armed",
+        c.judge_home() == Err(Reject::WrongState),
+    )
+}
+
+/// With the muscles vented (idle) or a handle held, a rest says nothing of the home: it
+/// waits, and no fault comes of it.
+pub fn a_rest_that_cannot_judge_the_home_waits() -> CheckResult {
+    let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
+    holds("home", c.judge_home().is_ok())?;
+    holds("armed", c.arm().is_ok())?;
+    // vented, the arm anywhere: 20° on joint 1
+    let at = |k: u32| {
+        let mut s = sensors(k);
+        s.alpha_rad[0] = 0.35;
+        s
+    };
+    let mut out = c.step(&at(0));
+    for k in 1..4000 {
+        c.heartbeat();
+        out = c.step(&at(k));
+    }
+    holds("idle: no fault", out.faults.is_none())?;
+    holds("idle: still waiting", c.home_check().pending())
+}
+
 pam_model::register_checks!(
     the_safe_state_is_a_constant_whatever_the_parameters,
     a_limits_change_does_not_feed_the_command_timeout,
@@ -276,4 +346,6 @@ pam_model::register_checks!(
     the_gain_scale_is_bounded_by_the_margin,
     a_slow_limit_cycle_trips_the_guard,
     a_dead_dithering_load_cell_faults_in_closed_loop,
+    a_home_far_from_the_pressures_equilibrium_is_refused,
+    a_rest_that_cannot_judge_the_home_waits,
 );

@@ -1,9 +1,11 @@
 //! The step's first stage: the sensors and the timing judged, new faults latched.
 
 use pam_model::kinematics::{Kinematics, PoseTrig};
-use pam_model::Vec2;
+use pam_model::{RobotModel, Vec2};
 
 use crate::faults::Faults;
+use crate::guard::EncoderMotion;
+use crate::home_check::HomeVerdict;
 use crate::mode::{Mode, Sensors, State};
 use crate::plausibility::{torques_at_nm, STOP_BAND_RAD};
 use crate::safety::LOADCELL_AMPLIFIER_FULL_SCALE_V;
@@ -65,7 +67,8 @@ impl Controller {
     }
 
     /// Judges one period's sensors and timing: the sample's own faults, a frozen load
-    /// cell, the static balance, the joint speed (every mode), the command timeout. New
+    /// cell, the static balance, motion the encoders do not see, the last home against the
+    /// pressures' equilibrium, the joint speed (every mode), the command timeout. New
     /// faults latch and fault the controller. Returns the measured pose, computed once for
     /// every stage.
     #[inline(always)]
@@ -87,22 +90,52 @@ impl Controller {
             self.last_alpha_rad = Some(sensors.alpha_rad);
         }
         let pose = self.pose(sensors, finite);
+        // the muscles' torque at the measured pose for the commanded pressures and the torque
+        // the handle holds: computed at most once a period, for whichever check needs it
+        let model = &self.model;
+        let pressure_bar = self.pressure_bar;
+        let mut cached = None;
+        let mut torques = || {
+            *cached.get_or_insert_with(|| {
+                torques_at_nm(
+                    model,
+                    pose.alpha_rad,
+                    &pose.trig,
+                    pose.force_user_n,
+                    pressure_bar,
+                )
+            })
+        };
+        let period_s = self.safety.period_s;
         // static balance against the pressures the converters have been commanded
         if armed && finite {
-            let at = (pose.alpha_rad, &pose.trig, pose.force_user_n);
-            let period_s = self.safety.period_s;
             if self
                 .balance
-                .update_at(&self.model, period_s, at, self.pressure_bar)
+                .update_at(model, period_s, pose.alpha_rad, pressure_bar, &mut torques)
             {
                 faults = faults.with(Faults::STATIC_IMBALANCE);
             }
         } else {
             self.balance.reset();
         }
-        if !(armed && finite) {
+        let watched = matches!(
+            self.mode,
+            Mode::Joint { .. } | Mode::Pressures { .. } | Mode::Force { .. }
+        );
+        if !(armed && finite && watched) {
             self.unseen_motion.reset();
-        } else if self.unseen_motion_judged(&pose) {
+        } else if unseen_motion_judged(&mut self.unseen_motion, model, &pose, torques(), period_s) {
+            faults = faults.with(Faults::STATIC_IMBALANCE);
+        }
+        // the first rest with the muscles tensioned judges the last home
+        let tensioned = self.mode != Mode::Idle && self.arm_ramp.done();
+        if !(armed && finite && tensioned && self.home.pending()) {
+            self.home.restart();
+        } else if self
+            .home
+            .update(model, period_s, pose.alpha_rad, pressure_bar, torques())
+            == HomeVerdict::Refused
+        {
             faults = faults.with(Faults::STATIC_IMBALANCE);
         }
         // the arm moving faster than any mode may move it; a jump is the encoder's fault,
@@ -130,31 +163,6 @@ impl Controller {
         pose
     }
 
-    /// The encoders in the modes whose pressures are the command (joint, pressures): a
-    /// torque change the arm should follow, not seen by the encoder nor carried by the
-    /// handle ([`crate::guard::EncoderMotion`]). Other modes and states start it afresh.
-    #[inline(always)]
-    fn unseen_motion_judged(&mut self, pose: &Pose) -> bool {
-        if !matches!(self.mode, Mode::Joint { .. } | Mode::Pressures { .. }) {
-            self.unseen_motion.reset();
-            return false;
-        }
-        let torques = torques_at_nm(
-            &self.model,
-            pose.alpha_rad,
-            &pose.trig,
-            pose.force_user_n,
-            self.pressure_bar,
-        );
-        let j = &self.model.params.joints;
-        let in_range = [0, 1].map(|k| {
-            pose.alpha_rad[k] >= j[k].alpha_min_rad + STOP_BAND_RAD
-                && pose.alpha_rad[k] <= j[k].alpha_max_rad - STOP_BAND_RAD
-        });
-        self.unseen_motion
-            .update(pose.alpha_rad, torques, in_range, self.safety.period_s)
-    }
-
     /// The measured pose's trigonometry and the handle force in the user frame.
     #[inline(always)]
     pub(crate) fn pose(&self, sensors: &Sensors, finite: bool) -> Pose {
@@ -174,4 +182,23 @@ impl Controller {
             force_user_n,
         }
     }
+}
+
+/// The encoders in the modes whose pressures do not follow the handle (joint, pressures,
+/// open-loop force): a torque change the arm should follow, not seen by the encoder nor
+/// carried by the handle ([`crate::guard::EncoderMotion`]); `torques` is (τ_model, Jᵀ F).
+#[inline(always)]
+fn unseen_motion_judged(
+    motion: &mut EncoderMotion,
+    model: &RobotModel<f32>,
+    pose: &Pose,
+    torques: (Vec2<f32>, Vec2<f32>),
+    period_s: f32,
+) -> bool {
+    let j = &model.params.joints;
+    let in_range = [0, 1].map(|k| {
+        pose.alpha_rad[k] >= j[k].alpha_min_rad + STOP_BAND_RAD
+            && pose.alpha_rad[k] <= j[k].alpha_max_rad - STOP_BAND_RAD
+    });
+    motion.update(pose.alpha_rad, torques, in_range, period_s)
 }

@@ -12,6 +12,7 @@ pub use crate::safety::{
 
 use crate::force_loop::{ForceLoop, ForceLoopConfig, MAX_GAIN_SCALE};
 use crate::guard::EncoderMotion;
+use crate::home_check::HomeCheck;
 use crate::impedance::{
     Impedance, MAX_IMPEDANCE_DAMPING_N_S_PER_M, MAX_IMPEDANCE_MASS_KG,
     MAX_IMPEDANCE_STIFFNESS_N_PER_M, MAX_IMPEDANCE_TARGET_M,
@@ -47,8 +48,10 @@ pub struct Controller {
     pub(crate) speed: SpeedMonitor,
     /// The encoders' plausibility in impedance mode.
     pub(crate) encoders: EncoderWatch,
-    /// The encoders' plausibility in joint and pressures modes.
+    /// The encoders' plausibility in joint, pressures and open-loop force modes.
     pub(crate) unseen_motion: EncoderMotion,
+    /// The last home, judged at the first rest with the muscles tensioned.
+    pub(crate) home: HomeCheck,
     /// The last command was clamped on its way out (the force loop's anti-windup).
     pub(crate) last_saturated: bool,
 }
@@ -76,6 +79,7 @@ impl Controller {
             speed: SpeedMonitor::new(),
             encoders: EncoderWatch::new(),
             unseen_motion: EncoderMotion::new(),
+            home: HomeCheck::new(),
             last_saturated: false,
         }
     }
@@ -327,6 +331,22 @@ impl Controller {
         }
         self.last_alpha_rad = None;
         Ok(())
+    }
+
+    /// A new home (the caller's: the encoders' zero): judged at the first rest with the
+    /// muscles tensioned ([`crate::home_check`]). Refused while armed.
+    pub fn judge_home(&mut self) -> Result<(), Reject> {
+        if self.state == State::Armed {
+            return Err(Reject::WrongState);
+        }
+        self.home.expect();
+        Ok(())
+    }
+
+    /// The last home's judgement: waiting for a rest, refused (the arm rested far from the
+    /// model's equilibrium; `STATIC_IMBALANCE` latched), or neither (confirmed, or none).
+    pub fn home_check(&self) -> &HomeCheck {
+        &self.home
     }
 
     /// The firmware reports a hardware fault (watchdog reset, open current loop).

@@ -49,47 +49,18 @@ impl Controller {
                 }
             }
             State::Armed => {
-                let (target_bar, limited) = match self.mode {
-                    Mode::Idle => ([vent; 4], Limited::NONE),
-                    Mode::Pressures { pressure_bar } => (pressure_bar, Limited::NONE),
-                    Mode::Joint {
-                        alpha_rad,
-                        torque_nm,
-                        stiffness_nm_per_rad,
-                    } => self.joint_target(pose, alpha_rad, torque_nm, stiffness_nm_per_rad),
-                    Mode::Force {
-                        force_n,
-                        stiffness_nm_per_rad,
-                        feed_forward,
-                    } => {
-                        let cmd = self.model.force_command_at(
-                            pose.alpha_rad,
-                            &pose.trig,
-                            force_n,
-                            stiffness_nm_per_rad,
-                            feed_forward,
-                        );
-                        let limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
-                        let p = [cmd.joints[0].pressure_bar, cmd.joints[1].pressure_bar];
-                        (self.model.channel_pressures_bar(p), limited)
-                    }
-                    Mode::ForceClosedLoop { .. } => self.closed_loop_target(pose),
-                    Mode::Impedance { .. } => self.impedance_target(pose),
-                };
+                let ramp_done = self.arm_ramp.done();
                 let closed_loop = matches!(
                     self.mode,
                     Mode::ForceClosedLoop { .. } | Mode::Impedance { .. }
                 );
-                let target_bar = if self.arm_ramp.done() {
-                    target_bar
-                } else if closed_loop {
-                    // the closed loops enter bumplessly from the measured force and keep
-                    // their own guard; what the handle holder is, they learn from the force
-                    // their entry puts on it (the ramp would hide it from their first step)
-                    self.arm_ramp.finish();
-                    target_bar
-                } else {
-                    self.tensioning(pose, target_bar)
+                let arming = match !ramp_done && closed_loop {
+                    true => self.closed_loop_arming(pose),
+                    false => None,
+                };
+                let (target_bar, limited) = match arming {
+                    Some(arming) => arming,
+                    None => self.armed_target(pose, ramp_done),
                 };
                 Command {
                     target_bar,
@@ -117,6 +88,45 @@ impl Controller {
         command
     }
 
+    /// The armed mode's command: its target, through the tensioning ramp while that lasts
+    /// (`ramp_done`: it was over when the period began).
+    #[inline(always)]
+    fn armed_target(&mut self, pose: &Pose, ramp_done: bool) -> ([f32; 4], Limited) {
+        let vent = self.model.params.ip.output_min_bar;
+        let (target_bar, limited) = match self.mode {
+            Mode::Idle => ([vent; 4], Limited::NONE),
+            Mode::Pressures { pressure_bar } => (pressure_bar, Limited::NONE),
+            Mode::Joint {
+                alpha_rad,
+                torque_nm,
+                stiffness_nm_per_rad,
+            } => self.joint_target(pose, alpha_rad, torque_nm, stiffness_nm_per_rad),
+            Mode::Force {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+            } => {
+                let cmd = self.model.force_command_at(
+                    pose.alpha_rad,
+                    &pose.trig,
+                    force_n,
+                    stiffness_nm_per_rad,
+                    feed_forward,
+                );
+                let limited = cmd.joints[0].limited.with(cmd.joints[1].limited);
+                let p = [cmd.joints[0].pressure_bar, cmd.joints[1].pressure_bar];
+                (self.model.channel_pressures_bar(p), limited)
+            }
+            Mode::ForceClosedLoop { .. } => self.closed_loop_target(pose),
+            Mode::Impedance { .. } => self.impedance_target(pose),
+        };
+        if ramp_done || self.arm_ramp.done() {
+            (target_bar, limited)
+        } else {
+            (self.tensioning(pose, target_bar), limited)
+        }
+    }
+
     /// The tensioning ramp toward the mode's target. The mode's own state starts afresh
     /// every period of it, so the mode begins where the ramp leaves the arm, its loops
     /// without a history of commands that never reached the muscles.
@@ -130,6 +140,33 @@ impl Controller {
         let dt = self.safety.period_s;
         self.arm_ramp
             .step(&self.model, pose.alpha_rad, target_bar, dt)
+    }
+
+    /// The impedance mode's arming, `None` once it is over and the loop may start: the
+    /// tensioning ramp toward the pressures that put no force on the handle at the measured
+    /// angles, the muscles at their least stiffness as the mode asks (the loop's own command
+    /// is built on the force it measures, which the ramp has not yet made). The closed force
+    /// loop enters at once: what holds the handle (a hand, a block) it learns from the force
+    /// its entry puts on the handle, which a ramp that moves nothing would hide.
+    #[cold]
+    #[inline(never)]
+    fn closed_loop_arming(&mut self, pose: &Pose) -> Option<([f32; 4], Limited)> {
+        if !matches!(self.mode, Mode::Impedance { .. }) {
+            self.arm_ramp.finish();
+            return None;
+        }
+        let alpha = pose.alpha_rad;
+        let sol = self.model.inverse(alpha, [0.0; 2], [0.0; 2]);
+        let limited = sol[0].limited.with(sol[1].limited);
+        let p = [sol[0].pressure_bar, sol[1].pressure_bar];
+        let target_bar = self.model.channel_pressures_bar(p);
+        self.shaper.reset();
+        self.force_loop.reset();
+        self.impedance.reset();
+        self.encoders.reset();
+        let dt = self.safety.period_s;
+        let ramp = self.arm_ramp.step(&self.model, alpha, target_bar, dt);
+        Some((ramp, limited))
     }
 
     /// Joint mode: the target shaped from where the arm is (rate and acceleration

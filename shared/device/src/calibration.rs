@@ -9,8 +9,10 @@
 //!   what a re-home corrects (the arm placed back at the neutral pose by hand); a re-home
 //!   far from the previous zero is a wrong pose, or counts lost. A vented arm has no
 //!   pressure equilibrium to compare the pose with (the vented twin drifts to its range
-//!   ends), so the first home after boot cannot be checked by the device; arming then
-//!   brings the muscles to their pretension, where the controller's guards take over.
+//!   ends), so a home cannot be judged when it is asked: the controller judges it at the
+//!   first rest with the muscles tensioned, against the model's equilibrium for the
+//!   commanded pressures (`pam_control::home_check`), and the device forgets a home it
+//!   refuses.
 
 use pam_model::params::LoadCell;
 

@@ -83,10 +83,12 @@ impl Encoders {
     pub fn alpha_rad(&self) -> [f32; 2] {
         [0, 1].map(|j| {
             self.position_counts[j].wrapping_sub(self.home_counts[j]) as f32 * self.rad_per_count[j]
+                - self.calibration[j].zero_rad
         })
     }
 
-    /// The present position becomes α = 0.
+    /// The present position becomes the homing pose: α = −`zero_rad` (0 with the arm at the
+    /// neutral pose and the zero commissioned).
     pub fn home(&mut self) {
         self.home_counts = self.position_counts;
         self.homed = true;
@@ -94,6 +96,11 @@ impl Encoders {
 
     pub fn homed(&self) -> bool {
         self.homed
+    }
+
+    /// The zero is known to be wrong: the angles keep it, arming needs a new home.
+    pub fn forget_home(&mut self) {
+        self.homed = false;
     }
 
     /// Accumulated counts since boot (for tests and diagnostics).

@@ -128,6 +128,7 @@ fn seeds() -> Vec<Vec<u8>> {
             gain: 1.01,
             offset_ma: -0.05,
         }; 4],
+        output_of_channel: pam_protocol::IDENTITY_CHANNEL_MAP,
     };
     let pressures = SETUP_HOME | SETUP_ARM | (1 << SETUP_MODE_SHIFT);
     let joint = SETUP_HOME | SETUP_ARM | (2 << SETUP_MODE_SHIFT);

@@ -32,6 +32,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod calibration;
+pub mod channel_map;
 pub mod frontend;
 pub mod storage;
 mod validate;
@@ -106,6 +107,8 @@ pub struct Device {
     controller: Controller,
     encoders: Encoders,
     output_calibration: [OutputCalibration; 4],
+    /// The output stage of each I/P channel (a permutation, validated at configuration).
+    output_of_channel: [u8; 4],
     options: DeviceOptions,
     telemetry_divider: u16,
     periods_to_telemetry: u16,
@@ -150,6 +153,7 @@ impl Device {
                 [EncoderCalibration::default(); 2],
             ),
             output_calibration: [OutputCalibration::default(); 4],
+            output_of_channel: pam_protocol::IDENTITY_CHANNEL_MAP,
             options,
             telemetry_divider: 1,
             periods_to_telemetry: 1,
@@ -189,6 +193,7 @@ impl Device {
             encoder: self.encoders.calibration(),
             load_cell: self.controller.model().params.load_cell.into(),
             output: self.output_calibration,
+            output_of_channel: self.output_of_channel,
         }
     }
 
@@ -212,19 +217,28 @@ impl Device {
         if out.state == State::Faulted {
             self.service_mode = false;
         }
+        // the arm rested far from the pressures' equilibrium: the home is wrong
+        if self.controller.home_check().refused() {
+            self.encoders.forget_home();
+        }
 
         // the safe state is the fixed vent current, untrimmed; a trimmed command stays
         // within the loop range (clamp_to cannot panic and maps NaN to the low end)
         let vent = self.controller.outputs_vented();
-        let current_ma: [f32; 4] = core::array::from_fn(|c| {
-            let cal = self.output_calibration[c];
-            if vent || out.current_ma[c] <= VENT_CURRENT_MA {
-                VENT_CURRENT_MA
-            } else {
-                (cal.gain * out.current_ma[c] + cal.offset_ma)
-                    .clamp_to(VENT_CURRENT_MA, MAX_LOOP_CURRENT_MA)
-            }
-        });
+        // each channel's current leaves through the output stage wired to its converter
+        let current_ma = channel_map::route(
+            self.output_of_channel,
+            out.current_ma,
+            &self.output_calibration,
+            |cal, i| {
+                if vent || i <= VENT_CURRENT_MA {
+                    VENT_CURRENT_MA
+                } else {
+                    (cal.gain * i + cal.offset_ma).clamp_to(VENT_CURRENT_MA, MAX_LOOP_CURRENT_MA)
+                }
+            },
+            VENT_CURRENT_MA,
+        );
 
         let new_faults = out.faults.0 & !self.last_faults.0;
         self.last_faults = out.faults;
@@ -419,6 +433,7 @@ impl Device {
                     return Err(ErrorCode::Implausible);
                 }
                 self.controller.reset_angle_history().map_err(error_code)?;
+                self.controller.judge_home().map_err(error_code)?;
                 self.encoders.home();
                 DONE
             }
@@ -530,6 +545,7 @@ impl Device {
                 self.encoders.set_calibration(cal.encoder);
                 self.controller.set_load_cell(cal.load_cell.into());
                 self.output_calibration = cal.output;
+                self.output_of_channel = cal.output_of_channel;
                 self.controller.reset_angle_history().map_err(error_code)
             }
             Config::Limits(safety) => {

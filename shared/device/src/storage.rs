@@ -136,6 +136,7 @@ impl Device {
                 encoder: self.encoders.calibration(),
                 load_cell: RobotParams::<f32>::thesis().load_cell.into(),
                 output: Default::default(),
+                output_of_channel: pam_protocol::IDENTITY_CHANNEL_MAP,
             },
             limits: limits.into(),
         };

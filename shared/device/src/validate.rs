@@ -85,10 +85,20 @@ fn load_cell(c: &pam_model::params::LoadCell<f32>) -> Result<(), ErrorCode> {
     ok_if(in_range(c.rated_force_n, 1.0, 10_000.0))
 }
 
+/// Largest encoder zero, rad (≈ 8.6°): the homing mark is near the neutral pose; a larger
+/// zero is a wrong pose at homing, not a mark to correct.
+pub const MAX_ENCODER_ZERO_RAD: f32 = 0.15;
+
 pub fn calibration(c: &Calibration) -> Result<(), ErrorCode> {
     for e in &c.encoder {
         ok_if((16..=1 << 24).contains(&e.counts_per_rev) && (e.sign == 1 || e.sign == -1))?;
+        ok_if(in_range(
+            e.zero_rad,
+            -MAX_ENCODER_ZERO_RAD,
+            MAX_ENCODER_ZERO_RAD,
+        ))?;
     }
+    ok_if(crate::channel_map::is_permutation(c.output_of_channel))?;
     load_cell(&c.load_cell.into())?;
     for o in &c.output {
         ok_if(in_range(o.gain, 0.5, 1.5) && in_range(o.offset_ma, -2.0, 2.0))?;

@@ -5,6 +5,7 @@
 #![forbid(unsafe_code)]
 
 pub mod adc_scale;
+pub mod board_checks;
 pub mod board_revision;
 pub mod counter;
 pub mod current_loop;

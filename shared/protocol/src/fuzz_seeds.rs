@@ -72,6 +72,7 @@ fn requests() -> Vec<Request> {
             encoder: [EncoderCalibration::default(); 2],
             load_cell: params.load_cell.into(),
             output: [OutputCalibration::default(); 4],
+            output_of_channel: [1, 0, 2, 3],
         })),
         RequestBody::SetConfig(Config::Limits(safety.into())),
         RequestBody::SetTelemetry { divider: 10 },

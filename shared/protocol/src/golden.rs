@@ -122,10 +122,12 @@ fn calibration() -> Calibration {
             EncoderCalibration {
                 counts_per_rev: 8000,
                 sign: 1,
+                zero_rad: 0.5,
             },
             EncoderCalibration {
                 counts_per_rev: 300,
                 sign: -1,
+                zero_rad: -0.25,
             },
         ],
         load_cell: load_cell(),
@@ -147,6 +149,7 @@ fn calibration() -> Calibration {
                 offset_ma: 8.0,
             },
         ],
+        output_of_channel: [1, 0, 3, 2],
     }
 }
 
@@ -310,9 +313,10 @@ fn golden_requests() -> Vec<(Request, &'static str)> {
         ),
         (
             r(RequestBody::SetConfig(Config::Calibration(calibration()))),
-            "ac 02 0a 01 c0 3e 01 ac 02 ff 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 \
-            80 40 00 00 a0 40 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 00 00 \
-            a0 40 00 00 c0 40 00 00 e0 40 00 00 00 41 05",
+            "ac 02 0a 01 c0 3e 01 00 00 00 3f ac 02 ff 00 00 80 be 00 00 80 3f 00 00 \
+            00 40 00 00 40 40 00 00 80 40 00 00 a0 40 00 00 80 3f 00 00 00 40 00 00 \
+            40 40 00 00 80 40 00 00 a0 40 00 00 c0 40 00 00 e0 40 00 00 00 41 01 00 \
+            03 02 05",
         ),
         (
             r(RequestBody::SetConfig(Config::Limits(safety()))),
@@ -405,9 +409,10 @@ fn golden_device_messages() -> Vec<(DeviceMessage, &'static str)> {
         ),
         (
             reply(Ok(ReplyData::Config(Config::Calibration(calibration())))),
-            "00 ac 02 00 03 01 c0 3e 01 ac 02 ff 00 00 80 3f 00 00 00 40 00 00 40 40 \
-            00 00 80 40 00 00 a0 40 00 00 80 3f 00 00 00 40 00 00 40 40 00 00 80 40 \
-            00 00 a0 40 00 00 c0 40 00 00 e0 40 00 00 00 41",
+            "00 ac 02 00 03 01 c0 3e 01 00 00 00 3f ac 02 ff 00 00 80 be 00 00 80 3f \
+            00 00 00 40 00 00 40 40 00 00 80 40 00 00 a0 40 00 00 80 3f 00 00 00 40 \
+            00 00 40 40 00 00 80 40 00 00 a0 40 00 00 c0 40 00 00 e0 40 00 00 00 41 \
+            01 00 03 02",
         ),
         (
             reply(Ok(ReplyData::Config(Config::Limits(safety())))),
@@ -531,7 +536,7 @@ fn the_schema_fingerprint_is_pinned() {
     // the same commit as the golden bytes above.
     println!("SCHEMA_FINGERPRINT = {SCHEMA_FINGERPRINT:#010x}");
     assert_eq!(
-        SCHEMA_FINGERPRINT, 0x85e0_1dd0,
+        SCHEMA_FINGERPRINT, 0x7047_d529,
         "{SCHEMA_FINGERPRINT:#010x}"
     );
 }

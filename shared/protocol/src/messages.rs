@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 /// `DeviceInfo::session`, `Heartbeat` from the commander only, `TakeCommand`,
 /// `SetServiceMode`, four error
 /// codes (`NoSession`, `NotCommander`, `SchemaMismatch`, `ServiceModeOff`).
-pub const PROTOCOL_VERSION: u16 = 8;
+pub const PROTOCOL_VERSION: u16 = 9;
 
 /// Fingerprint of the wire format: FNV-1a over [`PROTOCOL_VERSION`] and the shape of
 /// [`Request`] and [`DeviceMessage`] (every type they contain, see [`crate::wire::schema`]),
@@ -159,6 +159,12 @@ wire_struct! {
         /// Per-channel volts → newtons. The same storage as `RobotParams::load_cell`.
         pub load_cell: wire::LoadCell,
         pub output: [OutputCalibration; 4],
+        /// The output stage (0–3) that drives each I/P channel's converter, in the model's
+        /// channel order (`JointParams::channel_of_muscle` names the channels): the I/P
+        /// channel map as wired, a permutation of 0–3. `[0, 1, 2, 3]`: stage c drives
+        /// channel c (also in a configuration file written without it).
+        #[serde(default = "identity_channel_map")]
+        pub output_of_channel: [u8; 4],
     }
 }
 
@@ -169,6 +175,11 @@ wire_struct! {
         pub counts_per_rev: u32,
         /// +1 or −1: the direction in which counts grow with α.
         pub sign: i8,
+        /// The angle, rad, the homed encoder reads at the neutral pose (the homing pose's
+        /// angle from the neutral pose, negated): subtracted from every reading.
+        /// 0 in a configuration file written without it.
+        #[serde(default)]
+        pub zero_rad: f32,
     }
 }
 
@@ -188,8 +199,16 @@ impl Default for EncoderCalibration {
         EncoderCalibration {
             counts_per_rev: 8_000,
             sign: 1,
+            zero_rad: 0.0,
         }
     }
+}
+
+/// Output stage c drives I/P channel c.
+pub const IDENTITY_CHANNEL_MAP: [u8; 4] = [0, 1, 2, 3];
+
+fn identity_channel_map() -> [u8; 4] {
+    IDENTITY_CHANNEL_MAP
 }
 
 impl Default for OutputCalibration {

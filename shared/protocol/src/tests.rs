@@ -21,6 +21,7 @@ fn calibration() -> Calibration {
         encoder: [EncoderCalibration::default(); 2],
         load_cell: RobotParams::<f32>::thesis().load_cell.into(),
         output: [OutputCalibration::default(); 4],
+        output_of_channel: IDENTITY_CHANNEL_MAP,
     }
 }
 

@@ -5,6 +5,9 @@
 pub const SCALE_TOLERANCE: f64 = 0.2;
 /// Largest force, N, the load cell may read with nothing touching the handle.
 pub const TARE_TOLERANCE_N: f64 = 3.0;
+/// Largest difference, rad (≈ 0.9°), between a joint's angle at equal pressures and the
+/// model's equilibrium there: the encoder's zero.
+pub const ZERO_TOLERANCE_RAD: f64 = 0.015;
 
 /// How far joint `joint` (0-based) moved, rad, when output channel `channel` was raised.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -25,6 +28,11 @@ pub enum ConfigFix {
     EncoderScale(usize, f64),
     /// Divide load-cell axis `0`'s gain by `1` (positive: the device refuses a sign change).
     LoadCellGain(usize, f64),
+    /// Add `1` rad to encoder `0`'s zero.
+    EncoderZero(usize, f64),
+    /// The channel map as measured: channel k, commanded through the stored map, drives
+    /// the converter of channel `0[k]`; the stored map is composed with it.
+    ChannelMap([u8; 4]),
 }
 
 /// One finding: what is wrong and the change that fixes it.
@@ -118,16 +126,25 @@ pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
         }
     }
     if !wrong.is_empty() {
+        // the permutation the steps measured, when they measured one
+        let mut drives = [0u8, 1, 2, 3];
+        for &(c, e) in &wrong {
+            drives[c] = e as u8;
+        }
+        let mut seen = [false; 4];
+        drives.iter().for_each(|&e| seen[e as usize] = true);
+        let permutation = seen.iter().all(|&s| s);
         let list: Vec<String> = wrong
             .iter()
             .map(|(c, e)| format!("channel {} drives the muscle of channel {}", c + 1, e + 1))
             .collect();
         findings.push(Finding {
-            fix: None,
+            fix: permutation.then_some(ConfigFix::ChannelMap(drives)),
             fault: "channels_swapped",
             detail: list.join("; "),
             advice: format!(
-                "exchange the I/P converters' cables (or tubes) of channels {}",
+                "exchange the I/P converters' cables (or tubes) of channels {}, or store the map as \
+                 wired ([calibration] output_of_channel: `pamctl commission --apply`)",
                 wrong
                     .iter()
                     .map(|(c, _)| (c + 1).to_string())
@@ -173,6 +190,33 @@ pub fn channel_map(responses: &[ChannelResponse; 4]) -> Vec<Finding> {
     findings
 }
 
+/// The encoders' zero: each joint's angle at equal pressures on all four channels against
+/// the model's equilibrium for the same currents (the neutral pose), rad.
+pub fn encoder_zero(measured_rad: [f64; 2], model_rad: [f64; 2]) -> Vec<Finding> {
+    (0..2)
+        .filter_map(|j| {
+            let error = measured_rad[j] - model_rad[j];
+            (error.abs() > ZERO_TOLERANCE_RAD).then(|| Finding {
+                fix: Some(ConfigFix::EncoderZero(j, error)),
+                fault: if j == 0 { "encoder1_zero" } else { "encoder2_zero" },
+                detail: format!(
+                    "at equal pressures joint {} reads {:+.2}°, the model's equilibrium is {:+.2}° \
+                     (tolerance {:.2}°): the arm was homed off the neutral pose",
+                    j + 1,
+                    measured_rad[j].to_degrees(),
+                    model_rad[j].to_degrees(),
+                    ZERO_TOLERANCE_RAD.to_degrees()
+                ),
+                advice: format!(
+                    "add {error:+.4} rad to [calibration] encoder {} zero_rad (`pamctl commission --apply`), \
+                     and home the arm at the same mark from now on",
+                    j + 1
+                ),
+            })
+        })
+        .collect()
+}
+
 /// The tare: the force the load cell reads, N (user frame), with nothing on the handle.
 pub fn tare(force_at_rest_n: [f64; 2]) -> Option<Finding> {
     let f = force_at_rest_n[0].hypot(force_at_rest_n[1]);
@@ -189,7 +233,7 @@ pub fn tare(force_at_rest_n: [f64; 2]) -> Option<Finding> {
 
 #[cfg(test)]
 mod tests {
-    use super::{channel_map, tare, ChannelResponse};
+    use super::{channel_map, encoder_zero, tare, ChannelResponse, ConfigFix};
 
     /// A rig wired as the model: channels 1 and 2 turn joint 1 either way, 3 and 4 joint 2.
     fn right() -> [ChannelResponse; 4] {
@@ -217,6 +261,19 @@ mod tests {
         assert_eq!(f.len(), 1, "{f:?}");
         assert_eq!(f[0].fault, "channels_swapped");
         assert!(f[0].advice.contains("channels 2 and 3"), "{}", f[0].advice);
+        assert_eq!(f[0].fix, Some(ConfigFix::ChannelMap([0, 2, 1, 3])));
+    }
+
+    #[test]
+    fn an_arm_homed_off_the_neutral_pose_is_named_with_its_zero() {
+        assert!(encoder_zero([0.004, -0.003], [0.0, 0.001]).is_empty());
+        let f = encoder_zero([-0.05, 0.001], [0.002, 0.0]);
+        assert_eq!(f.len(), 1, "{f:?}");
+        assert_eq!(f[0].fault, "encoder1_zero");
+        match f[0].fix {
+            Some(ConfigFix::EncoderZero(0, e)) => assert!((e + 0.052).abs() < 1e-12),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! The steps with the handle blocked at the neutral pose (§5.2 set-up): the load cell in
-//! open-loop force steps, the converters, a first closed-loop force step at low gain.
+//! open-loop force steps, the converters (`converters`), a first closed-loop force step at
+//! low gain.
 
 use super::analysis::{tare, Finding};
 use super::loadcell::{diagnose, force_map};
@@ -40,13 +41,7 @@ pub fn run_all(
         loadcell_step(&client, state, out)?;
     }
     if !done(state, "converters") {
-        writeln!(
-            out,
-            "step 3: the converters' step response (Table 5.2: second order and dead time per channel). \
-             The board reports the pressures it commands, not the pressures in the muscles: this step \
-             needs a pressure transducer on each muscle's line read by the board; skipped, not checked"
-        )?;
-        state.passed.push("converters".into());
+        super::converters::converters_step(&client, state, out)?;
     }
     if !done(state, "closed_loop") {
         closed_loop_step(&client, state, out)?;
@@ -86,7 +81,7 @@ fn run_phases(
     Ok(samples)
 }
 
-fn record(name: &str) -> StepRecord {
+pub(super) fn record(name: &str) -> StepRecord {
     StepRecord {
         name: name.into(),
         speed_bound_rad_s: BLOCKED_SPEED_RAD_S,
@@ -95,7 +90,7 @@ fn record(name: &str) -> StepRecord {
     }
 }
 
-fn force(t: &Telemetry) -> [f64; 2] {
+pub(super) fn force(t: &Telemetry) -> [f64; 2] {
     t.force_user_n.map(f64::from)
 }
 
@@ -210,7 +205,7 @@ fn tare_tol() -> f64 {
 }
 
 /// One row of a step's checks: what, measured, expected, tolerance and margin.
-fn check(what: &str, measured: f64, expected: f64, tolerance: f64) -> [String; 4] {
+pub fn check(what: &str, measured: f64, expected: f64, tolerance: f64) -> [String; 4] {
     let margin = tolerance - (measured - expected).abs();
     [
         what.to_string(),

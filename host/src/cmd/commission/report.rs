@@ -6,7 +6,7 @@ use pam_report::plots::{stack, Stack, Trace};
 use pam_report::Page;
 use std::path::Path;
 
-const STEP_TITLES: [(&str, &str); 3] = [
+const STEP_TITLES: [(&str, &str); 4] = [
     (
         "channels",
         "Step 1: encoders and I/P channel map (handle free)",
@@ -14,6 +14,10 @@ const STEP_TITLES: [(&str, &str); 3] = [
     (
         "loadcell",
         "Step 2: the load cell (handle blocked, open-loop force steps)",
+    ),
+    (
+        "converters",
+        "Step 3: the converters' step response, per channel (handle blocked)",
     ),
     (
         "closed_loop",

@@ -184,3 +184,73 @@ pub fn rehome_far_from_the_zero_is_refused() -> CheckResult {
     }
     done(&mut d, RequestBody::Home)
 }
+
+/// A first home cannot be judged when it is asked (the vented arm rests anywhere): it is
+/// taken, and judged at the first rest with the muscles tensioned. Homed with joint 2 0.3
+/// rad (17°) from the neutral pose, the arm put back there by hand, armed in the pressures
+/// mode at 2.5 bar (whose equilibrium is the neutral pose) with a free handle: the rest lies
+/// 0.3 rad from it, and the home is refused: a `STATIC_IMBALANCE` fault event, vented,
+/// `homed` false, `Arm` answers `NotHomed`. Cleared, a home at the neutral pose is taken
+/// (the refused zero bounds no re-home) and confirmed by the same rest.
+pub fn a_first_home_far_from_the_pressures_equilibrium_is_refused() -> CheckResult {
+    let mut d = device();
+    let mut k = 0;
+    let mut to = |d: &mut Device, counts: [u32; 2]| {
+        k += 1;
+        d.step(raw(counts, k), StepTiming::default())
+    };
+    to(&mut d, HOME);
+    // 382 counts of 8000 a turn: 0.3 rad, moved slowly both ways
+    for n in 1..=76 {
+        to(&mut d, [HOME[0], HOME[1] + 5 * n]);
+    }
+    to(&mut d, [HOME[0], HOME[1] + 382]);
+    done(&mut d, RequestBody::Home)?;
+    for n in (0..76).rev() {
+        to(&mut d, [HOME[0], HOME[1] + 5 * n]);
+    }
+    let pressurised = |d: &mut Device| -> CheckResult {
+        done(d, RequestBody::SetServiceMode { enabled: true })?;
+        done(d, RequestBody::Arm)?;
+        done(
+            d,
+            RequestBody::SetMode(
+                Mode::Pressures {
+                    pressure_bar: [2.5; 4],
+                }
+                .into(),
+            ),
+        )
+    };
+    pressurised(&mut d)?;
+    let mut event = None;
+    for n in 0..5000 {
+        if n % 10 == 0 {
+            d.handle(&Request {
+                id: 1,
+                body: RequestBody::Heartbeat,
+                session: SESSION,
+            });
+        }
+        let out = to(&mut d, HOME);
+        event = event.or(out.fault_event);
+    }
+    holds(
+        "refused: a STATIC_IMBALANCE fault event",
+        event.map(|e| e.bits) == Some(Faults::STATIC_IMBALANCE.0),
+    )?;
+    holds("vented", to(&mut d, HOME).current_ma == [4.0; 4])?;
+    holds("no longer homed", !status(&mut d)?.homed)?;
+    done(&mut d, RequestBody::ClearFaults)?;
+    refused(&mut d, RequestBody::Arm, ErrorCode::NotHomed)?;
+    done(&mut d, RequestBody::Home)?;
+    pressurised(&mut d)?;
+    let out = steps_alive(&mut d, 5000, k + 1);
+    holds(
+        "the right home: no fault, confirmed",
+        out.fault_event.is_none()
+            && d.controller().state() == State::Armed
+            && !d.controller().home_check().pending()
+            && status(&mut d)?.homed,
+    )
+}

@@ -30,10 +30,12 @@ pub fn encoder_calibration_sets_scale_and_sign() -> CheckResult {
         EncoderCalibration {
             counts_per_rev: 4000,
             sign: -1,
+            zero_rad: 0.0,
         },
         EncoderCalibration {
             counts_per_rev: 10_000,
             sign: 1,
+            zero_rad: 0.0,
         },
     ];
     done(&mut d, RequestBody::SetConfig(Config::Calibration(cal)))?;
