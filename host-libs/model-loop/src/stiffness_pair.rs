@@ -12,8 +12,8 @@
 //! hysteresis.
 //!
 //! The torque of each log is the per-joint Maxwell-slip torque at full slip (the catalog's
-//! [`MaxwellSlip`], its shape chosen on each log's training part), fitted with the base
-//! model; the pressures are the logged currents' through the converters' nominal gain. The
+//! [`MaxwellSlip`], at the breakaway angle that fits both logs best together), fitted with
+//! the base model; the pressures are the logged currents' through the converters' nominal gain. The
 //! decision is the growth `g`, the slope of ln(torque ratio) on ln(pressure ratio) over the
 //! two joints (each weighted by its smaller torque): friction predicts 0, hysteresis at
 //! least 1 where it saturates in both logs (more where it follows the force, which grows
@@ -23,7 +23,10 @@
 //! (docs/results.md); within [`GROWTH_DOUBT`] of it the pair cannot tell.
 
 use crate::diagnose::{Loop, Settings};
-use crate::effects::{Experiment, Family, MaxwellSlip, PreslidingFriction};
+use crate::effects::{
+    DynCtx, DynTerm, Experiment, Family, MaxwellSlip, ModelEffect, PreslidingFriction, Shape,
+    ShapeParam,
+};
 use pam_ident::trial::Trial;
 use pam_ident::IdentError;
 use pam_model::RobotModel;
@@ -48,11 +51,52 @@ pub const MIN_TRAIN_GAIN: f64 = 0.005;
 /// The separating experiment, in words.
 pub const SEPARATING_EXPERIMENT: &str = "repeat the same trial at Table 4.1's other stiffness level (K_low ↔ K_high: the muscles' pressure changes, a bearing's friction does not) and give both logs to `pamctl model diagnose A.csv B.csv`; slow reversals (well below 1 Hz) show the loop's shape best";
 
+/// The Maxwell-slip breakaway angles tried (rad): the catalog's grid. Both logs are compared
+/// at the one that fits them best together, so a change of shape is not read as a change of
+/// size.
+pub const BREAKAWAYS_RAD: [f64; 5] = [0.0003, 0.0006, 0.0012, 0.0025, 0.005];
+
+/// The catalog's Maxwell-slip at the k-th of [`BREAKAWAYS_RAD`] (an id of its own each, as
+/// the loop keeps the shapes it chose per id).
+struct SlipAt(usize);
+const SLIP_IDS: [&str; 5] = [
+    "maxwell_slip_0.3mrad",
+    "maxwell_slip_0.6mrad",
+    "maxwell_slip_1.2mrad",
+    "maxwell_slip_2.5mrad",
+    "maxwell_slip_5mrad",
+];
+impl ModelEffect for SlipAt {
+    fn id(&self) -> &'static str {
+        SLIP_IDS[self.0]
+    }
+    fn summary(&self) -> &'static str {
+        MaxwellSlip.summary()
+    }
+    fn signature(&self) -> &'static str {
+        MaxwellSlip.signature()
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        MaxwellSlip.applies(e)
+    }
+    fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
+        vec![Shape(vec![(ShapeParam::BreakawayRad, BREAKAWAYS_RAD[self.0])])]
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
+        MaxwellSlip.dynamic_term(ctx, shape)
+    }
+}
+
 /// What one log shows.
 #[derive(Clone, Debug, Serialize)]
 pub struct LogTorque {
+    /// The breakaway angle both logs are compared at (rad).
+    pub breakaway_rad: f64,
     /// Per joint, the direction-dependent torque at full slip (N·m).
     pub torque_nm: [f64; 2],
+    /// The torques and training gains at each of [`BREAKAWAYS_RAD`].
+    #[serde(skip)]
+    pub per_breakaway: Vec<([f64; 2], f64)>,
     /// Per joint, the two muscles' summed force at the trial's pose and pressures (N).
     pub muscle_force_sum_n: [f64; 2],
     /// The mean of each joint's two muscle pressures (bar).
@@ -97,15 +141,23 @@ pub fn log_torque(
     settings: Settings,
 ) -> Result<LogTorque, IdentError> {
     let lp = Loop::new(trial, model, Experiment::Dynamic, settings)?;
-    let fit = lp.fit(&[&MaxwellSlip]);
-    let params = fit.params.get("maxwell_slip");
-    let torque_nm = ["slip_torque_nm_joint1", "slip_torque_nm_joint2"].map(|k| {
-        params
-            .and_then(|p| p.get(k))
-            .copied()
-            .unwrap_or(0.0)
-            .max(0.0)
-    });
+    let per_breakaway: Vec<([f64; 2], f64)> = (0..BREAKAWAYS_RAD.len())
+        .map(|k| {
+            let fit = lp.fit(&[&SlipAt(k)]);
+            let params = fit.params.get(SLIP_IDS[k]);
+            let torque = ["slip_torque_nm_joint1", "slip_torque_nm_joint2"].map(|k| {
+                params
+                    .and_then(|p| p.get(k))
+                    .copied()
+                    .unwrap_or(0.0)
+                    .max(0.0)
+            });
+            (torque, fit.train_gain)
+        })
+        .collect();
+    let best = (0..per_breakaway.len())
+        .max_by(|&i, &j| per_breakaway[i].1.total_cmp(&per_breakaway[j].1))
+        .unwrap_or(0);
     let handle = lp.fit(&[&PreslidingFriction]);
     let handle_force_n = handle
         .params
@@ -129,10 +181,12 @@ pub fn log_torque(
         }
     }
     Ok(LogTorque {
-        torque_nm,
+        breakaway_rad: BREAKAWAYS_RAD[best],
+        torque_nm: per_breakaway[best].0,
+        train_gain: per_breakaway[best].1,
+        per_breakaway,
         muscle_force_sum_n: force,
         mean_pressure_bar: pressure,
-        train_gain: fit.train_gain,
         handle_force_n,
         handle_train_gain: handle.train_gain,
         alpha0_rad,
@@ -150,7 +204,25 @@ pub fn friction_or_hysteresis(
         || log_torque(a, model, settings),
         || log_torque(b, model, settings),
     );
-    Ok(decide(la?, lb?))
+    let (mut la, mut lb) = (la?, lb?);
+    at_common_breakaway(&mut la, &mut lb);
+    Ok(decide(la, lb))
+}
+
+/// Sets both logs' torque to the breakaway angle that fits them best together (the largest
+/// summed training gain).
+pub fn at_common_breakaway(a: &mut LogTorque, b: &mut LogTorque) {
+    let n = a.per_breakaway.len().min(b.per_breakaway.len());
+    let Some(k) = (0..n).max_by(|&i, &j| {
+        (a.per_breakaway[i].1 + b.per_breakaway[i].1)
+            .total_cmp(&(a.per_breakaway[j].1 + b.per_breakaway[j].1))
+    }) else {
+        return;
+    };
+    for l in [a, b] {
+        l.breakaway_rad = BREAKAWAYS_RAD[k];
+        (l.torque_nm, l.train_gain) = l.per_breakaway[k];
+    }
 }
 
 /// The decision on two measured logs.
@@ -289,7 +361,9 @@ mod tests {
 
     fn log(torque_nm: [f64; 2], pressure_bar: f64, gain: f64) -> LogTorque {
         LogTorque {
+            breakaway_rad: 0.001,
             torque_nm,
+            per_breakaway: Vec::new(),
             muscle_force_sum_n: [100.0 * pressure_bar; 2],
             mean_pressure_bar: [pressure_bar; 2],
             train_gain: gain,
