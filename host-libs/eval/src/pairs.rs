@@ -118,9 +118,11 @@ fn trial_of(text: &str) -> Result<Trial, String> {
 /// LuGre at the handle.
 pub fn physgen_pair(c: &PairCase) -> PairOutcome {
     let effect = match c.truth {
-        Truth::Friction => {
-            [Effect::JointLugre, Effect::JointMaxwellSlip, Effect::HandleLugre][c.index % 3]
-        }
+        Truth::Friction => [
+            Effect::JointLugre,
+            Effect::JointMaxwellSlip,
+            Effect::HandleLugre,
+        ][c.index % 3],
         Truth::Hysteresis => Effect::MuscleBoucWen,
     };
     let spec = CaseSpec {
@@ -129,7 +131,12 @@ pub fn physgen_pair(c: &PairCase) -> PairOutcome {
         seed: c.seed,
         severity: severity(c.index),
     };
-    let form = format!("{} seed {} severity {:.2}", effect.name(), c.seed, spec.severity);
+    let form = format!(
+        "{} seed {} severity {:.2}",
+        effect.name(),
+        c.seed,
+        spec.severity
+    );
     let logs = [0.0, 1.0].map(|level| {
         pam_physgen::generate_at_stiffness(&spec, Some(c.duration_s), level)
             .map_err(|e| e.to_string())

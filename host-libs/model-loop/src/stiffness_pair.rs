@@ -80,7 +80,10 @@ impl ModelEffect for SlipAt {
         MaxwellSlip.applies(e)
     }
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
-        vec![Shape(vec![(ShapeParam::BreakawayRad, BREAKAWAYS_RAD[self.0])])]
+        vec![Shape(vec![(
+            ShapeParam::BreakawayRad,
+            BREAKAWAYS_RAD[self.0],
+        )])]
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         MaxwellSlip.dynamic_term(ctx, shape)
@@ -236,7 +239,11 @@ pub fn decide(a: LogTorque, b: LogTorque) -> PairVerdict {
             "the two logs' poses are {apart_deg:.1}° apart: friction at the handle maps to different joint torques at different poses; compare the same trial at the same point"
         ));
     }
-    if a.muscle_force_sum_n.iter().chain(&b.muscle_force_sum_n).any(|&f| f <= 0.0) {
+    if a.muscle_force_sum_n
+        .iter()
+        .chain(&b.muscle_force_sum_n)
+        .any(|&f| f <= 0.0)
+    {
         warnings.push(
             "a log has no currents (or they command no force): the muscles' pressure is unknown"
                 .into(),

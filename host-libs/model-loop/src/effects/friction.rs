@@ -255,7 +255,10 @@ impl ModelEffect for JointFriction {
                     col[i] = z;
                 }
             } else {
-                let w = shape.get(ShapeParam::SmoothingRadS).unwrap_or(0.01).max(1e-6);
+                let w = shape
+                    .get(ShapeParam::SmoothingRadS)
+                    .unwrap_or(0.01)
+                    .max(1e-6);
                 for i in 0..n {
                     let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
                     let dt = (hi - lo) as f64 * p.dt_s;
