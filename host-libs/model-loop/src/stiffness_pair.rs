@@ -13,14 +13,14 @@
 //!
 //! The torque of each log is the per-joint Maxwell-slip torque at full slip (the catalog's
 //! [`MaxwellSlip`], at the breakaway angle that fits both logs best together), fitted with
-//! the base model; the pressures are the logged currents' through the converters' nominal gain. The
-//! decision is the growth `g`, the slope of ln(torque ratio) on ln(pressure ratio) over the
+//! the base model; the pressures are the logged currents' through the converters' nominal
+//! gain. The decision is the growth `g`, the slope of ln(torque ratio) on ln(pressure ratio) over the
 //! two joints (each weighted by its smaller torque): friction predicts 0, hysteresis at
 //! least 1 where it saturates in both logs (more where it follows the force, which grows
 //! faster than the pressure as the muscles leave their slack), less where the stiffer log's
 //! smaller excursions leave it short of saturation. The split, [`GROWTH_SPLIT`], was set
 //! on pam-physgen's pairs of seeds 1–40 and is validated on other seeds and on the twin
-//! (docs/results.md); within [`GROWTH_DOUBT`] of it the pair cannot tell.
+//! (`cargo xtask eval --only friction-pairs`); within [`GROWTH_DOUBT`] of it the pair cannot tell.
 
 use crate::diagnose::{Loop, Settings};
 use crate::effects::{
