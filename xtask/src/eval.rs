@@ -88,6 +88,17 @@ fn suite_runs(quick: bool) -> Vec<Vec<String>> {
     vec![args]
 }
 
+fn friction_pair_runs(quick: bool) -> Vec<Vec<String>> {
+    let args = if quick {
+        "--pairs 5 --seed0 1001 --generator physgen"
+    } else {
+        "--pairs 40 --seed0 1001"
+    };
+    vec![words(&format!(
+        "run --release -q -p pam-eval --example friction_pairs -- {args} --jobs 2"
+    ))]
+}
+
 fn speed_runs(quick: bool) -> Vec<Vec<String>> {
     if quick {
         return Vec::new();
@@ -202,6 +213,18 @@ confusion matrix (rows: the truth; columns: what the loop named first).",
 (`twin_loop`). `cargo test` runs a fast subset of each as a regression floor.",
         kind: Kind::Suites,
         runs: suite_runs,
+    },
+    Section {
+        name: "friction-pairs",
+        title: "Friction or hysteresis, from two stiffness levels",
+        intro: "The same dynamic trial at Table 4.1's K_low and K_high, with friction (pam-physgen: \
+LuGre or Maxwell-slip in the joints, LuGre at the handle; the twin: the carrier ball) or with the \
+muscles' hysteresis (pam-physgen: Bouc–Wen growing with pressure; the twin: a share of the \
+muscles' force), decided by `pam_model_loop::stiffness_pair` (`pamctl model diagnose A.csv \
+B.csv`): friction keeps its torque, hysteresis grows with the pressure. One log cannot tell the \
+two apart. \"Cannot tell\" counts as wrong.",
+        kind: Kind::Tables,
+        runs: friction_pair_runs,
     },
     Section {
         name: "speed",

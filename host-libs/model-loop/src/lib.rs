@@ -3,7 +3,8 @@
 //!
 //! - [`effects`]: the catalog of effects a model can add, by family and shape;
 //! - [`response`]: the step model (the converters' response and the force path);
-//! - [`diagnose`]: compare, diagnose and fit, the diagnosis and its settings.
+//! - [`diagnose`]: compare, diagnose and fit, the diagnosis and its settings;
+//! - [`stiffness_pair`]: friction or hysteresis, from a trial at two stiffness levels.
 //!
 //! It starts from a prepared log (pam-ident) and uses pam-numerics for its fits and tests.
 
@@ -15,3 +16,4 @@
 pub mod diagnose;
 pub mod effects;
 pub mod response;
+pub mod stiffness_pair;

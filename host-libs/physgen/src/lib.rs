@@ -73,7 +73,12 @@ struct Rig {
     base: BTreeMap<String, f64>,
 }
 
-fn draw_rig(spec: &CaseSpec, model: &RobotModel<f64>, duration: Option<f64>) -> Rig {
+fn draw_rig(
+    spec: &CaseSpec,
+    model: &RobotModel<f64>,
+    duration: Option<f64>,
+    stiffness_level: Option<f64>,
+) -> Rig {
     let mut r = rng(spec.seed, STREAM_BASE);
     let ip = &model.params.ip;
     let spread = |r: &mut ChaCha8Rng, x: f64, s: f64| x * (1.0 + r.random_range(-s..s));
@@ -105,7 +110,8 @@ fn draw_rig(spec: &CaseSpec, model: &RobotModel<f64>, duration: Option<f64>) -> 
         Experiment::Dynamic => {
             let site = r.random_range(1..=5);
             let alpha0 = experiment::point_rad(site);
-            let level = r.random::<f64>();
+            let drawn = r.random::<f64>();
+            let level = stiffness_level.map_or(drawn, |l| l.clamp(0.0, 1.0));
             let (currents, kj) = experiment::dynamic_currents(model, alpha0, level);
             let hand = Hand {
                 k_n_per_m: r.random_range(800.0..2500.0),
@@ -361,8 +367,27 @@ fn run(
 
 /// Generates the log and its truth (`duration_s` overrides the drawn duration).
 pub fn generate(spec: &CaseSpec, duration_s: Option<f64>) -> Result<Generated, PhysgenError> {
+    generate_with_level(spec, duration_s, None)
+}
+
+/// [`generate`] with a dynamic trial's stiffness level (0 = the point's K_low, 1 = its
+/// K_high) set instead of drawn: the same rig, operator and effect at another stiffness.
+/// Everything else is drawn from the seed as in [`generate`].
+pub fn generate_at_stiffness(
+    spec: &CaseSpec,
+    duration_s: Option<f64>,
+    level: f64,
+) -> Result<Generated, PhysgenError> {
+    generate_with_level(spec, duration_s, Some(level))
+}
+
+fn generate_with_level(
+    spec: &CaseSpec,
+    duration_s: Option<f64>,
+    level: Option<f64>,
+) -> Result<Generated, PhysgenError> {
     let model = RobotModel::<f64>::thesis();
-    let mut rig = draw_rig(spec, &model, duration_s);
+    let mut rig = draw_rig(spec, &model, duration_s, level);
     let mut effects = Effects::default();
     let mut lag_hz = None;
     let params = apply_effect(spec, &mut rig, &mut effects, &mut lag_hz);
@@ -371,7 +396,7 @@ pub fn generate(spec: &CaseSpec, duration_s: Option<f64>) -> Result<Generated, P
     let nominal = if spec.effect == Effect::Control {
         None
     } else {
-        let mut plain = draw_rig(spec, &model, duration_s);
+        let mut plain = draw_rig(spec, &model, duration_s, level);
         plain.holds.clone_from(&rig.holds);
         Some(run(&model, &plain, Effects::default(), None, n)?)
     };

@@ -19,8 +19,9 @@ pub enum ModelCommand {
     /// Fit the base model (plus `--with` effects) to a log and show where it fails.
     Compare(crate::cmd::model_loop::LoopArgs),
     /// Test every catalog effect against a log; name the missing one, or "none", or the
-    /// structure no effect explains.
-    Diagnose(crate::cmd::model_loop::LoopArgs),
+    /// structure no effect explains. With a second log of the same dynamic trial at Table
+    /// 4.1's other stiffness level, also decide friction or hysteresis.
+    Diagnose(crate::cmd::model_loop::DiagnoseArgs),
     /// Fit the model with `--with` effects: their parameters, the error before and after.
     Fit(crate::cmd::model_loop::LoopArgs),
 }

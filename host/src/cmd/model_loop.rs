@@ -6,6 +6,7 @@ use pam_ident::{FilterSettings, Trial};
 use pam_model::RobotModel;
 use pam_model_loop::diagnose::{self, Settings, Verdict};
 use pam_model_loop::effects::{self, Experiment};
+use pam_model_loop::stiffness_pair;
 use pam_report as report;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -33,6 +34,16 @@ pub struct LoopArgs {
     /// Order of that filter.
     #[arg(long, default_value_t = 10)]
     pub order: usize,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct DiagnoseArgs {
+    #[command(flatten)]
+    pub loop_args: LoopArgs,
+    /// A second log: the same dynamic trial at Table 4.1's other stiffness level. The
+    /// muscles' hysteresis grows with their pressure and friction does not, so the pair
+    /// tells the two apart where one log cannot.
+    pub other: Option<PathBuf>,
 }
 
 /// Reads a log into a trial; errors carry file, line and column (from pam-log).
@@ -117,7 +128,59 @@ fn with_progress<T>(work: impl FnOnce(&(dyn Fn(diagnose::Progress) + Sync)) -> T
     out
 }
 
-pub fn diagnose(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
+/// `diagnose LOG [OTHER]`: one log's diagnosis, and with a second log of the same trial at
+/// the other stiffness level, friction or hysteresis decided from the pair.
+pub fn diagnose(args: &DiagnoseArgs, out: &mut impl Write) -> anyhow::Result<()> {
+    let a = &args.loop_args;
+    let Some(other) = &args.other else {
+        return diagnose_one(a, out);
+    };
+    let model = RobotModel::<f64>::thesis();
+    let (trial_a, log_a) = read_trial(&a.log)?;
+    let (trial_b, log_b) = read_trial(other)?;
+    for (path, log, trial) in [(&a.log, &log_a, &trial_a), (other, &log_b, &trial_b)] {
+        if experiment_of(&a.experiment, log, trial)? != Experiment::Dynamic {
+            anyhow::bail!(
+                "{}: a pair of logs is compared for friction and hysteresis in dynamic trials only",
+                path.display()
+            );
+        }
+    }
+    let pair = stiffness_pair::friction_or_hysteresis(&trial_a, &trial_b, &model, settings(a))?;
+    if a.json {
+        let mut d = Vec::new();
+        diagnose_one(
+            &LoopArgs {
+                json: true,
+                ..a.clone()
+            },
+            &mut d,
+        )?;
+        let mut v: serde_json::Value = serde_json::from_slice(&d)?;
+        v["friction_or_hysteresis"] = serde_json::to_value(&pair)?;
+        return json_out(out, &v);
+    }
+    writeln!(out, "{}:", a.log.display())?;
+    diagnose_one(a, out)?;
+    writeln!(out)?;
+    writeln!(
+        out,
+        "friction or hysteresis, from {} and {}:",
+        a.log.display(),
+        other.display()
+    )?;
+    let named = pair.family.map_or("cannot tell", |f| f.name());
+    writeln!(out, "  {named}: {}", pair.evidence)?;
+    if let Some(x) = &pair.separating_experiment {
+        writeln!(out, "  to separate them: {x}")?;
+    }
+    for w in &pair.warnings {
+        writeln!(out, "warning: {w}")?;
+    }
+    Ok(())
+}
+
+fn diagnose_one(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let model = RobotModel::<f64>::thesis();
     let (trial, log) = read_trial(&a.log)?;
     let exp = experiment_of(&a.experiment, &log, &trial)?;

@@ -197,3 +197,86 @@ impl ModelEffect for PreslidingFriction {
         }
     }
 }
+
+/// Friction in each joint's bearings and pulley: a torque of constant size against the
+/// joint's motion, per joint (≥ 0), acting on the arm where it turns rather than at the
+/// handle. Its shapes are Coulomb friction faded in over a joint speed (rad/s, grid) and
+/// LuGre bristles that deflect over a presliding angle (rad, grid) before the joint slides,
+/// so the torque turns over that angle after each reversal. Viscous friction in the joints
+/// is the base model's damping.
+///
+/// Within one log the presliding torque is the same signal as the muscles' hysteresis (a
+/// torque that turns over a small excursion): the pressures are constant through a dynamic
+/// trial, and only how the torque changes with them tells the two apart (the same trial at
+/// the other stiffness level, [`crate::stiffness_pair`]).
+pub struct JointFriction;
+impl ModelEffect for JointFriction {
+    fn id(&self) -> &'static str {
+        "joint_friction"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Friction)
+    }
+    fn shape_name(&self) -> &'static str {
+        "joint_lugre"
+    }
+    fn summary(&self) -> &'static str {
+        "friction in each joint's bearings and pulley: Coulomb against the joint's motion, or LuGre bristles that deflect over a presliding angle"
+    }
+    fn signature(&self) -> &'static str {
+        "residual is a joint torque that follows the direction of each joint's motion (the same in the two stiffness levels)"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Dynamic
+    }
+    fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
+        let coulomb = [0.003, 0.01, 0.03]
+            .iter()
+            .map(|&w| Shape(vec![(ShapeParam::SmoothingRadS, w)]));
+        let lugre = [0.0004, 0.0015]
+            .iter()
+            .map(|&d| Shape(vec![(ShapeParam::PreslidingRad, d)]));
+        coulomb.chain(lugre).collect()
+    }
+    fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
+        let p = ctx.p;
+        let n = p.len();
+        let mut cols = Vec::new();
+        for (j, name) in [(0, "coulomb_nm_joint1"), (1, "coulomb_nm_joint2")] {
+            let a = &p.alpha_smooth_rad[j];
+            let mut col = vec![0.0; n];
+            if let Some(d) = shape.get(ShapeParam::PreslidingRad) {
+                // the bristles' mean deflection z/z_ss: dz = dα (1 − z·sgn(dα)) / d
+                let d = d.max(1e-7);
+                let mut z = 0.0f64;
+                for i in 1..n {
+                    let da = a[i] - a[i - 1];
+                    z = (z + da / d * (1.0 - z * da.signum())).clamp(-1.0, 1.0);
+                    col[i] = z;
+                }
+            } else {
+                let w = shape
+                    .get(ShapeParam::SmoothingRadS)
+                    .unwrap_or(0.01)
+                    .max(1e-6);
+                for i in 0..n {
+                    let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                    let dt = (hi - lo) as f64 * p.dt_s;
+                    let omega = if dt > 0.0 { (a[hi] - a[lo]) / dt } else { 0.0 };
+                    col[i] = omega / (omega * omega + w * w).sqrt();
+                }
+            }
+            // the friction torque opposes the motion: Δτ = −T·col
+            cols.push(ctx.torque_column(name, |i| {
+                let mut t = [0.0; 2];
+                t[j] = -col[i];
+                t
+            }));
+        }
+        DynTerm {
+            columns: cols,
+            positive: vec![0, 1],
+            ..Default::default()
+        }
+    }
+}

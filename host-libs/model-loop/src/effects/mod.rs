@@ -63,7 +63,10 @@ pub fn separating_experiment(a: Family, b: Family) -> &'static str {
         (Friction, Drag) => {
             "move the handle at two clearly different speeds: friction keeps its size, drag grows with the speed squared"
         }
-        (Friction, Hysteresis) | (Hysteresis, Backlash) | (Friction, Backlash) => {
+        (Friction, Hysteresis) => {
+            "repeat the same trial at Table 4.1's other stiffness level and diagnose both logs together (`pamctl model diagnose A.csv B.csv`): the muscles' hysteresis grows with their pressure, friction keeps its size; slow reversals (well below 1 Hz) show the loop's shape best"
+        }
+        (Hysteresis, Backlash) | (Friction, Backlash) => {
             "move with small reversals (a few mm) and with large ones: friction acts at every reversal alike, hysteresis turns over a small excursion, backlash shows as a dead band in position"
         }
         (Hysteresis, Drift) | (Drift, Saturation) | (Hysteresis, Saturation) => {
@@ -141,6 +144,8 @@ pub enum ShapeParam {
     SmoothingMS,
     StribeckMS,
     PreslidingM,
+    SmoothingRadS,
+    PreslidingRad,
     DelayS,
     TimeConstantS,
     JointSpace,
@@ -161,6 +166,8 @@ impl ShapeParam {
             ShapeParam::SmoothingMS => "smoothing_m_s",
             ShapeParam::StribeckMS => "stribeck_m_s",
             ShapeParam::PreslidingM => "presliding_m",
+            ShapeParam::SmoothingRadS => "smoothing_rad_s",
+            ShapeParam::PreslidingRad => "presliding_rad",
             ShapeParam::DelayS => "delay_s",
             ShapeParam::TimeConstantS => "time_constant_s",
             ShapeParam::JointSpace => "joint_space",
@@ -344,7 +351,9 @@ mod pose;
 mod slip;
 mod step_effects;
 mod stiffness;
-pub use friction::{CarrierBallFriction, PreslidingFriction, StribeckFriction, VelocitySquared};
+pub use friction::{
+    CarrierBallFriction, JointFriction, PreslidingFriction, StribeckFriction, VelocitySquared,
+};
 pub use hysteresis::{ElasticLoop, MaxwellSlip, MuscleHysteresis};
 pub use pose::PoseDependence;
 pub use slip::{CableSlip, JointPlay};
@@ -370,6 +379,7 @@ pub fn catalog() -> Vec<&'static dyn ModelEffect> {
         &LoadcellDrift,
         &StribeckFriction,
         &PreslidingFriction,
+        &JointFriction,
         &JointPlay,
         &SettlingDrift,
         &CommandSlew,
