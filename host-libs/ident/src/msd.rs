@@ -204,26 +204,67 @@ pub fn scores(
     ([on(0, &held), on(1, &held)], [on(0, &train), on(1, &train)])
 }
 
+/// What is implausible about a fitted mass matrix.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MassWarning {
+    /// A negative diagonal or a matrix that is not positive definite.
+    NotPositiveDefinite {
+        lambda_min_kg: f64,
+        lambda_max_kg: f64,
+    },
+    /// The largest eigenvalue is more than 5× above or below the robot's Cartesian inertia.
+    FarFromRobot { fitted_kg: f64, robot_kg: f64 },
+}
+
+impl std::fmt::Display for MassWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MassWarning::NotPositiveDefinite {
+                lambda_min_kg,
+                lambda_max_kg,
+            } => write!(
+                f,
+                "fitted mass matrix is not positive definite (eigenvalues {lambda_min_kg:.3}, {lambda_max_kg:.3} kg): a modelling or timing problem, not physics"
+            ),
+            MassWarning::FarFromRobot {
+                fitted_kg,
+                robot_kg,
+            } => write!(
+                f,
+                "largest fitted mass eigenvalue {fitted_kg:.2} kg is far from the robot's Cartesian inertia ({robot_kg:.2} kg) at the mean pose"
+            ),
+        }
+    }
+}
+
 /// Plausibility of a fitted mass matrix against the robot's Cartesian inertia at the mean pose.
-pub fn mass_warnings(m: &Mat2<f64>, robot_mass: Option<Mat2<f64>>) -> Vec<String> {
+pub fn mass_checks(m: &Mat2<f64>, robot_mass: Option<Mat2<f64>>) -> Vec<MassWarning> {
     let mut w = Vec::new();
     let e = Ellipse::of(m);
     if m.0[0][0] < 0.0 || m.0[1][1] < 0.0 || !e.is_positive_definite() {
-        w.push(format!(
-            "fitted mass matrix is not positive definite (eigenvalues {:.3}, {:.3} kg): a modelling or timing problem, not physics",
-            e.lambda_min, e.lambda_max
-        ));
+        w.push(MassWarning::NotPositiveDefinite {
+            lambda_min_kg: e.lambda_min,
+            lambda_max_kg: e.lambda_max,
+        });
     }
     if let Some(r) = robot_mass {
         let er = Ellipse::of(&r);
         if e.lambda_max > 5.0 * er.lambda_max || e.lambda_max < 0.2 * er.lambda_max {
-            w.push(format!(
-                "largest fitted mass eigenvalue {:.2} kg is far from the robot's Cartesian inertia ({:.2} kg) at the mean pose",
-                e.lambda_max, er.lambda_max
-            ));
+            w.push(MassWarning::FarFromRobot {
+                fitted_kg: e.lambda_max,
+                robot_kg: er.lambda_max,
+            });
         }
     }
     w
+}
+
+/// [`mass_checks`] as messages.
+pub fn mass_warnings(m: &Mat2<f64>, robot_mass: Option<Mat2<f64>>) -> Vec<String> {
+    mass_checks(m, robot_mass)
+        .iter()
+        .map(ToString::to_string)
+        .collect()
 }
 
 /// §4.3 dynamic trial: M, B, K.

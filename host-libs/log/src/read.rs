@@ -1,4 +1,10 @@
 //! The strict reader of log format v1.
+//!
+//! The format's own rules are line rules and are kept here: an optional byte-order mark,
+//! `#` comment lines (`# key = value` metadata before the header), blank lines skipped, CRLF
+//! or LF, one record per line. The `csv` crate splits the remaining lines into fields
+//! (RFC 4180 quoting). Every value is then checked against the header, and every error
+//! names the file, the line and the character column.
 
 use std::path::{Path, PathBuf};
 
@@ -27,191 +33,54 @@ pub fn read_str(text: &str, source: Option<&Path>) -> Result<Log, LogError> {
     Ok(log)
 }
 
-/// One CSV field: its text and its 1-based character column.
-struct Field<'a> {
-    text: std::borrow::Cow<'a, str>,
-    column: usize,
+/// A line that holds a record (neither blank nor a comment).
+#[derive(Clone, Copy)]
+struct DataLine<'a> {
+    /// 1-based line number in the file.
+    number: usize,
+    /// The line without its line break.
+    text: &'a str,
 }
 
-fn parse(text: &str, file: Option<PathBuf>) -> Result<Log, LogError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let error =
-        |line: usize, column: Option<usize>, field: Option<&str>, kind, message: String| LogError {
-            file: file.clone(),
+impl DataLine<'_> {
+    /// The column just past the end of the line.
+    fn end_column(&self) -> usize {
+        self.text.chars().count() + 1
+    }
+}
+
+/// Builds the errors of one file.
+struct Errors {
+    file: Option<PathBuf>,
+}
+
+impl Errors {
+    fn at(
+        &self,
+        line: usize,
+        column: Option<usize>,
+        field: Option<&str>,
+        kind: ErrorKind,
+        message: String,
+    ) -> LogError {
+        LogError {
+            file: self.file.clone(),
             line: Some(line),
             column,
             field: field.map(str::to_string),
             kind,
             message,
-        };
-
-    let mut meta = Vec::new();
-    let mut header: Option<(usize, Vec<String>)> = None;
-    let mut log: Option<Log> = None;
-    let mut strict: Vec<bool> = Vec::new();
-    let mut time_index = 0;
-    let mut previous_time: Option<f64> = None;
-    let mut row = Vec::new();
-
-    for (index, raw_line) in text.split('\n').enumerate() {
-        let line_number = index + 1;
-        let line = raw_line.strip_suffix('\r').unwrap_or(raw_line);
-        if line.trim().is_empty() {
-            continue;
         }
-        if let Some(comment) = line.trim_start().strip_prefix('#') {
-            if header.is_none() {
-                if let Some((key, value)) = comment.split_once('=') {
-                    let (key, value) = (key.trim(), value.trim());
-                    if key == "format" && value != FORMAT_V1 {
-                        return Err(error(
-                            line_number,
-                            Some(1),
-                            None,
-                            ErrorKind::UnsupportedVersion,
-                            format!("unsupported log format `{value}`; expected `{FORMAT_V1}`"),
-                        ));
-                    }
-                    meta.push((key.to_string(), value.to_string()));
-                }
-            }
-            continue;
-        }
-        let fields = split_fields(line).map_err(|column| {
-            error(
-                line_number,
-                Some(column),
-                None,
-                ErrorKind::FieldCount,
-                "a quoted field is not closed; expected a closing `\"`".to_string(),
-            )
-        })?;
-
-        let Some(current) = log.as_mut() else {
-            // The first non-comment line is the header.
-            let names: Vec<String> = fields.iter().map(|f| f.text.trim().to_string()).collect();
-            for (i, (name, field)) in names.iter().zip(&fields).enumerate() {
-                if name.is_empty() {
-                    return Err(error(
-                        line_number,
-                        Some(field.column),
-                        None,
-                        ErrorKind::BadHeader,
-                        format!("header field {} is empty; expected a column name", i + 1),
-                    ));
-                }
-                if names[..i].contains(name) {
-                    return Err(error(
-                        line_number,
-                        Some(field.column),
-                        Some(name),
-                        ErrorKind::BadHeader,
-                        format!("column `{name}` appears twice in the header"),
-                    ));
-                }
-            }
-            let missing: Vec<&str> = col::REQUIRED
-                .iter()
-                .copied()
-                .filter(|c| !names.iter().any(|n| n == c))
-                .collect();
-            if !missing.is_empty() {
-                let end = line.chars().count() + 1;
-                return Err(error(
-                    line_number,
-                    Some(end),
-                    Some(missing[0]),
-                    ErrorKind::MissingColumn,
-                    format!(
-                        "the header lacks the required column{} {}; a v1 log needs {}",
-                        if missing.len() > 1 { "s" } else { "" },
-                        quoted_list(&missing),
-                        quoted_list(&col::REQUIRED),
-                    ),
-                ));
-            }
-            strict = names.iter().map(|n| col::is_known(n)).collect();
-            time_index = names.iter().position(|n| n == col::T_S).unwrap_or(0);
-            let mut new_log = Log::new(&names);
-            new_log.meta = std::mem::take(&mut meta);
-            log = Some(new_log);
-            header = Some((line_number, names));
-            row = vec![0.0; strict.len()];
-            continue;
-        };
-
-        let names = &header.as_ref().map(|(_, n)| n).expect("set with the log");
-        if fields.len() != names.len() {
-            let column = fields
-                .get(names.len())
-                .map_or(line.chars().count() + 1, |f| f.column);
-            return Err(error(
-                line_number,
-                Some(column),
-                None,
-                ErrorKind::FieldCount,
-                format!(
-                    "{} fields; expected {} (one per header column)",
-                    fields.len(),
-                    names.len()
-                ),
-            ));
-        }
-        for (i, field) in fields.iter().enumerate() {
-            let trimmed = field.text.trim();
-            let value = match trimmed.parse::<f64>() {
-                Ok(v) if v.is_finite() => v,
-                Ok(v) if strict[i] => {
-                    return Err(error(
-                        line_number,
-                        Some(field.column),
-                        Some(&names[i]),
-                        ErrorKind::NotFinite,
-                        format!("`{}` is {v}; expected a finite number", names[i]),
-                    ))
-                }
-                Err(_) if strict[i] => {
-                    return Err(error(
-                        line_number,
-                        Some(field.column),
-                        Some(&names[i]),
-                        ErrorKind::NotANumber,
-                        format!("`{}` holds `{trimmed}`; expected a number", names[i]),
-                    ))
-                }
-                // Columns this reader does not know may hold anything.
-                _ => f64::NAN,
-            };
-            row[i] = value;
-        }
-        let t = row[time_index];
-        if let Some(previous) = previous_time {
-            if t <= previous {
-                return Err(error(
-                    line_number,
-                    Some(fields[time_index].column),
-                    Some(col::T_S),
-                    ErrorKind::TimeNotIncreasing,
-                    format!("time goes from {previous} to {t}; expected it to increase strictly"),
-                ));
-            }
-        }
-        previous_time = Some(t);
-        current.push_row(&row);
     }
+}
 
-    match log {
-        Some(log) if !log.is_empty() => Ok(log),
-        Some(_) => Err(LogError {
-            file,
-            line: header.map(|(l, _)| l),
-            column: None,
-            field: None,
-            kind: ErrorKind::Empty,
-            message: "the log has a header but no samples".to_string(),
-        }),
-        None => Err(LogError {
-            file,
+fn parse(text: &str, file: Option<PathBuf>) -> Result<Log, LogError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let errors = Errors { file };
+    let (meta, lines) = split_lines(text, &errors)?;
+    let Some(&header_line) = lines.first() else {
+        return Err(LogError {
+            file: errors.file,
             line: Some(1),
             column: Some(1),
             field: None,
@@ -220,8 +89,220 @@ fn parse(text: &str, file: Option<PathBuf>) -> Result<Log, LogError> {
                 "the log is empty; expected a header row with {}",
                 quoted_list(&col::REQUIRED)
             ),
-        }),
+        });
+    };
+
+    // The data lines, one record each, for the csv crate. Only `\n` ends a record: a lone
+    // `\r` inside a line is part of its field, as the line rules above read it.
+    let mut body = String::with_capacity(text.len() + 1);
+    for line in &lines {
+        body.push_str(line.text);
+        body.push('\n');
     }
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .terminator(csv::Terminator::Any(b'\n'))
+        .from_reader(body.as_bytes());
+    let mut record = csv::StringRecord::new();
+
+    next_record(&mut reader, &mut record, header_line, &errors)?;
+    let names = header_names(&record, header_line, &errors)?;
+    let strict: Vec<bool> = names.iter().map(|n| col::is_known(n)).collect();
+    let time_index = names.iter().position(|n| n == col::T_S).unwrap_or(0);
+    let mut log = Log::new(&names);
+    log.meta = meta;
+    let mut row = vec![0.0; names.len()];
+    let mut previous_time: Option<f64> = None;
+
+    for &line in &lines[1..] {
+        next_record(&mut reader, &mut record, line, &errors)?;
+        if record.len() != names.len() {
+            let column = field_columns(line.text)
+                .ok()
+                .and_then(|c| c.get(names.len()).copied())
+                .unwrap_or_else(|| line.end_column());
+            return Err(errors.at(
+                line.number,
+                Some(column),
+                None,
+                ErrorKind::FieldCount,
+                format!(
+                    "{} fields; expected {} (one per header column)",
+                    record.len(),
+                    names.len()
+                ),
+            ));
+        }
+        for (i, field) in record.iter().enumerate() {
+            let trimmed = field.trim();
+            row[i] = match trimmed.parse::<f64>() {
+                Ok(v) if v.is_finite() => v,
+                Ok(v) if strict[i] => {
+                    return Err(errors.at(
+                        line.number,
+                        Some(field_column(line, i)),
+                        Some(&names[i]),
+                        ErrorKind::NotFinite,
+                        format!("`{}` is {v}; expected a finite number", names[i]),
+                    ))
+                }
+                Err(_) if strict[i] => {
+                    return Err(errors.at(
+                        line.number,
+                        Some(field_column(line, i)),
+                        Some(&names[i]),
+                        ErrorKind::NotANumber,
+                        format!("`{}` holds `{trimmed}`; expected a number", names[i]),
+                    ))
+                }
+                // Columns this reader does not know may hold anything.
+                _ => f64::NAN,
+            };
+        }
+        let t = row[time_index];
+        if let Some(previous) = previous_time {
+            if t <= previous {
+                return Err(errors.at(
+                    line.number,
+                    Some(field_column(line, time_index)),
+                    Some(col::T_S),
+                    ErrorKind::TimeNotIncreasing,
+                    format!("time goes from {previous} to {t}; expected it to increase strictly"),
+                ));
+            }
+        }
+        previous_time = Some(t);
+        log.push_row(&row);
+    }
+
+    if log.is_empty() {
+        return Err(LogError {
+            file: errors.file,
+            line: Some(header_line.number),
+            column: None,
+            field: None,
+            kind: ErrorKind::Empty,
+            message: "the log has a header but no samples".to_string(),
+        });
+    }
+    Ok(log)
+}
+
+/// `# key = value` lines, in file order.
+type Meta = Vec<(String, String)>;
+
+/// The line rules: the metadata before the header and the lines that hold records.
+fn split_lines<'a>(text: &'a str, errors: &Errors) -> Result<(Meta, Vec<DataLine<'a>>), LogError> {
+    let mut meta = Vec::new();
+    let mut lines: Vec<DataLine> = Vec::new();
+    for (index, raw_line) in text.split('\n').enumerate() {
+        let number = index + 1;
+        let line = raw_line.strip_suffix('\r').unwrap_or(raw_line);
+        if line.trim().is_empty() {
+            continue;
+        }
+        let Some(comment) = line.trim_start().strip_prefix('#') else {
+            lines.push(DataLine { number, text: line });
+            continue;
+        };
+        if !lines.is_empty() {
+            continue;
+        }
+        if let Some((key, value)) = comment.split_once('=') {
+            let (key, value) = (key.trim(), value.trim());
+            if key == "format" && value != FORMAT_V1 {
+                return Err(errors.at(
+                    number,
+                    Some(1),
+                    None,
+                    ErrorKind::UnsupportedVersion,
+                    format!("unsupported log format `{value}`; expected `{FORMAT_V1}`"),
+                ));
+            }
+            meta.push((key.to_string(), value.to_string()));
+        }
+    }
+    Ok((meta, lines))
+}
+
+/// Reads the record of `line`. A record that runs past its line holds a quoted field that
+/// the line does not close.
+fn next_record(
+    reader: &mut csv::Reader<&[u8]>,
+    record: &mut csv::StringRecord,
+    line: DataLine,
+    errors: &Errors,
+) -> Result<(), LogError> {
+    let unclosed = |column: usize| {
+        errors.at(
+            line.number,
+            Some(column),
+            None,
+            ErrorKind::FieldCount,
+            "a quoted field is not closed; expected a closing `\"`".to_string(),
+        )
+    };
+    match reader.read_record(record) {
+        Ok(true) if !record.as_slice().contains('\n') => Ok(()),
+        Ok(_) => Err(unclosed(field_columns(line.text).err().unwrap_or(1))),
+        Err(e) => Err(errors.at(
+            line.number,
+            Some(1),
+            None,
+            ErrorKind::FieldCount,
+            format!("the line cannot be split into fields: {e}"),
+        )),
+    }
+}
+
+/// The header's column names: present, unique and with every required column.
+fn header_names(
+    record: &csv::StringRecord,
+    line: DataLine,
+    errors: &Errors,
+) -> Result<Vec<String>, LogError> {
+    let names: Vec<String> = record.iter().map(|f| f.trim().to_string()).collect();
+    for (i, name) in names.iter().enumerate() {
+        if name.is_empty() {
+            return Err(errors.at(
+                line.number,
+                Some(field_column(line, i)),
+                None,
+                ErrorKind::BadHeader,
+                format!("header field {} is empty; expected a column name", i + 1),
+            ));
+        }
+        if names[..i].contains(name) {
+            return Err(errors.at(
+                line.number,
+                Some(field_column(line, i)),
+                Some(name),
+                ErrorKind::BadHeader,
+                format!("column `{name}` appears twice in the header"),
+            ));
+        }
+    }
+    let missing: Vec<&str> = col::REQUIRED
+        .iter()
+        .copied()
+        .filter(|c| !names.iter().any(|n| n == c))
+        .collect();
+    if let Some(first) = missing.first() {
+        return Err(errors.at(
+            line.number,
+            Some(line.end_column()),
+            Some(first),
+            ErrorKind::MissingColumn,
+            format!(
+                "the header lacks the required column{} {}; a v1 log needs {}",
+                if missing.len() > 1 { "s" } else { "" },
+                quoted_list(&missing),
+                quoted_list(&col::REQUIRED),
+            ),
+        ));
+    }
+    Ok(names)
 }
 
 fn quoted_list(names: &[&str]) -> String {
@@ -232,73 +313,48 @@ fn quoted_list(names: &[&str]) -> String {
         .join(", ")
 }
 
-/// Splits one CSV line (RFC 4180 quoting) into fields with their character columns.
-/// An unclosed quote is reported by the column where it opens.
-fn split_fields(line: &str) -> Result<Vec<Field<'_>>, usize> {
-    let mut fields = Vec::new();
-    let mut chars = line.char_indices().peekable();
-    let mut column = 1;
-    loop {
-        let start_column = column;
-        let start_byte = chars.peek().map_or(line.len(), |&(b, _)| b);
-        if chars.peek().is_some_and(|&(_, c)| c == '"') {
-            chars.next();
-            column += 1;
-            let mut text = String::new();
-            let mut closed = false;
-            while let Some((_, c)) = chars.next() {
-                column += 1;
-                if c == '"' {
-                    if chars.peek().is_some_and(|&(_, c)| c == '"') {
-                        chars.next();
-                        column += 1;
-                        text.push('"');
-                    } else {
-                        closed = true;
-                        break;
-                    }
-                } else {
-                    text.push(c);
-                }
-            }
-            if !closed {
-                return Err(start_column);
-            }
-            // Anything between the closing quote and the comma is kept out of the value.
-            let mut ended_line = true;
-            for (_, c) in chars.by_ref() {
-                column += 1;
-                if c == ',' {
-                    ended_line = false;
-                    break;
-                }
-            }
-            fields.push(Field {
-                text: text.into(),
-                column: start_column,
-            });
-            if ended_line {
-                return Ok(fields);
-            }
-        } else {
-            let mut end_byte = line.len();
-            let mut ended_line = true;
-            for (b, c) in chars.by_ref() {
-                if c == ',' {
-                    end_byte = b;
-                    ended_line = false;
+/// The column where field `index` of `line` starts (1 if the line cannot be split).
+fn field_column(line: DataLine, index: usize) -> usize {
+    field_columns(line.text)
+        .ok()
+        .and_then(|c| c.get(index).copied())
+        .unwrap_or(1)
+}
+
+/// The 1-based character column where each field of `line` starts, split as the csv crate
+/// splits it: a quote opens a quoted part only as the first character of a field, `""`
+/// inside it is a quote, and what follows its closing quote up to the comma belongs to the
+/// field. An unclosed quote is reported by the column where it opens. Only errors need
+/// columns, so this runs on the error path alone.
+fn field_columns(line: &str) -> Result<Vec<usize>, usize> {
+    let mut starts = vec![1];
+    let mut chars = line.chars().peekable();
+    let (mut column, mut quote_column) = (0, 0);
+    let (mut in_quotes, mut at_start) = (false, true);
+    while let Some(c) = chars.next() {
+        column += 1;
+        if in_quotes {
+            if c == '"' {
+                if chars.peek() == Some(&'"') {
+                    chars.next();
                     column += 1;
-                    break;
+                } else {
+                    in_quotes = false;
                 }
-                column += 1;
             }
-            fields.push(Field {
-                text: line[start_byte..end_byte].into(),
-                column: start_column,
-            });
-            if ended_line {
-                return Ok(fields);
-            }
+        } else if c == ',' {
+            starts.push(column + 1);
+            at_start = true;
+            continue;
+        } else if c == '"' && at_start {
+            in_quotes = true;
+            quote_column = column;
         }
+        at_start = false;
+    }
+    if in_quotes {
+        Err(quote_column)
+    } else {
+        Ok(starts)
     }
 }

@@ -95,6 +95,33 @@ fn wrong_field_count_and_unclosed_quote() {
 }
 
 #[test]
+fn columns_count_the_quotes_of_quoted_fields() {
+    // `"a ""b"", c"` is one field of 12 characters; the next field starts at column 14
+    let e = err(&format!(
+        "note,{HEADER}\n\"a \"\"b\"\", c\",0,0,0,x,0,4,4,4,4\n"
+    ));
+    assert_eq!(
+        (e.kind, e.line, e.column, e.field.as_deref()),
+        (ErrorKind::NotANumber, Some(2), Some(20), Some("fx_n"))
+    );
+    // a quoted field is one value: its comma does not add a field
+    let log = read_str(
+        &format!("{HEADER},note\n0,0,0,0,0,4,4,4,4,\"x, y\"\n"),
+        None,
+    )
+    .unwrap();
+    assert_eq!(log.len(), 1);
+    // a quote that opens on one line is not closed by the next
+    let e = err(&format!(
+        "{HEADER},note\n0,0,0,0,0,4,4,4,4,\"open\n0.1,0,0,0,0,4,4,4,4,close\"\n"
+    ));
+    assert_eq!(
+        (e.kind, e.line, e.column),
+        (ErrorKind::FieldCount, Some(2), Some(19))
+    );
+}
+
+#[test]
 fn empty_logs_and_other_versions_are_errors() {
     assert_eq!(err("").kind, ErrorKind::Empty);
     assert_eq!(err(&format!("{HEADER}\n")).kind, ErrorKind::Empty);

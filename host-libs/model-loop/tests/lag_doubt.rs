@@ -6,12 +6,12 @@
 
 use pam_ident::Trial;
 use pam_model::RobotModel;
-use pam_model_loop::diagnose::Verdict;
 use pam_model_loop::diagnose::{diagnose, Settings};
+use pam_model_loop::diagnose::{Verdict, Warning};
 use pam_model_loop::effects::Experiment;
 use pam_synth::{generate, CaseSpec, Family, Shape};
 
-fn warnings(spec: &CaseSpec) -> (Verdict, Vec<String>) {
+fn warnings(spec: &CaseSpec) -> (Verdict, Vec<Warning>) {
     let g = generate(spec).expect("generating");
     let log = pam_log::read_str(&g.log_text, None).expect("log");
     let trial = Trial::from_log(&log).expect("trial");
@@ -35,7 +35,9 @@ fn a_lag_the_data_cannot_place_is_reported_not_hidden() {
     .expect("spec");
     assert_eq!(delayed.dt_s, 0.05);
     let (verdict, w) = warnings(&delayed);
-    let lag = w.iter().find(|w| w.contains("the force lags the motion"));
+    let lag = w
+        .iter()
+        .find(|w| matches!(w, Warning::ForceLagsMotion { .. }));
     assert!(
         verdict == Verdict::Effect || lag.is_some(),
         "verdict {verdict}, warnings {w:?}"
@@ -49,7 +51,8 @@ fn a_lag_the_data_cannot_place_is_reported_not_hidden() {
     let (verdict, w) = warnings(&control);
     assert_eq!(verdict, Verdict::None);
     assert!(
-        !w.iter().any(|w| w.contains("the force lags the motion")),
+        !w.iter()
+            .any(|w| matches!(w, Warning::ForceLagsMotion { .. })),
         "{w:?}"
     );
 }

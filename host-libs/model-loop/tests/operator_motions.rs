@@ -11,7 +11,7 @@
 use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_model_loop::diagnose::{
-    compare, diagnose, encoder_floor, loop_without_spikes, Diagnosis, Settings,
+    compare, diagnose, encoder_floor, loop_without_spikes, Diagnosis, Settings, Warning,
 };
 use pam_model_loop::effects::Experiment as LoopExperiment;
 use pam_synth::{CaseSpec, Experiment, Family, NuisancePlan, OperatorMotion, Shape};
@@ -31,6 +31,11 @@ fn case(seed: u64, shape: Shape, motion: OperatorMotion) -> CaseSpec {
 
 fn trial(spec: &CaseSpec) -> Trial {
     trial_of(spec).0
+}
+
+/// A wander set aside as the encoders' rounding.
+fn is_rounding(w: &Warning) -> bool {
+    matches!(w, Warning::WanderWithinEncoderRounding { .. })
 }
 
 fn diagnosed(spec: &CaseSpec) -> Diagnosis {
@@ -54,7 +59,7 @@ fn a_frozen_encoder_count_is_neither_a_wander_nor_a_drift() {
         if named(&d) != "none" {
             wrong.push(format!("control {seed} ({before}) named {}", named(&d)));
         }
-        let said = d.warnings.iter().any(|w| w.contains("encoders' rounding"))
+        let said = d.warnings.iter().any(is_rounding)
             || d.effects
                 .iter()
                 .any(|e| e.evidence.contains("their rounding"));
@@ -72,8 +77,8 @@ fn a_frozen_encoder_count_is_neither_a_wander_nor_a_drift() {
         .unwrap()
         .for_seed(500035);
     let d = diagnosed(&spec);
-    let resampled = d.warnings.iter().any(|w| w.contains("resampled"));
-    let said = d.warnings.iter().any(|w| w.contains("encoders' rounding"));
+    let resampled = d.warnings.contains(&Warning::Resampled);
+    let said = d.warnings.iter().any(is_rounding);
     assert!(
         resampled && said && named(&d) == "none",
         "resampled control 500035 named {}: {:?}",
@@ -113,10 +118,7 @@ fn the_floor_is_the_count_through_the_stiffness() {
     let floor = encoder_floor(&lp, &base).expect("a floor on counted angles");
     // `pamctl model compare` says it too
     let said = compare(&lp, &base).warnings;
-    assert!(
-        said.iter().any(|w| w.contains("encoders' rounding")),
-        "{said:?}"
-    );
+    assert!(said.iter().any(is_rounding), "{said:?}");
     let count = 2.0 * std::f64::consts::PI / 8000.0;
     for q in floor.step_rad {
         assert!((q / count - 1.0).abs() < 1e-6, "count {q} rad");

@@ -19,6 +19,10 @@
 //! re-export to a sibling's item counts as an edge to the parent only, so such a path is a
 //! blind spot the glob ban and explicit imports keep small.
 
+mod lengths;
+
+pub use lengths::{function_lengths, FnLength};
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};

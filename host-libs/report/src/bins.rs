@@ -1,6 +1,11 @@
 //! Where the residual is: binned over the workspace, over velocity, per step.
 
-use super::svg::Grid;
+/// Values on a grid of cells: `values[iy * nx + ix]`, `None` for an empty cell.
+pub struct Grid {
+    pub x_edges: Vec<f64>,
+    pub y_edges: Vec<f64>,
+    pub values: Vec<Option<f64>>,
+}
 
 /// The `q`-quantile of the finite values (linear between order statistics).
 pub fn quantile(v: &[f64], q: f64) -> f64 {

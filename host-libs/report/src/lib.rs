@@ -3,8 +3,9 @@
 //! the workspace, over velocity, over frequency and per step — before and after the added
 //! effects, with the ranked effects and the error falling step by step.
 //!
-//! Files: `lib.rs` the pages, `sections.rs` the views, `svg.rs` static plots, `plots.rs`
-//! plotly helpers and decimation, `bins.rs` the binning, `ticks.rs` round axis ticks.
+//! Files: `lib.rs` the pages, `sections.rs` the views, `plots.rs` the zoomable time series
+//! and decimation, `charts.rs` bars, heat maps and scatter, `bins.rs` the binning. Every
+//! plot is plotly's.
 
 // `!(x > y)` is deliberate: it is true for NaN, so a NaN never passes a check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -12,17 +13,37 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bins;
+pub mod charts;
 pub mod plots;
 pub mod sections;
-pub mod svg;
-pub mod ticks;
 
 use pam_ident::trial::Prepared;
 use pam_model_loop::diagnose::{Comparison, Diagnosis, ModelFit};
+use plots::{AFTER, BEFORE};
 use sections::{shown, where_it_fails};
 use std::fmt::Write;
-use svg::esc;
-use ticks::num;
+
+/// Text as HTML.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// A value in a table: 3–4 significant digits.
+pub fn num(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else if !v.is_finite() {
+        format!("{v}")
+    } else if v.abs() >= 1e4 || v.abs() < 1e-3 {
+        format!("{v:.3e}")
+    } else {
+        let d = (3 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
+        format!("{v:.d$}")
+    }
+}
 
 /// An HTML page being assembled.
 pub struct Page {
@@ -33,7 +54,7 @@ pub struct Page {
 const STYLE: &str = "body{font-family:sans-serif;margin:16px 24px;background:#fafafa;color:#222;line-height:1.35}\
 table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #bbb;padding:3px 8px;font-size:13px;vertical-align:top}\
 th{background:#e8eef5}td:first-child{white-space:nowrap}td.num{text-align:right;font-variant-numeric:tabular-nums}tr.yes td{background:#eaf6ea}\
-h2{margin-top:30px;border-bottom:1px solid #ccc}h3{margin-top:20px}svg.fig{display:block;margin:8px 0;border:1px solid #ddd}\
+h2{margin-top:30px;border-bottom:1px solid #ccc}h3{margin-top:20px}\
 .zoomable{width:100%;margin:8px 0;border:1px solid #ddd;background:#fff}p.note{color:#555;font-size:13px}\
 ul.evidence li{margin:4px 0;font-size:14px}p.warn{background:#fff4d6;border-left:4px solid #e0a000;padding:6px 10px}";
 
@@ -107,12 +128,19 @@ fn pct(v: f64) -> String {
     format!("{:.1} %", 100.0 * v)
 }
 
-fn nrmse_bars(title: &str, labels: &[String], fx: Vec<f64>, fy: Vec<f64>) -> String {
-    svg::bars(
+fn nrmse_bars(
+    page: &mut Page,
+    title: &str,
+    labels: &[String],
+    fx: Vec<f64>,
+    fy: Vec<f64>,
+) -> String {
+    charts::bars(
+        &page.next_id(),
         title,
         "held-out NRMSE",
         labels,
-        &[("fx", svg::BEFORE, fx), ("fy", svg::AFTER, fy)],
+        &[("fx", BEFORE, fx), ("fy", AFTER, fy)],
     )
 }
 
@@ -150,6 +178,30 @@ fn optional_field(e: &serde_json::Value, key: &str) -> String {
 /// model and the model with the accepted effects fail.
 pub fn diagnosis_page(d: &Diagnosis, fits: &[ModelFit], p: &Prepared) -> String {
     let mut page = Page::new(&format!("Model diagnosis — {} experiment", d.experiment));
+    summary(&mut page, d, p);
+    page.h2("Effects tested (best first)");
+    effects_table(&mut page, d);
+    evidence(&mut page, d);
+    if !d.unexplained.is_empty() {
+        page.h2("Unexplained structure");
+        for u in &d.unexplained {
+            page.p(&format!("{} in {}: {}", u.kind, u.signal, u.detail));
+        }
+    }
+    page.h2("The error falling as effects are added");
+    error_falling(&mut page, d, fits);
+    where_models_fail(&mut page, fits, p);
+    if !d.warnings.is_empty() {
+        page.h2("Warnings");
+        for w in &d.warnings {
+            page.p(&w.to_string());
+        }
+    }
+    page.finish()
+}
+
+/// The verdict, the log, the base model and whether the log can tell the effects apart.
+fn summary(page: &mut Page, d: &Diagnosis, p: &Prepared) {
     page.p(&format!(
         "Verdict: {}. {} samples every {:.4} s; {} (NRMSE = RMS(residual)/std(measured)).",
         d.verdict,
@@ -175,7 +227,10 @@ pub fn diagnosis_page(d: &Diagnosis, fits: &[ModelFit], p: &Prepared) -> String 
         }
         let _ = write!(page.body, "<p class=\"warn\">{}</p>", esc(&text));
     }
-    page.h2("Effects tested (best first)");
+}
+
+/// Every effect tested, best first, with the optional columns any of them carries.
+fn effects_table(page: &mut Page, d: &Diagnosis) {
     let json: Vec<serde_json::Value> = d
         .effects
         .iter()
@@ -227,26 +282,29 @@ pub fn diagnosis_page(d: &Diagnosis, fits: &[ModelFit], p: &Prepared) -> String 
     head.extend(shown_extra.iter().map(|&i| OPTIONAL[i].1));
     head.push("fitted");
     page.table(&head, &rows);
+}
+
+/// The evidence of each accepted effect.
+fn evidence(page: &mut Page, d: &Diagnosis) {
     let accepted: Vec<_> = d.effects.iter().filter(|e| e.accepted).collect();
-    if !accepted.is_empty() {
-        page.raw("<h3>Evidence</h3><ul class=\"evidence\">");
-        for e in accepted {
-            let _ = write!(
-                page.body,
-                "<li><b>{}</b>: {}</li>",
-                esc(&e.id),
-                esc(&e.evidence)
-            );
-        }
-        page.raw("</ul>");
+    if accepted.is_empty() {
+        return;
     }
-    if !d.unexplained.is_empty() {
-        page.h2("Unexplained structure");
-        for u in &d.unexplained {
-            page.p(&format!("{} in {}: {}", u.kind, u.signal, u.detail));
-        }
+    page.raw("<h3>Evidence</h3><ul class=\"evidence\">");
+    for e in accepted {
+        let _ = write!(
+            page.body,
+            "<li><b>{}</b>: {}</li>",
+            esc(&e.id),
+            esc(&e.evidence)
+        );
     }
-    page.h2("The error falling as effects are added");
+    page.raw("</ul>");
+}
+
+/// The held-out NRMSE of each step of the final model; an axis whose reference never
+/// changes (step trials) is not scored and has no bar.
+fn error_falling(page: &mut Page, d: &Diagnosis, fits: &[ModelFit]) {
     let labels: Vec<String> = d
         .steps
         .iter()
@@ -255,51 +313,51 @@ pub fn diagnosis_page(d: &Diagnosis, fits: &[ModelFit], p: &Prepared) -> String 
             Some(e) => format!("+ {e}"),
         })
         .collect();
-    // an axis whose reference never changes (step trials) is not scored: no bar
     let scored = |a: usize| fits.first().is_none_or(|f| f.axes.contains(&a));
     let col = |a: usize, v: f64| if scored(a) { v } else { f64::NAN };
-    page.raw(&nrmse_bars(
+    let bars = nrmse_bars(
+        page,
         "held-out NRMSE per step",
         &labels,
         d.steps.iter().map(|s| col(0, s.nrmse.fx)).collect(),
         d.steps.iter().map(|s| col(1, s.nrmse.fy)).collect(),
-    ));
+    );
+    page.plotly(&bars);
     for a in (0..2).filter(|&a| !scored(a)) {
         page.note(&format!(
             "{} is not scored: its reference does not change in this trial.",
             ["fx", "fy"][a]
         ));
     }
-    if let (Some(base), Some(last)) = (fits.first(), fits.last()) {
-        let mut list = vec![("base model".to_string(), base)];
-        if fits.len() > 1 {
-            list.push((step_label(&last.effect_ids), last));
-            page.h2(&format!(
-                "Where the model fails: the base model (blue) and {} (red)",
-                step_label(&last.effect_ids)
-            ));
-        } else {
-            page.h2("Where the base model fails (no effect was accepted)");
-        }
-        where_it_fails(&mut page, p, &shown(&list));
-        if fits.len() > 1 {
-            page.h2("Base residual against the term of the first effect");
-            let second = &fits[1];
-            sections::term_scatter(
-                &mut page,
-                base,
-                second,
-                &second.effect_ids.last().cloned().unwrap_or_default(),
-            );
-        }
+}
+
+/// Where the base model and the final model fail, and the base residual against the term
+/// of the first effect.
+fn where_models_fail(page: &mut Page, fits: &[ModelFit], p: &Prepared) {
+    let (Some(base), Some(last)) = (fits.first(), fits.last()) else {
+        return;
+    };
+    let mut list = vec![("base model".to_string(), base)];
+    if fits.len() > 1 {
+        list.push((step_label(&last.effect_ids), last));
+        page.h2(&format!(
+            "Where the model fails: the base model (blue) and {} (red)",
+            step_label(&last.effect_ids)
+        ));
+    } else {
+        page.h2("Where the base model fails (no effect was accepted)");
     }
-    if !d.warnings.is_empty() {
-        page.h2("Warnings");
-        for w in &d.warnings {
-            page.p(w);
-        }
+    where_it_fails(page, p, &shown(&list));
+    if fits.len() > 1 {
+        page.h2("Base residual against the term of the first effect");
+        let second = &fits[1];
+        sections::term_scatter(
+            page,
+            base,
+            second,
+            &second.effect_ids.last().cloned().unwrap_or_default(),
+        );
     }
-    page.finish()
 }
 
 /// The compare page: one model against the measurement.
@@ -325,7 +383,7 @@ pub fn comparison_page(c: &Comparison, fit: &ModelFit, p: &Prepared) -> String {
     if !c.warnings.is_empty() {
         page.h2("Plausibility warnings");
         for w in &c.warnings {
-            page.p(w);
+            page.p(&w.to_string());
         }
     }
     page.h2(&format!("Where the model ({label}) fails"));
@@ -361,23 +419,29 @@ pub fn comparison_page(c: &Comparison, fit: &ModelFit, p: &Prepared) -> String {
         page.p(&format!("Residual line: {}", pk.detail));
     }
     page.h2("Held-out error by speed quartile and by workspace cell");
-    let rms_bars = |title: &str, labels: Vec<String>, bins: &[pam_model_loop::diagnose::Bin]| {
-        svg::bars(
+    let rms_bars = |page: &mut Page,
+                    title: &str,
+                    labels: Vec<String>,
+                    bins: &[pam_model_loop::diagnose::Bin]| {
+        let bars = charts::bars(
+            &page.next_id(),
             title,
             "RMS residual [N]",
             &labels,
             &[
-                ("fx", svg::BEFORE, bins.iter().map(|b| b.rms_n.fx).collect()),
-                ("fy", svg::AFTER, bins.iter().map(|b| b.rms_n.fy).collect()),
+                ("fx", BEFORE, bins.iter().map(|b| b.rms_n.fx).collect()),
+                ("fy", AFTER, bins.iter().map(|b| b.rms_n.fy).collect()),
             ],
-        )
+        );
+        page.plotly(&bars);
     };
     let labels = c.error_by_speed.iter().map(|b| b.label.clone()).collect();
-    page.raw(&rms_bars(
+    rms_bars(
+        &mut page,
         "residual RMS by speed quartile",
         labels,
         &c.error_by_speed,
-    ));
+    );
     let labels = c
         .error_by_position
         .iter()
@@ -388,11 +452,12 @@ pub fn comparison_page(c: &Comparison, fit: &ModelFit, p: &Prepared) -> String {
                 .replace(", y cell ", "/y")
         })
         .collect();
-    page.raw(&rms_bars(
+    rms_bars(
+        &mut page,
         "residual RMS by workspace cell (3×3)",
         labels,
         &c.error_by_position,
-    ));
+    );
     page.finish()
 }
 
@@ -415,12 +480,14 @@ pub fn fit_page(before: &ModelFit, after: &ModelFit, p: &Prepared) -> String {
         }
     }
     page.table(&["effect", "parameter", "value"], &rows);
-    page.raw(&nrmse_bars(
+    let bars = nrmse_bars(
+        &mut page,
         "held-out NRMSE before and after",
         &["before (base)".into(), format!("after ({label})")],
         vec![before.nrmse[0], after.nrmse[0]],
         vec![before.nrmse[1], after.nrmse[1]],
-    ));
+    );
+    page.plotly(&bars);
     page.h2(&format!(
         "Where the model fails: before (blue) and after (red, {label})"
     ));
@@ -435,4 +502,19 @@ pub fn fit_page(before: &ModelFit, after: &ModelFit, p: &Prepared) -> String {
     page.h2("Residual before against the effects' term");
     sections::term_scatter(&mut page, before, after, "effects'");
     page.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{esc, num};
+
+    #[test]
+    fn numbers_in_tables() {
+        assert_eq!(num(0.0), "0");
+        assert_eq!(num(1.98765), "1.988");
+        assert_eq!(num(0.0123456), "0.01235");
+        assert_eq!(num(123.456), "123.5");
+        assert_eq!(num(0.0001234), "1.234e-4");
+        assert_eq!(esc("a<b & \"c\""), "a&lt;b &amp; &quot;c&quot;");
+    }
 }

@@ -8,6 +8,15 @@ use plotly::layout::{
 };
 use plotly::{Configuration, Layout, Plot, Scatter};
 
+/// The measured signal's colour.
+pub const MEASURED: &str = "#333333";
+/// The first model's colour ("before").
+pub const BEFORE: &str = "#1f77b4";
+/// The last model's colour ("after").
+pub const AFTER: &str = "#d62728";
+/// The colours of the models compared, in order.
+pub const COLORS: [&str; 4] = [BEFORE, AFTER, "#2ca02c", "#9467bd"];
+
 /// The `<script>` holding plotly.js, once per page. The crate's offline bundle also carries
 /// MathJax (2 MB), which these plots do not use; only the plotly.js script is kept.
 pub fn plotly_js() -> String {
@@ -147,6 +156,8 @@ pub struct Trace {
     pub y: Vec<f64>,
     pub color: &'static str,
     pub dashed: bool,
+    /// A dot at every point.
+    pub markers: bool,
     /// Traces of one group toggle together from the legend (shown once).
     pub group: String,
 }
@@ -159,6 +170,7 @@ impl Trace {
             y,
             color,
             dashed: false,
+            markers: false,
             group: name.into(),
         }
     }
@@ -176,6 +188,8 @@ pub struct Stack<'a> {
     pub panel_height: usize,
     pub log_x: bool,
     pub log_y: bool,
+    /// Include y = 0 in the range.
+    pub with_zero: bool,
 }
 
 fn axis(title: &str, log: bool) -> Axis {
@@ -217,9 +231,12 @@ pub fn stack(s: Stack) -> String {
         }));
     for (k, (y_title, traces)) in s.panels.into_iter().take(n).enumerate() {
         let top = 1.0 - k as f64 * (h + gap);
-        let ya = axis(&y_title, s.log_y)
+        let mut ya = axis(&y_title, s.log_y)
             .domain(&[(top - h).max(0.0), top])
             .anchor("x");
+        if s.with_zero {
+            ya = ya.range_mode(plotly::layout::RangeMode::ToZero);
+        }
         let yname = if k == 0 {
             "y".to_string()
         } else {
@@ -247,7 +264,11 @@ pub fn stack(s: Stack) -> String {
             plot.add_trace(
                 Scatter::new(x, y)
                     .name(&t.name)
-                    .mode(Mode::Lines)
+                    .mode(if t.markers {
+                        Mode::LinesMarkers
+                    } else {
+                        Mode::Lines
+                    })
                     .line(line)
                     .legend_group(&t.group)
                     .show_legend(first)

@@ -1,10 +1,10 @@
 //! The sections that show where a model fails: over time (zoomable), over the workspace,
 //! over velocity, over frequency and per step, each for the fits compared (before/after).
 
-use super::bins::{by_variable, grid_rms, quantile, workspace_edges};
-use super::plots::{self, Stack, Trace};
-use super::svg::{self, LinePanel, Series, MEASURED};
-use super::Page;
+use crate::bins::{by_variable, grid_rms, quantile, workspace_edges, Grid};
+use crate::charts;
+use crate::plots::{self, Stack, Trace, COLORS, MEASURED};
+use crate::Page;
 use pam_ident::step_detection::{reference_steps, ReferenceStep};
 use pam_ident::trial::Prepared;
 use pam_model_loop::diagnose::ModelFit;
@@ -26,7 +26,7 @@ pub fn shown<'a>(fits: &[(String, &'a ModelFit)]) -> Vec<Shown<'a>> {
         .map(|(k, (label, fit))| Shown {
             label: label.clone(),
             fit,
-            color: svg::COLORS[k % svg::COLORS.len()],
+            color: COLORS[k % COLORS.len()],
         })
         .collect()
 }
@@ -86,6 +86,7 @@ pub fn time_series(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         panel_height: 190,
         log_x: false,
         log_y: false,
+        with_zero: false,
     }));
 }
 
@@ -103,7 +104,7 @@ pub fn workspace(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         return;
     }
     let e = workspace_edges(&x, &y, 14);
-    let grids: Vec<(String, svg::Grid)> = fits
+    let grids: Vec<(String, Grid)> = fits
         .iter()
         .map(|s| {
             let mag: Vec<f64> = (0..x.len())
@@ -119,8 +120,10 @@ pub fn workspace(page: &mut Page, p: &Prepared, fits: &[Shown]) {
             (s.label.clone(), grid_rms(&x, &y, &mag, &e, 20))
         })
         .collect();
-    let panels: Vec<(&str, &svg::Grid)> = grids.iter().map(|(l, g)| (l.as_str(), g)).collect();
-    page.raw(&svg::heat_maps(
+    let panels: Vec<(&str, &Grid)> = grids.iter().map(|(l, g)| (l.as_str(), g)).collect();
+    let id = page.next_id();
+    page.plotly(&charts::heat_maps(
+        &id,
         "RMS |residual| over the handle position (whole trial; grey: fewer than 20 samples)",
         "x [mm]",
         "y [mm]",
@@ -144,54 +147,38 @@ pub fn velocity(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         page.p("The handle hardly moves (99 % of speeds below 1 mm/s): no residual over velocity.");
         return;
     }
-    let mut store = Vec::new();
+    page.note(
+        "Residual over velocity: 30 bins over the central 99 % of each velocity (whole trial); \
+         the mean solid with dots, the RMS dashed.",
+    );
     for axis in 0..2 {
+        let mut traces = Vec::new();
         for s in fits {
-            store.push((
-                axis,
-                s,
-                by_variable(&p.v_m_s[axis], &s.fit.residual(axis), 30, 20),
-            ));
+            let b = by_variable(&p.v_m_s[axis], &s.fit.residual(axis), 30, 20);
+            let mut mean = Trace::new(
+                &format!("{}: mean", s.label),
+                b.center.clone(),
+                b.mean,
+                s.color,
+            );
+            mean.markers = true;
+            let mut rms = Trace::new(&format!("{}: RMS", s.label), b.center, b.rms, s.color);
+            rms.dashed = true;
+            traces.extend([mean, rms]);
         }
-    }
-    let panels: Vec<LinePanel> = (0..2)
-        .map(|axis| LinePanel {
-            title: format!("residual {} against v{}", AXES[axis], ["x", "y"][axis]),
-            x_label: if axis == 0 { "vx [m/s]" } else { "vy [m/s]" },
-            y_label: "residual [N]",
+        let id = page.next_id();
+        page.plotly(&plots::stack(Stack {
+            id: &id,
+            title: &format!("residual {} against v{}", AXES[axis], ["x", "y"][axis]),
+            x_title: if axis == 0 { "vx [m/s]" } else { "vy [m/s]" },
+            panels: vec![("residual [N]".to_string(), traces)],
+            shade: None,
+            panel_height: 300,
+            log_x: false,
+            log_y: false,
             with_zero: true,
-            series: store
-                .iter()
-                .filter(|(a, _, _)| *a == axis)
-                .flat_map(|(_, s, b)| {
-                    [
-                        Series {
-                            label: format!("{}: mean", s.label),
-                            x: &b.center,
-                            y: &b.mean,
-                            color: s.color,
-                            dashed: false,
-                            dots: true,
-                        },
-                        Series {
-                            label: format!("{}: RMS", s.label),
-                            x: &b.center,
-                            y: &b.rms,
-                            color: s.color,
-                            dashed: true,
-                            dots: false,
-                        },
-                    ]
-                })
-                .collect(),
-        })
-        .collect();
-    page.raw(&svg::line_panels(
-        "Residual over velocity (30 bins over the central 99 % of each velocity; whole trial)",
-        &panels,
-        2,
-        300.0,
-    ));
+        }));
+    }
 }
 
 /// Residual amplitude spectra per axis, zoomable, log–log.
@@ -219,6 +206,7 @@ pub fn spectrum(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         panel_height: 230,
         log_x: true,
         log_y: true,
+        with_zero: false,
     }));
 }
 
@@ -253,7 +241,7 @@ pub fn per_step(page: &mut Page, p: &Prepared, fits: &[Shown]) {
         .map(|(k, _)| (k + 1).to_string())
         .collect();
     let labels: Vec<String> = (1..=st.len()).map(|k| k.to_string()).collect();
-    let series: Vec<(&str, &str, Vec<f64>)> = fits
+    let series: Vec<(&str, &'static str, Vec<f64>)> = fits
         .iter()
         .map(|s| {
             (
@@ -263,7 +251,9 @@ pub fn per_step(page: &mut Page, p: &Prepared, fits: &[Shown]) {
             )
         })
         .collect();
-    page.raw(&svg::bars(
+    let id = page.next_id();
+    page.plotly(&charts::bars(
+        &id,
         &format!(
             "RMS residual per step (both scored axes); held out: {}",
             if held.is_empty() {
@@ -307,43 +297,34 @@ pub fn per_step(page: &mut Page, p: &Prepared, fits: &[Shown]) {
             (k, lines)
         })
         .collect();
-    let panels: Vec<LinePanel> = windows
-        .iter()
-        .map(|(k, lines)| {
-            let s = st[*k];
-            let ax = s.axis;
-            LinePanel {
-                title: format!(
-                    "step {} at t = {:.2} s, {}: reference {:.1} → {:.1} N",
-                    k + 1,
-                    p.t_s[s.start],
-                    AXES[ax],
-                    reference[ax][s.start.saturating_sub(1)],
-                    reference[ax][s.start]
-                ),
-                x_label: "time from the step [s]",
-                y_label: "force [N]",
-                series: lines
-                    .iter()
-                    .map(|(label, color, x, y)| Series {
-                        label: label.clone(),
-                        x,
-                        y,
-                        color,
-                        dashed: false,
-                        dots: false,
-                    })
-                    .collect(),
-                with_zero: false,
-            }
-        })
-        .collect();
-    page.raw(&svg::line_panels(
-        "The worst steps of the first model, measured and predicted",
-        &panels,
-        2,
-        230.0,
-    ));
+    page.note("The worst steps of the first model, measured and predicted.");
+    for (k, lines) in windows {
+        let s = st[k];
+        let ax = s.axis;
+        let traces = lines
+            .into_iter()
+            .map(|(label, color, x, y)| Trace::new(&label, x, y, color))
+            .collect();
+        let id = page.next_id();
+        page.plotly(&plots::stack(Stack {
+            id: &id,
+            title: &format!(
+                "step {} at t = {:.2} s, {}: reference {:.1} → {:.1} N",
+                k + 1,
+                p.t_s[s.start],
+                AXES[ax],
+                reference[ax][s.start.saturating_sub(1)],
+                reference[ax][s.start]
+            ),
+            x_title: "time from the step [s]",
+            panels: vec![("force [N]".to_string(), traces)],
+            shade: None,
+            panel_height: 230,
+            log_x: false,
+            log_y: false,
+            with_zero: false,
+        }));
+    }
 }
 
 /// The residual of `before` against what `after` adds to it: points on the diagonal are
@@ -353,7 +334,9 @@ pub fn term_scatter(page: &mut Page, before: &ModelFit, after: &ModelFit, what: 
         let contrib: Vec<f64> = (0..before.predicted[axis].len())
             .map(|i| after.predicted[axis][i] - before.predicted[axis][i])
             .collect();
-        page.raw(&svg::scatter(
+        let id = page.next_id();
+        page.plotly(&charts::scatter(
+            &id,
             &format!("{}: residual before vs. the {what} term", AXES[axis]),
             "effect term [N]",
             "residual before [N]",

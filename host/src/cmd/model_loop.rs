@@ -368,7 +368,7 @@ struct FitJson {
     after: diagnose::AxisPair,
     params: std::collections::BTreeMap<String, std::collections::BTreeMap<String, f64>>,
     /// Spikes bridged, uneven sampling (as `diagnose` says them).
-    warnings: Vec<String>,
+    warnings: Vec<diagnose::Warning>,
 }
 
 pub fn fit(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
@@ -393,7 +393,7 @@ pub fn fit(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
     }
     let (lp, before, spikes) = diagnose::loop_without_spikes(&trial, &model, exp, settings(a))?;
     let after = lp.fit(&with);
-    let warnings: Vec<String> = spikes
+    let warnings: Vec<diagnose::Warning> = spikes
         .iter()
         .map(|s| s.warning())
         .chain(diagnose::sampling_warning(&lp))

@@ -6,6 +6,7 @@ use super::AxisPair;
 use super::Loop;
 use super::ModelFit;
 use super::Settings;
+use super::Warning;
 use crate::effects::Experiment;
 use pam_ident::msd;
 use pam_numerics::stats::rms;
@@ -36,7 +37,7 @@ pub struct Comparison {
     pub error_by_speed: Vec<Bin>,
     /// Residual RMS per workspace cell (3×3 over the handle positions visited).
     pub error_by_position: Vec<Bin>,
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -145,16 +146,12 @@ pub fn compare(lp: &Loop, fit: &ModelFit) -> Comparison {
     };
     for &a in fit.axes.iter() {
         if still(a) {
-            warnings.push(format!(
-                "{}'s reference does not step in the held-out part: its NRMSE and R² there measure the noise",
-                ["fx", "fy"][a]
-            ));
+            warnings.push(Warning::ReferenceStill { axis: a });
         } else if fit.r2[a] < 0.5 {
-            warnings.push(format!(
-                "held-out R² of {} is {:.2}: the model explains little of this axis",
-                ["fx", "fy"][a],
-                fit.r2[a]
-            ));
+            warnings.push(Warning::LowR2 {
+                axis: a,
+                r2: fit.r2[a],
+            });
         }
     }
     Comparison {

@@ -16,6 +16,7 @@ use super::AxisPair;
 use super::Loop;
 use super::ModelFit;
 use super::Settings;
+use super::Warning;
 use crate::effects::Experiment;
 use crate::effects::ModelEffect;
 use crate::effects::{self, Family};
@@ -607,7 +608,7 @@ fn verdict_of(
 /// motion by the muscles' pneumatic lag (its gains negative) and a sensor-sync delay removes
 /// a little more, but not beyond the fold-to-fold spread. To first order both are the same
 /// lag, so the data cannot say which; the user should know the lag is there.
-fn lag_warning(base: &BTreeMap<String, f64>, delay: Option<&EffectReport>) -> Option<String> {
+fn lag_warning(base: &BTreeMap<String, f64>, delay: Option<&EffectReport>) -> Option<Warning> {
     let delay = delay.filter(|d| !d.accepted && d.improvement > 0.005)?;
     let kp = |k: &str| base.get(k).copied().unwrap_or(0.0);
     let (kx, ky) = (kp("kp_xx"), kp("kp_yy"));
@@ -615,14 +616,12 @@ fn lag_warning(base: &BTreeMap<String, f64>, delay: Option<&EffectReport>) -> Op
         return None;
     }
     let delay_ms = 1000.0 * delay.params.get("delay_s").copied().unwrap_or(0.0);
-    Some(format!(
-        "the force lags the motion: the base takes it as the muscles' pressure lag \
-         (kp_xx {kx:.1}, kp_yy {ky:.1} N/m, negative), and a delay of {delay_ms:.0} ms between \
-         the force and the encoder samples removes {:.1} % more, within the fold-to-fold \
-         spread. The data cannot tell a regulation lag from a sampling delay: check the \
-         logger's timestamps, or sample faster (≤ 5 ms) with quick reversals",
-        100.0 * delay.improvement
-    ))
+    Some(Warning::ForceLagsMotion {
+        kp_xx_n_per_m: kx,
+        kp_yy_n_per_m: ky,
+        delay_ms,
+        improvement: delay.improvement,
+    })
 }
 
 /// The family an effect is judged in (an effect outside the families is its own).

@@ -5,6 +5,7 @@ use super::recording::SpikeReport;
 use super::selection::FoldTest;
 use super::unexplained::UnexplainedReport;
 use super::AxisPair;
+use super::Warning;
 use crate::effects::{Experiment, Family};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -146,5 +147,5 @@ pub struct Diagnosis {
     /// Accepted families the final model leaves out, as too small beyond it to be told from
     /// a refinement of what it holds.
     pub refinements: Vec<Refinement>,
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
 }

@@ -9,6 +9,7 @@ use super::Loop;
 use super::ModelFit;
 use super::Target;
 use super::VariantFit;
+use super::Warning;
 use super::SHORTLIST;
 use crate::effects::DynCtx;
 use crate::effects::DynTerm;
@@ -331,10 +332,13 @@ impl<'a> Loop<'a> {
                 e.report_params(&ctx, &fitted, s).into_iter().collect(),
             );
         }
-        let warnings = msd::mass_warnings(
+        let warnings = msd::mass_checks(
             &msd::sym(&theta[0..3]),
             self.model.cartesian_mass(p.alpha0_rad),
-        );
+        )
+        .into_iter()
+        .map(Warning::Mass)
+        .collect();
         let train_gain = if chosen.is_empty() {
             0.0
         } else {

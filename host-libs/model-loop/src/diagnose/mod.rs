@@ -15,6 +15,7 @@ mod resolution;
 mod selection;
 mod step_fit;
 mod unexplained;
+mod warning;
 use base::{analysis_stride, choose_pneumatic, BaseVariant, SharedColumns};
 pub use base::{joint_stiffness_columns, pneumatic_columns, prepare_with_best_cutoff, Stiffness};
 pub use compare::{compare, nrmse_pair, Bin, Comparison, Window};
@@ -28,6 +29,7 @@ pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
 pub use resolution::{encoder_floor, encoder_step_rad, EncoderFloor};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
 pub use unexplained::unexplained_structure;
+pub use warning::Warning;
 
 use crate::effects::{Experiment, ModelEffect, Shape};
 use crate::response::{self, Drive, Response};
@@ -153,7 +155,7 @@ pub struct ModelFit {
     pub train_gain: f64,
     /// The rows scored and not fitted (the trial's [`Prepared::held_out`]).
     pub held_out: HeldOut,
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
 }
 
 impl ModelFit {

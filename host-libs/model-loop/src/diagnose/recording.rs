@@ -6,7 +6,7 @@
 
 use serde::Serialize;
 
-use super::{Loop, ModelFit, Settings};
+use super::{Loop, ModelFit, Settings, Warning};
 use crate::effects::Experiment;
 use pam_ident::spikes;
 use pam_ident::trial::Trial;
@@ -41,33 +41,15 @@ pub struct SpikeReport {
 }
 
 impl SpikeReport {
-    pub fn warning(&self) -> String {
-        let times: Vec<String> = self.first_t_s.iter().map(|t| format!("{t:.3}")).collect();
-        format!(
-            "{} isolated spike{} in the force (the largest {:.2} N; t = {} s{}) bridged by \
-             their neighbours before the fits: a corrupted frame or a knock on the load cell, \
-             not the robot",
-            self.rows,
-            if self.rows == 1 { "" } else { "s" },
-            self.largest_n,
-            times.join(", "),
-            if self.rows > self.first_t_s.len() {
-                ", …"
-            } else {
-                ""
-            }
-        )
+    pub fn warning(&self) -> Warning {
+        Warning::Spikes(self.clone())
     }
 }
 
 /// What the diagnosis says about the log's sampling, if it was uneven.
-pub fn sampling_warning(lp: &Loop) -> Option<String> {
+pub fn sampling_warning(lp: &Loop) -> Option<Warning> {
     if lp.p.resampled() {
-        return Some(
-            "the log's sampling is uneven (dropped frames?): it was resampled to its median \
-             period"
-                .into(),
-        );
+        return Some(Warning::Resampled);
     }
     let intervals = crate::response::uneven_intervals(&lp.p.t_s, lp.p.dt_s)?;
     let (lo, hi) = intervals
@@ -75,16 +57,11 @@ pub fn sampling_warning(lp: &Loop) -> Option<String> {
         .fold((f64::INFINITY, 0.0f64), |(lo, hi), &h| {
             (lo.min(h), hi.max(h))
         });
-    let treatment = match lp.experiment {
-        Experiment::Step => "the step model is simulated at the logged times",
-        Experiment::Dynamic => "the derivatives take the logged times",
-    };
-    Some(format!(
-        "the log's sampling is uneven ({:.1}–{:.1} ms between rows: jitter, lost frames): \
-         {treatment}",
-        lo * 1e3,
-        hi * 1e3
-    ))
+    Some(Warning::UnevenSampling {
+        shortest_s: lo,
+        longest_s: hi,
+        experiment: lp.experiment,
+    })
 }
 
 /// The loop on `trial`, or on a copy with its spikes bridged when the base's residual has

@@ -5,6 +5,7 @@ use super::resolution::encoder_floor;
 use super::Loop;
 use super::ModelFit;
 use super::Settings;
+use super::Warning;
 use crate::effects::Experiment;
 use pam_numerics::spectrum::amplitude_spectrum;
 use pam_numerics::spectrum::narrow_peaks;
@@ -37,7 +38,7 @@ pub fn unexplained_structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Vec<Une
 pub(super) struct Structure {
     pub found: Vec<UnexplainedReport>,
     /// A wander within the encoders' rounding: a warning for the user.
-    pub set_aside: Vec<String>,
+    pub set_aside: Vec<Warning>,
 }
 
 /// [`unexplained_structure`] with what it set aside.
@@ -133,16 +134,14 @@ pub(super) fn structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Structure {
         // handle rests) cannot be told from it: said, not named
         let floor = floor.get_or_init(|| encoder_floor(lp, fit));
         if let Some(f) = floor.filter(|f| w.amplitude_n <= f.bound_n[a]) {
-            set_aside.push(format!(
-                "the {} residual's level wanders by {:.3} N RMS, within what the encoders' counts ({:.4}° and {:.4}°) put in its level through the model (expected {:.3} N RMS, up to {:.3} N in {} draws of it: the rounding is frozen while a count is held): the log cannot tell a slow effect of that size from the encoders' rounding, so none is named",
-                names[a],
-                w.amplitude_n,
-                f.step_rad[0].to_degrees(),
-                f.step_rad[1].to_degrees(),
-                f.expected_n[a],
-                f.bound_n[a],
-                super::resolution::DRAWS
-            ));
+            set_aside.push(Warning::WanderWithinEncoderRounding {
+                axis: a,
+                amplitude_n: w.amplitude_n,
+                step_rad: f.step_rad,
+                expected_n: f.expected_n[a],
+                bound_n: f.bound_n[a],
+                draws: super::resolution::DRAWS,
+            });
             continue;
         }
         out.push(UnexplainedReport {

@@ -48,146 +48,242 @@ fn simulate_channels<const K: usize>(
     if n == 0 {
         return;
     }
-    let k = K;
-    let (rise, fall) = (r.rise_per_s.max(1e-9), r.fall_per_s.max(1e-9));
-    let limited = rise.is_finite() || fall.is_finite();
-    // the linear second order is stepped exactly (its transition matrix over a sub-step),
-    // so only a rate limit, which clamps within the step, and a delay, which moves the
-    // set-point's change into the sample, need short sub-steps
-    let sub = if limited || r.delay_s > 0.0 {
-        ((d.dt_s / MAX_SUBSTEP_S).ceil() as usize).max(1)
-    } else {
-        1
-    };
-    let h = d.dt_s / sub as f64;
-    let phi = SecondOrderStep::new(r.omega_n_rad_s, r.zeta, h);
-    // an uneven log: each interval is stepped as it was, with its own sub-steps
-    let uneven = d.intervals_s.as_deref();
-    let substeps = |interval: f64| {
-        if limited || r.delay_s > 0.0 {
-            ((interval / MAX_SUBSTEP_S).ceil() as usize).max(1)
+    let plan = Plan::<K>::new(r, d, n);
+    let mut state = State::<K>::at_rest(&plan, r, d);
+    let t0 = t_s[0];
+    for i in 0..n {
+        let forces = d.channel_forces(i, &state.x);
+        for a in 0..2 {
+            let force = plan.handle_force(r, d, alpha, i, a, &forces, &mut state.slewed[a]);
+            out[a][i] = force + state.hx[a] + r.offset_n[a] + r.drift_n_per_s[a] * (t_s[i] - t0);
+        }
+        plan.advance(r, d, t_s, i, &mut state);
+    }
+}
+
+/// What a simulation of the channels computes once, before the samples: the sub-steps,
+/// the shaped set-points, the delay's taps and which limits are on.
+struct Plan<const K: usize> {
+    n: usize,
+    rise: f64,
+    fall: f64,
+    /// A rate limit on the channels.
+    limited: bool,
+    /// Sub-steps per sample, their length and the second order's step over one (an even log).
+    sub: usize,
+    h: f64,
+    phi: SecondOrderStep,
+    /// Each sample's set-points, scaled, saturated and capped: a delayed sub-step reads two.
+    shaped: Vec<[f64; K]>,
+    /// The rate limit acts on the command (force channels, or a slew on the input) rather
+    /// than on the channel's own rate.
+    slew_the_command: bool,
+    /// Sub-step m of an even log reads the delayed interval [i + offset_m, i + offset_m +
+    /// 1/sub): samples i + ⌊offset_m⌋ and the next, the first with a weight of m alone.
+    taps: Vec<(isize, f64)>,
+    hysteresis: bool,
+    force_limited: bool,
+    force_span: f64,
+    /// A slew limit on the handle force: its largest rise and fall per second.
+    force_slewed: bool,
+    force_rates: (f64, f64),
+    /// The gain of each axis when it does not depend on the pose.
+    constant_gain: [Option<f64>; 2],
+    force_channels: bool,
+}
+
+/// The channels' state between samples.
+struct State<const K: usize> {
+    x: [f64; K],
+    v: [f64; K],
+    /// The rate-limited command of each channel.
+    driven: [f64; K],
+    /// The hysteresis offset of each axis and its rate: it goes through the same regulation.
+    hx: [f64; 2],
+    hv: [f64; 2],
+    /// The last slew-limited handle force of each axis.
+    slewed: [Option<f64>; 2],
+    /// An uneven log's delayed set-points are looked up by time, from this row on.
+    delayed_from: usize,
+}
+
+impl<const K: usize> State<K> {
+    /// Each channel at rest at its first set-point.
+    fn at_rest(plan: &Plan<K>, r: &Response, d: &Drive) -> Self {
+        let x: [f64; K] = std::array::from_fn(|c| plan.set_at(0, c));
+        State {
+            x,
+            v: [0.0; K],
+            driven: x,
+            hx: [0, 1].map(|a| r.hysteresis_n[a] * d.direction[a][0]),
+            hv: [0.0; 2],
+            slewed: [None; 2],
+            delayed_from: 0,
+        }
+    }
+}
+
+impl<const K: usize> Plan<K> {
+    fn new(r: &Response, d: &Drive, n: usize) -> Self {
+        let (rise, fall) = (r.rise_per_s.max(1e-9), r.fall_per_s.max(1e-9));
+        let limited = rise.is_finite() || fall.is_finite();
+        // the linear second order is stepped exactly (its transition matrix over a
+        // sub-step), so only a rate limit, which clamps within the step, and a delay, which
+        // moves the set-point's change into the sample, need short sub-steps
+        let sub = if limited || r.delay_s > 0.0 {
+            ((d.dt_s / MAX_SUBSTEP_S).ceil() as usize).max(1)
         } else {
             1
-        }
-    };
-    let span = r.knee_span.abs().max(1e-6);
-    let force_limited = r.force_knee_n.is_finite();
-    let force_span = r.force_span_n.abs().max(1e-6);
-    let sat = |s: f64| saturate(s, r.knee, span);
-    // Force channels carry the measured force's scale (gain × reference), so that their
-    // rate limit and saturation are in the measured newtons; converter channels are bar.
-    let force_channels = d.units == Units::Force;
-    let cap_span = r.cap_span.abs().max(1e-6);
-    // each sample's shaped set-points once: a delayed sub-step reads two of them
-    let scale: [f64; K] = std::array::from_fn(|c| d.channel_scale(r, c));
-    let shaped: Vec<[f64; K]> = d.set[..n]
-        .iter()
-        .map(|set| {
-            std::array::from_fn(|c| {
-                let s = sat(scale[c] * set[c]);
-                if r.cap_channel == Some(c) {
-                    saturate(s, r.cap, cap_span)
-                } else {
-                    s
-                }
+        };
+        let h = d.dt_s / sub as f64;
+        let span = r.knee_span.abs().max(1e-6);
+        let sat = |s: f64| saturate(s, r.knee, span);
+        // Force channels carry the measured force's scale (gain × reference), so that their
+        // rate limit and saturation are in the measured newtons; converter channels are bar.
+        let force_channels = d.units == Units::Force;
+        let cap_span = r.cap_span.abs().max(1e-6);
+        let scale: [f64; K] = std::array::from_fn(|c| d.channel_scale(r, c));
+        let shaped: Vec<[f64; K]> = d.set[..n]
+            .iter()
+            .map(|set| {
+                std::array::from_fn(|c| {
+                    let s = sat(scale[c] * set[c]);
+                    if r.cap_channel == Some(c) {
+                        saturate(s, r.cap, cap_span)
+                    } else {
+                        s
+                    }
+                })
             })
-        })
-        .collect();
-    let set_at = |j: usize, c: usize| shaped[j.min(n - 1)][c];
-    let mut x = [0.0; K];
-    let mut v = [0.0; K];
-    for (c, xc) in x.iter_mut().enumerate() {
-        *xc = set_at(0, c);
-    }
-    // Rate limits: a converter's flow limits how fast its pressure moves; without the
-    // converters (force channels) the limit is on the commanded force, as in §5.3's
-    // black-box view
-    let slew_the_command = force_channels || r.slew_command;
-    let mut driven = x;
-    // the hysteresis offset goes through the same regulation
-    let mut hx = [0, 1].map(|a| r.hysteresis_n[a] * d.direction[a][0]);
-    let mut hv = [0.0; 2];
-    let delay = r.delay_s.max(0.0) / d.dt_s;
-    let t0 = t_s[0];
-    let frac = 1.0 / sub as f64;
-    // sub-step m of sample i reads the delayed interval [i + offset_m, i + offset_m + frac):
-    // samples i + ⌊offset_m⌋ and the next, the first with a weight that depends on m only
-    let taps: Vec<(isize, f64)> = (0..sub)
-        .map(|m| {
-            let offset = m as f64 * frac - delay;
-            let fl = offset.floor();
-            (fl as isize, ((fl + 1.0 - offset) / frac).min(1.0))
-        })
-        .collect();
-    let hysteresis = r.hysteresis_n != [0.0; 2];
-    // a slew limit on the handle force: its largest change per sample, up and down
-    let force_slewed = r.force_rise_n_per_s.is_finite() || r.force_fall_n_per_s.is_finite();
-    let force_rates = (
-        r.force_rise_n_per_s.max(1e-9),
-        r.force_fall_n_per_s.max(1e-9),
-    );
-    // an uneven log's delayed set-points are looked up by time, from this row on
-    let mut delayed_from = 0usize;
-    let mut slewed: [Option<f64>; 2] = [None; 2];
-    // without a pose dependence the gain is a constant: a force channel's factor is then
-    // exactly 1 (g / g), and the division per sample (a tenth of a step fit's time,
-    // measured) is left out
-    let constant_gain = [0, 1].map(|a| {
-        (r.gain_slope_per_rad[a] == [0.0; 2]).then(|| if force_channels { 1.0 } else { r.gain[a] })
-    });
-    for i in 0..n {
-        let forces = d.channel_forces(i, &x);
-        for a in 0..2 {
-            let f = d.axis_force(i, a, &forces);
-            let g = if let Some(g) = constant_gain[a] {
-                g
-            } else if force_channels {
-                let g = r.gain[a]
-                    + r.gain_slope_per_rad[a][0] * alpha[0][i]
-                    + r.gain_slope_per_rad[a][1] * alpha[1][i];
-                // x already carries the gain; only its pose dependence is left
-                if r.gain[a].abs() > 1e-12 {
-                    g / r.gain[a]
-                } else {
-                    1.0
-                }
-            } else {
-                r.gain[a]
-                    + r.gain_slope_per_rad[a][0] * alpha[0][i]
-                    + r.gain_slope_per_rad[a][1] * alpha[1][i]
-            };
-            let mut force = g * f;
-            if force_limited {
-                force = saturate(force, r.force_knee_n, force_span);
-            }
-            if force_slewed {
-                // the largest change since the previous sample, up and down
-                let since = match (uneven, i) {
-                    (Some(iv), 1..) => iv[i - 1],
-                    _ => d.dt_s,
-                };
-                let (force_up, force_down) = (force_rates.0 * since, force_rates.1 * since);
-                if let Some(prev) = slewed[a] {
-                    force = bounded(force, prev - force_down, prev + force_up);
-                }
-                slewed[a] = Some(force);
-            }
-            out[a][i] = force + hx[a] + r.offset_n[a] + r.drift_n_per_s[a] * (t_s[i] - t0);
+            .collect();
+        let delay = r.delay_s.max(0.0) / d.dt_s;
+        let frac = 1.0 / sub as f64;
+        let taps: Vec<(isize, f64)> = (0..sub)
+            .map(|m| {
+                let offset = m as f64 * frac - delay;
+                let fl = offset.floor();
+                (fl as isize, ((fl + 1.0 - offset) / frac).min(1.0))
+            })
+            .collect();
+        Plan {
+            n,
+            rise,
+            fall,
+            limited,
+            sub,
+            h,
+            phi: SecondOrderStep::new(r.omega_n_rad_s, r.zeta, h),
+            shaped,
+            // Rate limits: a converter's flow limits how fast its pressure moves; without
+            // the converters (force channels) the limit is on the commanded force, as in
+            // §5.3's black-box view
+            slew_the_command: force_channels || r.slew_command,
+            taps,
+            hysteresis: r.hysteresis_n != [0.0; 2],
+            force_limited: r.force_knee_n.is_finite(),
+            force_span: r.force_span_n.abs().max(1e-6),
+            force_slewed: r.force_rise_n_per_s.is_finite() || r.force_fall_n_per_s.is_finite(),
+            force_rates: (
+                r.force_rise_n_per_s.max(1e-9),
+                r.force_fall_n_per_s.max(1e-9),
+            ),
+            // without a pose dependence the gain is a constant: a force channel's factor is
+            // then exactly 1 (g / g), and the division per sample (a tenth of a step fit's
+            // time, measured) is left out
+            constant_gain: [0, 1].map(|a| {
+                (r.gain_slope_per_rad[a] == [0.0; 2]).then(|| {
+                    if force_channels {
+                        1.0
+                    } else {
+                        r.gain[a]
+                    }
+                })
+            }),
+            force_channels,
         }
+    }
+
+    #[inline]
+    fn set_at(&self, j: usize, c: usize) -> f64 {
+        self.shaped[j.min(self.n - 1)][c]
+    }
+
+    /// The handle force of axis `a` at sample `i` from the channels' forces: the gain (with
+    /// its pose dependence), the force saturation and the force slew limit.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn handle_force(
+        &self,
+        r: &Response,
+        d: &Drive,
+        alpha: [&[f64]; 2],
+        i: usize,
+        a: usize,
+        forces: &[f64; K],
+        slewed: &mut Option<f64>,
+    ) -> f64 {
+        let f = d.axis_force(i, a, forces);
+        let g = if let Some(g) = self.constant_gain[a] {
+            g
+        } else if self.force_channels {
+            let g = r.gain[a]
+                + r.gain_slope_per_rad[a][0] * alpha[0][i]
+                + r.gain_slope_per_rad[a][1] * alpha[1][i];
+            // x already carries the gain; only its pose dependence is left
+            if r.gain[a].abs() > 1e-12 {
+                g / r.gain[a]
+            } else {
+                1.0
+            }
+        } else {
+            r.gain[a]
+                + r.gain_slope_per_rad[a][0] * alpha[0][i]
+                + r.gain_slope_per_rad[a][1] * alpha[1][i]
+        };
+        let mut force = g * f;
+        if self.force_limited {
+            force = saturate(force, r.force_knee_n, self.force_span);
+        }
+        if self.force_slewed {
+            // the largest change since the previous sample, up and down
+            let since = match (d.intervals_s.as_deref(), i) {
+                (Some(iv), 1..) => iv[i - 1],
+                _ => d.dt_s,
+            };
+            let (up, down) = (self.force_rates.0 * since, self.force_rates.1 * since);
+            if let Some(prev) = *slewed {
+                force = bounded(force, prev - down, prev + up);
+            }
+            *slewed = Some(force);
+        }
+        force
+    }
+
+    /// Steps the channels and the hysteresis offset over sample `i`'s interval, in
+    /// sub-steps, each reading its delayed set-point.
+    #[inline]
+    fn advance(&self, r: &Response, d: &Drive, t_s: &[f64], i: usize, st: &mut State<K>) {
+        // an uneven log: each interval is stepped as it was, with its own sub-steps
+        let uneven = d.intervals_s.as_deref();
         let (h, sub, phi) = match uneven {
-            None => (h, sub, phi),
+            None => (self.h, self.sub, self.phi),
             Some(iv) => {
-                let sub = substeps(iv[i]);
+                let sub = if self.limited || r.delay_s > 0.0 {
+                    ((iv[i] / MAX_SUBSTEP_S).ceil() as usize).max(1)
+                } else {
+                    1
+                };
                 let h = iv[i] / sub as f64;
                 (h, sub, SecondOrderStep::new(r.omega_n_rad_s, r.zeta, h))
             }
         };
+        let n = self.n;
         for m in 0..sub {
             // the delayed sub-step, spanning at most two samples (before the first sample:
             // the first set-point): sample j with weight w_first, the rest from j + 1
             let (j, w_first) = match uneven {
                 None => {
-                    let (tap, w) = taps[m];
+                    let (tap, w) = self.taps[m];
                     let first = i as isize + tap;
                     if first < 0 || (first == 0 && w >= 1.0) {
                         (0, 1.0)
@@ -197,35 +293,42 @@ fn simulate_channels<const K: usize>(
                 }
                 Some(_) => {
                     let from = t_s[i] + m as f64 * h - r.delay_s.max(0.0);
-                    delayed_sample(t_s, n, from, h, &mut delayed_from)
+                    delayed_sample(t_s, n, from, h, &mut st.delayed_from)
                 }
             };
-            for c in 0..k {
+            for c in 0..K {
                 let mut s = if w_first >= 1.0 {
-                    set_at(j, c)
+                    self.set_at(j, c)
                 } else {
-                    w_first * set_at(j, c) + (1.0 - w_first) * set_at(j + 1, c)
+                    w_first * self.set_at(j, c) + (1.0 - w_first) * self.set_at(j + 1, c)
                 };
-                if limited && slew_the_command {
-                    s = bounded(s, driven[c] - fall * h, driven[c] + rise * h);
-                    driven[c] = s;
+                if self.limited && self.slew_the_command {
+                    s = bounded(
+                        s,
+                        st.driven[c] - self.fall * h,
+                        st.driven[c] + self.rise * h,
+                    );
+                    st.driven[c] = s;
                 }
-                let (e, vc) = phi.step(x[c] - s, v[c]);
-                v[c] = if limited && !slew_the_command {
-                    bounded(vc, -fall, rise)
+                let (e, vc) = phi.step(st.x[c] - s, st.v[c]);
+                st.v[c] = if self.limited && !self.slew_the_command {
+                    bounded(vc, -self.fall, self.rise)
                 } else {
                     vc
                 };
-                x[c] = if v[c] == vc { s + e } else { x[c] + h * v[c] };
+                st.x[c] = if st.v[c] == vc {
+                    s + e
+                } else {
+                    st.x[c] + h * st.v[c]
+                };
             }
-            for a in 0..2 {
-                if !hysteresis {
-                    break;
+            if self.hysteresis {
+                for a in 0..2 {
+                    let target = r.hysteresis_n[a] * d.direction[a][j.min(n - 1)];
+                    let (e, va) = phi.step(st.hx[a] - target, st.hv[a]);
+                    st.hx[a] = target + e;
+                    st.hv[a] = va;
                 }
-                let target = r.hysteresis_n[a] * d.direction[a][j.min(n - 1)];
-                let (e, va) = phi.step(hx[a] - target, hv[a]);
-                hx[a] = target + e;
-                hv[a] = va;
             }
         }
     }

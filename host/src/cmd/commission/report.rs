@@ -204,6 +204,7 @@ pub fn html(path: &Path, state: &CommissionState) -> anyhow::Result<()> {
             panel_height: 220,
             log_x: false,
             log_y: false,
+            with_zero: false,
         }));
     }
     std::fs::write(path, page.finish()).with_context(|| format!("cannot write {}", path.display()))

@@ -1,0 +1,152 @@
+//! What a diagnosis or a comparison warns of: a type per case, with its message.
+//!
+//! A warning is written to the JSON as its message (a string), as it reads in the report
+//! and in `pamctl`'s text output; code and tests match the variant.
+
+use std::fmt;
+
+use serde::{Serialize, Serializer};
+
+use super::SpikeReport;
+use crate::effects::Experiment;
+use pam_ident::msd::MassWarning;
+
+/// A warning of the model loop.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Warning {
+    /// The base's fitted mass matrix is implausible.
+    Mass(MassWarning),
+    /// Isolated spikes in the force were bridged before the fits.
+    Spikes(SpikeReport),
+    /// The log's sampling was uneven and it was resampled to its median period.
+    Resampled,
+    /// The log's sampling is uneven; the model takes the logged times.
+    UnevenSampling {
+        shortest_s: f64,
+        longest_s: f64,
+        experiment: Experiment,
+    },
+    /// A residual's level wanders by no more than the encoders' rounding puts in it: no
+    /// effect is named for it.
+    WanderWithinEncoderRounding {
+        /// 0 fx, 1 fy.
+        axis: usize,
+        amplitude_n: f64,
+        /// One count of each encoder.
+        step_rad: [f64; 2],
+        expected_n: f64,
+        bound_n: f64,
+        draws: usize,
+    },
+    /// The force lags the motion, and the log cannot tell a regulation lag (the base's
+    /// negative pressure stiffness) from a sampling delay.
+    ForceLagsMotion {
+        kp_xx_n_per_m: f64,
+        kp_yy_n_per_m: f64,
+        delay_ms: f64,
+        /// The share of the held-out error the rejected delay removes.
+        improvement: f64,
+    },
+    /// An axis's reference does not step in the held-out part (a step trial).
+    ReferenceStill { axis: usize },
+    /// The model explains little of an axis in the held-out part.
+    LowR2 { axis: usize, r2: f64 },
+}
+
+const AXES: [&str; 2] = ["fx", "fy"];
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Warning::Mass(m) => write!(f, "{m}"),
+            Warning::Spikes(s) => {
+                let times: Vec<String> = s.first_t_s.iter().map(|t| format!("{t:.3}")).collect();
+                write!(
+                    f,
+                    "{} isolated spike{} in the force (the largest {:.2} N; t = {} s{}) bridged by \
+                     their neighbours before the fits: a corrupted frame or a knock on the load cell, \
+                     not the robot",
+                    s.rows,
+                    if s.rows == 1 { "" } else { "s" },
+                    s.largest_n,
+                    times.join(", "),
+                    if s.rows > s.first_t_s.len() {
+                        ", …"
+                    } else {
+                        ""
+                    }
+                )
+            }
+            Warning::Resampled => write!(
+                f,
+                "the log's sampling is uneven (dropped frames?): it was resampled to its median \
+                 period"
+            ),
+            Warning::UnevenSampling {
+                shortest_s,
+                longest_s,
+                experiment,
+            } => {
+                let treatment = match experiment {
+                    Experiment::Step => "the step model is simulated at the logged times",
+                    Experiment::Dynamic => "the derivatives take the logged times",
+                };
+                write!(
+                    f,
+                    "the log's sampling is uneven ({:.1}–{:.1} ms between rows: jitter, lost frames): \
+                     {treatment}",
+                    shortest_s * 1e3,
+                    longest_s * 1e3
+                )
+            }
+            Warning::WanderWithinEncoderRounding {
+                axis,
+                amplitude_n,
+                step_rad,
+                expected_n,
+                bound_n,
+                draws,
+            } => write!(
+                f,
+                "the {} residual's level wanders by {:.3} N RMS, within what the encoders' counts ({:.4}° and {:.4}°) put in its level through the model (expected {:.3} N RMS, up to {:.3} N in {} draws of it: the rounding is frozen while a count is held): the log cannot tell a slow effect of that size from the encoders' rounding, so none is named",
+                AXES[*axis],
+                amplitude_n,
+                step_rad[0].to_degrees(),
+                step_rad[1].to_degrees(),
+                expected_n,
+                bound_n,
+                draws
+            ),
+            Warning::ForceLagsMotion {
+                kp_xx_n_per_m: kx,
+                kp_yy_n_per_m: ky,
+                delay_ms,
+                improvement,
+            } => write!(
+                f,
+                "the force lags the motion: the base takes it as the muscles' pressure lag \
+                 (kp_xx {kx:.1}, kp_yy {ky:.1} N/m, negative), and a delay of {delay_ms:.0} ms between \
+                 the force and the encoder samples removes {:.1} % more, within the fold-to-fold \
+                 spread. The data cannot tell a regulation lag from a sampling delay: check the \
+                 logger's timestamps, or sample faster (≤ 5 ms) with quick reversals",
+                100.0 * improvement
+            ),
+            Warning::ReferenceStill { axis } => write!(
+                f,
+                "{}'s reference does not step in the held-out part: its NRMSE and R² there measure the noise",
+                AXES[*axis]
+            ),
+            Warning::LowR2 { axis, r2 } => write!(
+                f,
+                "held-out R² of {} is {:.2}: the model explains little of this axis",
+                AXES[*axis], r2
+            ),
+        }
+    }
+}
+
+impl Serialize for Warning {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
