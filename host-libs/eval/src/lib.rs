@@ -2,6 +2,8 @@
 //!
 //! - [`judge`]: scores a diagnosis (its JSON) against the truth a generator hid in the log,
 //!   and draws the confusion matrix of many cases.
+//! - [`strict`]: the final model judged whole (right verdict, right first family, no family
+//!   in it that is not in the log), for every generator alike.
 //! - `tests/`: the accuracy suites. `cargo test -p pam-eval` runs the fast regression floors
 //!   (a few representative cases per family); the full suites (`synth_matrix`, `twin_loop`)
 //!   need `--features suites` and run under `cargo xtask eval`.
@@ -11,3 +13,4 @@
 //!   of a fixed set of logs (`behaviour.sh`), and the speed against numpy (`numpy_ratio.sh`).
 
 pub mod judge;
+pub mod strict;

@@ -91,6 +91,12 @@ pub struct Settings {
     /// already in it removes: a first effect whose true shape is not the catalog's leaves
     /// a residual of 0.5–3 % that other families fit too (a refinement, reported as such).
     pub min_family_gain: f64,
+    /// Step trials: a transport delay is a family only when it is longer than this. The
+    /// base's second order (Table 5.2) has no dead time, and every converter has one of a
+    /// few milliseconds plus the fill of its muscle, each converter its own: a delay that
+    /// short is the converters' own lag, which the base's one second order for all four
+    /// does not hold, not a missing effect.
+    pub converter_lag_s: f64,
 }
 
 impl Default for Settings {
@@ -111,6 +117,7 @@ impl Default for Settings {
             adapt_cutoff: true,
             mass_floor_share: 0.35,
             min_family_gain: 0.03,
+            converter_lag_s: 0.01,
         }
     }
 }
@@ -452,7 +459,7 @@ impl<'a> Loop<'a> {
         // its training part prefers by the information criterion
         let (base_variants, n_eff) = if experiment == Experiment::Dynamic {
             // the stiffness forms on both cores, kept in their order
-            let shared = SharedColumns::of(&p);
+            let shared = SharedColumns::of(&p, model);
             let v: Vec<BaseVariant> = Stiffness::ALL
                 .par_iter()
                 .map(|&stiffness| {

@@ -1,0 +1,72 @@
+//! The model loop on a few logs of the physics generator (pam-physgen: rigid-body arm,
+//! gas-volume muscles behind their regulators, literature friction and hysteresis, a load
+//! cell with coloured noise and a tare in the sensor frame), judged strictly: the right
+//! verdict, the right first family and no family in the final model that is not in the log.
+//! A regression floor; the full runs are `cargo xtask eval --only physgen` and
+//! `--only crossgen`.
+
+use pam_eval::strict::{self, Tally};
+use pam_ident::Trial;
+use pam_model::RobotModel;
+use pam_model_loop::diagnose::{diagnose, Settings};
+use pam_model_loop::effects::Experiment;
+use pam_physgen::{generate, CaseSpec, Effect};
+
+/// Short logs keep the test within a few seconds.
+const DURATION_S: f64 = 30.0;
+
+fn judged(spec: &CaseSpec) -> (String, strict::FinalModel) {
+    let g = generate(spec, Some(DURATION_S)).expect("generating");
+    let exp = match spec.experiment {
+        pam_physgen::Experiment::Dynamic => Experiment::Dynamic,
+        pam_physgen::Experiment::Step => Experiment::Step,
+    };
+    let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
+    let trial = Trial::from_log(&log).expect("a trial");
+    let (d, _) = diagnose(&trial, &RobotModel::thesis(), exp, Settings::default()).expect("diagnosing");
+    let v = serde_json::to_value(&d).expect("json");
+    (g.truth.family, strict::read(&v))
+}
+
+#[test]
+fn physgen_controls_and_clear_effects_are_judged_right() {
+    let specs = [
+        CaseSpec::control(0, 801),
+        CaseSpec::control(1, 802),
+        CaseSpec::control(2, 803),
+        CaseSpec {
+            experiment: pam_physgen::Experiment::Dynamic,
+            effect: Effect::HandleLugre,
+            seed: 804,
+            severity: 0.9,
+        },
+        CaseSpec {
+            experiment: pam_physgen::Experiment::Step,
+            effect: Effect::LongTube,
+            seed: 805,
+            severity: 0.8,
+        },
+    ];
+    let mut t = Tally::default();
+    let mut lines = Vec::new();
+    for s in &specs {
+        let (family, says) = judged(s);
+        let j = t.add(&family, &says);
+        lines.push(format!(
+            "{:?} {} {}: truth {family} -> {} {:?} final {:?}: {j:?}",
+            s.experiment,
+            s.effect.name(),
+            s.seed,
+            says.verdict,
+            says.first,
+            says.families
+        ));
+    }
+    let report = lines.join("\n");
+    eprintln!("{report}");
+    assert!(t.right >= FLOOR_RIGHT, "{} of {} strictly right:\n{report}", t.right, t.cases);
+    assert!(t.false_alarms <= CEILING_FALSE_ALARMS, "{report}");
+}
+
+const FLOOR_RIGHT: usize = 3;
+const CEILING_FALSE_ALARMS: usize = 1;
