@@ -239,7 +239,7 @@ the final model that is not in the log; a false alarm is a control whose verdict
 family after the first enters the final model only if it removes that share of the base's error \
 beyond another shape of a family already in it) and the step delay's floor `converter_lag_s` (a \
 step delay shorter than it is the converters' own lag), over the same logs of pam-physgen, pam-synth and the twin (`pamctl simulate \
---with SPEC`'s effects, two magnitudes, Table 4.1's points and step poses, 1 and 10 ms), judged \
+--with SPEC`'s effects, two magnitudes, Table 4.1's points at 1 and 10 ms, step poses within ±10° at 10 ms), judged \
 strictly. The second table picks the point best on one generator (most logs strictly right, then \
 fewest false alarms) and scores it on each of the others.",
         kind: Kind::Tables,

@@ -3,7 +3,8 @@
 //! `min_family_gain` calibrated on one generator and validated on the others.
 //!
 //! `cargo run -p pam-eval --release --example crossgen -- [--generators physgen,synth,twin]
-//!  [--logs N] [--seed0 S] [--gains 0.01,0.03,0.08] [--lags 0,0.01,0.02] [--jobs 2]`
+//!  [--logs N] [--seed0 S] [--gains 0.01,0.03,0.08] [--lags 0,0.01,0.02] [--jobs 2]
+//!  [--experiment dynamic|step]`
 //!
 //! Each generator's N logs (about a quarter controls, carrying the generator's sensor
 //! behaviour) are diagnosed at every point of the grid (the refinement gate
@@ -16,7 +17,7 @@
 //!   Maxwell-slip, Bouc–Wen, a load cell's 1/f and AR noise, a tare in the sensor frame);
 //! - synth: pam-synth's balanced plan;
 //! - twin: the digital twin's effects (as `pamctl simulate --with SPEC` draws them) at the
-//!   five Table 4.1 points and the nine step poses, 1 ms and 10 ms.
+//!   five Table 4.1 points (1 and 10 ms) and at step poses within ±10° (10 ms).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -40,18 +41,36 @@ struct Case {
     log: Result<Log, String>,
 }
 
-fn physgen_case(k: usize, seed0: u64, n: usize) -> Case {
-    use pam_physgen::{generate, CaseSpec};
+fn physgen_case(k: usize, seed0: u64, n: usize, only: Option<Experiment>) -> Case {
+    use pam_physgen::{generate, CaseSpec, Effect};
     let seed = seed0 + k as u64;
     let controls = n / 4;
     // the controls spread through the plan, as `pam-physgen --cases N` spreads them
     let control = controls > 0 && (k * controls) / n != ((k + 1) * controls) / n;
     let before = (k * controls) / n;
+    // the plan's controls alternate dynamic and step, its effects run through the dynamic
+    // ones then the step ones: one experiment alone keeps its own in turn
+    let (per, skip) = (
+        Effect::DYNAMIC.len() + Effect::STEP.len(),
+        Effect::DYNAMIC.len(),
+    );
+    let (control_k, effect_k) = match only {
+        None => (before, k - before),
+        Some(Experiment::Dynamic) => (2 * before, {
+            let i = k - before;
+            (i / skip) * per + i % skip
+        }),
+        Some(Experiment::Step) => (2 * before + 1, {
+            let i = k - before;
+            let m = per - skip;
+            (i / m) * per + skip + i % m
+        }),
+    };
     let spec = if control {
-        CaseSpec::control(before, seed)
+        CaseSpec::control(control_k, seed)
     } else {
         let mut draw = ChaCha8Rng::seed_from_u64(seed0 ^ (k as u64).wrapping_mul(0x9e37));
-        CaseSpec::effect_case(k - before, seed, &mut draw)
+        CaseSpec::effect_case(effect_k, seed, &mut draw)
     };
     let experiment = match spec.experiment {
         pam_physgen::Experiment::Dynamic => Experiment::Dynamic,
@@ -127,15 +146,16 @@ const TWIN_STEP: &[&str] = &[
     "pressure_saturation:max_bar=3.5,knee_bar=2.8",
 ];
 
-fn twin_case(k: usize, seed0: u64) -> Case {
-    use pam_twin::experiments::{
-        dynamic_trial, force_step_test, ExperimentConfig, StiffnessLevel,
-    };
+fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
+    use pam_twin::experiments::{dynamic_trial, force_step_test, ExperimentConfig, StiffnessLevel};
     use pam_twin::{EffectSet, TwinConfig};
     let seed = seed0 + k as u64;
     let mut r = ChaCha8Rng::seed_from_u64(seed);
     // a control every fourth log, the effects of each trial in turn between them
-    let dynamic = k % 2 == 0;
+    let dynamic = match only {
+        Some(e) => e == Experiment::Dynamic,
+        None => k.is_multiple_of(2),
+    };
     let list = if dynamic { TWIN_DYNAMIC } else { TWIN_STEP };
     let spec = if k % 8 < 2 {
         ""
@@ -153,7 +173,12 @@ fn twin_case(k: usize, seed0: u64) -> Case {
     };
     let mut tw = TwinConfig::thesis();
     tw.seed = seed;
-    let period_s = if r.random::<bool>() { 0.001 } else { 0.01 };
+    // a step test is 24 steps at one pose: at 10 ms (the thesis's rig logs at 30–50 ms)
+    let period_s = if dynamic && r.random::<bool>() {
+        0.001
+    } else {
+        0.01
+    };
     if !spec.is_empty() {
         match EffectSet::parse_list(&[spec]) {
             Ok(e) => tw.effects = e,
@@ -182,8 +207,11 @@ fn twin_case(k: usize, seed0: u64) -> Case {
             format!("point {point}"),
         )
     } else {
-        let pose = [r.random_range(-10.0..10.0f64), r.random_range(-10.0..10.0f64)]
-            .map(|x| (x * 10.0).round() / 10.0);
+        let pose = [
+            r.random_range(-10.0..10.0f64),
+            r.random_range(-10.0..10.0f64),
+        ]
+        .map(|x| (x * 10.0).round() / 10.0);
         (
             Experiment::Step,
             force_step_test(&cfg, pose),
@@ -202,12 +230,16 @@ fn twin_case(k: usize, seed0: u64) -> Case {
     }
 }
 
-fn cases(generator: &str, n: usize, seed0: u64, k: usize) -> Case {
+fn cases(generator: &str, n: usize, seed0: u64, k: usize, only: Option<Experiment>) -> Case {
     match generator {
-        "physgen" => physgen_case(k, seed0, n),
-        "twin" => twin_case(k, seed0),
+        "physgen" => physgen_case(k, seed0, n, only),
+        "twin" => twin_case(k, seed0, only),
         _ => {
-            let plan = pam_synth::balanced::plan(n, seed0, None);
+            let only = only.map(|e| match e {
+                Experiment::Dynamic => pam_synth::Experiment::Dynamic,
+                Experiment::Step => pam_synth::Experiment::Step,
+            });
+            let plan = pam_synth::balanced::plan(n, seed0, only);
             synth_case(&plan[k])
         }
     }
@@ -282,7 +314,14 @@ struct Judged {
     says: Vec<FinalModel>,
 }
 
-fn run(generator: &str, n: usize, seed0: u64, grid: &Grid, jobs: usize) -> Vec<Judged> {
+fn run(
+    generator: &str,
+    n: usize,
+    seed0: u64,
+    grid: &Grid,
+    jobs: usize,
+    only: Option<Experiment>,
+) -> Vec<Judged> {
     let next = AtomicUsize::new(0);
     let points = grid.points().len();
     let show = grid.default_index();
@@ -295,7 +334,7 @@ fn run(generator: &str, n: usize, seed0: u64, grid: &Grid, jobs: usize) -> Vec<J
                     break;
                 }
                 let t = Instant::now();
-                let case = cases(generator, n, seed0, k);
+                let case = cases(generator, n, seed0, k, only);
                 let says = final_models(&case, &grid.gains, &grid.lags).unwrap_or_else(|e| {
                     vec![
                         FinalModel {
@@ -349,7 +388,8 @@ impl Grid {
         self.points()
             .iter()
             .position(|p| {
-                (p.gain - d.min_family_gain).abs() < 1e-12 && (p.lag_s - d.converter_lag_s).abs() < 1e-12
+                (p.gain - d.min_family_gain).abs() < 1e-12
+                    && (p.lag_s - d.converter_lag_s).abs() < 1e-12
             })
             .unwrap_or(self.points().len() / 2)
     }
@@ -397,8 +437,19 @@ fn main() {
         .map(str::to_string)
         .collect();
     let n: usize = get("--logs").and_then(|s| s.parse().ok()).unwrap_or(40);
-    let seed0: u64 = get("--seed0").and_then(|s| s.parse().ok()).unwrap_or(900_000);
+    let seed0: u64 = get("--seed0")
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(900_000);
     let jobs: usize = get("--jobs").and_then(|s| s.parse().ok()).unwrap_or(2);
+    let only = match get("--experiment").as_deref() {
+        None => None,
+        Some("dynamic") => Some(Experiment::Dynamic),
+        Some("step") => Some(Experiment::Step),
+        Some(other) => {
+            eprintln!("--experiment dynamic|step, not `{other}`");
+            std::process::exit(2);
+        }
+    };
     let d = Settings::default();
     let grid = Grid {
         gains: list(get("--gains").unwrap_or(d.min_family_gain.to_string())),
@@ -410,13 +461,13 @@ fn main() {
             .iter()
             .any(|g| !["physgen", "synth", "twin"].contains(&g.as_str()))
     {
-        eprintln!("usage: crossgen [--generators physgen,synth,twin] [--logs N] [--seed0 S] [--gains G,G] [--lags S,S] [--jobs J]");
+        eprintln!("usage: crossgen [--generators physgen,synth,twin] [--logs N] [--seed0 S] [--gains G,G] [--lags S,S] [--jobs J] [--experiment dynamic|step]");
         std::process::exit(2);
     }
     let wall = Instant::now();
     let runs: Vec<(String, Vec<Judged>)> = generators
         .iter()
-        .map(|g| (g.clone(), run(g, n, seed0, &grid, jobs)))
+        .map(|g| (g.clone(), run(g, n, seed0, &grid, jobs, only)))
         .collect();
     let points = grid.points();
     let def = grid.default_index();

@@ -186,7 +186,11 @@ mod tests {
         let alone = read(&diagnosis("effect", "friction", &["a_shape"]));
         assert_eq!(alone.families, ["friction"]);
         assert_eq!(judge("friction", &alone), Strict::Right);
-        let stacked = read(&diagnosis("effect", "friction", &["b_shape", "maxwell_slip"]));
+        let stacked = read(&diagnosis(
+            "effect",
+            "friction",
+            &["b_shape", "maxwell_slip"],
+        ));
         assert_eq!(stacked.families, ["friction", "hysteresis"]);
         assert_eq!(judge("friction", &stacked), Strict::Stacked);
         assert_eq!(judge("hysteresis", &stacked), Strict::Wrong);

@@ -15,7 +15,8 @@ use pam_physgen::{generate, CaseSpec, Effect};
 /// Short logs keep the test within a few seconds.
 const DURATION_S: f64 = 30.0;
 
-fn judged(spec: &CaseSpec) -> (String, strict::FinalModel) {
+/// The truth's family, the final model, and what the loop found unexplained (for the report).
+fn judged(spec: &CaseSpec) -> (String, strict::FinalModel, String) {
     let g = generate(spec, Some(DURATION_S)).expect("generating");
     let exp = match spec.experiment {
         pam_physgen::Experiment::Dynamic => Experiment::Dynamic,
@@ -23,37 +24,43 @@ fn judged(spec: &CaseSpec) -> (String, strict::FinalModel) {
     };
     let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
     let trial = Trial::from_log(&log).expect("a trial");
-    let (d, _) = diagnose(&trial, &RobotModel::thesis(), exp, Settings::default()).expect("diagnosing");
+    let (d, _) =
+        diagnose(&trial, &RobotModel::thesis(), exp, Settings::default()).expect("diagnosing");
     let v = serde_json::to_value(&d).expect("json");
-    (g.truth.family, strict::read(&v))
+    let unexplained = v["unexplained"]
+        .as_array()
+        .map(|u| {
+            u.iter()
+                .filter_map(|x| x["detail"].as_str())
+                .collect::<Vec<_>>()
+                .join("; ")
+        })
+        .unwrap_or_default();
+    (g.truth.family, strict::read(&v), unexplained)
 }
 
 #[test]
 fn physgen_controls_and_clear_effects_are_judged_right() {
+    // dynamic logs only: a step log is slow to integrate in a debug build
+    let dynamic = |effect, seed, severity| CaseSpec {
+        experiment: pam_physgen::Experiment::Dynamic,
+        effect,
+        seed,
+        severity,
+    };
     let specs = [
         CaseSpec::control(0, 801),
-        CaseSpec::control(1, 802),
         CaseSpec::control(2, 803),
-        CaseSpec {
-            experiment: pam_physgen::Experiment::Dynamic,
-            effect: Effect::HandleLugre,
-            seed: 804,
-            severity: 0.9,
-        },
-        CaseSpec {
-            experiment: pam_physgen::Experiment::Step,
-            effect: Effect::LongTube,
-            seed: 805,
-            severity: 0.8,
-        },
+        dynamic(Effect::HandleLugre, 804, 0.9),
+        dynamic(Effect::AmplifierLag, 805, 0.8),
     ];
     let mut t = Tally::default();
     let mut lines = Vec::new();
     for s in &specs {
-        let (family, says) = judged(s);
+        let (family, says, unexplained) = judged(s);
         let j = t.add(&family, &says);
         lines.push(format!(
-            "{:?} {} {}: truth {family} -> {} {:?} final {:?}: {j:?}",
+            "{:?} {} {}: truth {family} -> {} {:?} final {:?}: {j:?} {unexplained}",
             s.experiment,
             s.effect.name(),
             s.seed,
@@ -64,7 +71,12 @@ fn physgen_controls_and_clear_effects_are_judged_right() {
     }
     let report = lines.join("\n");
     eprintln!("{report}");
-    assert!(t.right >= FLOOR_RIGHT, "{} of {} strictly right:\n{report}", t.right, t.cases);
+    assert!(
+        t.right >= FLOOR_RIGHT,
+        "{} of {} strictly right:\n{report}",
+        t.right,
+        t.cases
+    );
     assert!(t.false_alarms <= CEILING_FALSE_ALARMS, "{report}");
 }
 
