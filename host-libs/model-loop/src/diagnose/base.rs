@@ -87,48 +87,16 @@ pub fn prepare_with_best_cutoff(
 /// 4.29's mass, damping and Cartesian stiffness, and the offsets.
 pub(super) struct SharedColumns {
     pub(super) msd: Vec<Column>,
-    /// The load cell's tare in its own frame, then a constant force per axis: the offsets
-    /// stay the last two columns of a base (an effect with its own constant replaces them).
-    pub(super) offsets: Vec<Column>,
+    pub(super) offsets: [Column; 2],
 }
 
 impl SharedColumns {
-    pub(super) fn of(p: &Prepared, model: &RobotModel<f64>) -> Self {
-        let mut offsets = tare_columns(p, model).to_vec();
-        offsets.extend(offset_columns(p.len()));
+    pub(super) fn of(p: &Prepared) -> Self {
         SharedColumns {
             msd: msd::msd_columns(p),
-            offsets,
+            offsets: offset_columns(p.len()),
         }
     }
-}
-
-/// The load cell's tare, fixed in the sensor's frame: the cell turns with the handle
-/// (by α₁ + α₂), so a tare error is a constant force in the cell's frame and a force that
-/// turns with the pose in the user's. Every rig's tare is known only to its drift; as a
-/// constant in the user frame alone, its turning part is a force proportional to the
-/// handle's rotation that no stiffness form holds (it is not symmetric) and that a drift or
-/// a pose dependence would then take up. Part of the base, like the offsets: a sensor's
-/// nuisance, not an effect.
-pub(super) fn tare_columns(p: &Prepared, model: &RobotModel<f64>) -> [Column; 2] {
-    let n = p.len();
-    let (mut ex, mut ey) = ([vec![0.0; n], vec![0.0; n]], [vec![0.0; n], vec![0.0; n]]);
-    for i in 0..n {
-        let a = [p.alpha_smooth_rad[0][i], p.alpha_smooth_rad[1][i]];
-        let ux = model.kinematics.sensor_to_user(a, [1.0, 0.0]);
-        let uy = model.kinematics.sensor_to_user(a, [0.0, 1.0]);
-        for axis in 0..2 {
-            // in −f, as the offsets
-            ex[axis][i] = -ux[axis];
-            ey[axis][i] = -uy[axis];
-        }
-    }
-    let [ex0, ex1] = ex;
-    let [ey0, ey1] = ey;
-    [
-        Column::both("tare_n_sensor_x", ex0, ex1),
-        Column::both("tare_n_sensor_y", ey0, ey1),
-    ]
 }
 
 /// A constant force per axis (the parameter is the offset of the measured f; the columns

@@ -459,7 +459,7 @@ impl<'a> Loop<'a> {
         // its training part prefers by the information criterion
         let (base_variants, n_eff) = if experiment == Experiment::Dynamic {
             // the stiffness forms on both cores, kept in their order
-            let shared = SharedColumns::of(&p, model);
+            let shared = SharedColumns::of(&p);
             let v: Vec<BaseVariant> = Stiffness::ALL
                 .par_iter()
                 .map(|&stiffness| {
