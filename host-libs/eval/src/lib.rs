@@ -3,6 +3,8 @@
 //! - [`judge`]: scores a diagnosis (its JSON) against the truth a generator hid in the log,
 //!   and draws the confusion matrix of many cases.
 //! - [`pairs`]: pairs of logs at two stiffness levels, friction or hysteresis, decided.
+//! - [`strict`]: the final model judged whole (right verdict, right first family, no family
+//!   in it that is not in the log), for every generator alike.
 //! - `tests/`: the accuracy suites. `cargo test -p pam-eval` runs the fast regression floors
 //!   (a few representative cases per family); the full suites (`synth_matrix`, `twin_loop`)
 //!   need `--features suites` and run under `cargo xtask eval`.
@@ -13,3 +15,4 @@
 
 pub mod judge;
 pub mod pairs;
+pub mod strict;

@@ -336,6 +336,13 @@ impl<'l, 'a> Judge<'l, 'a> {
                 && test.fold_mean > 0.0
                 && size >= settings.min_effect_size
         };
+        // a step delay within the converters' own lag is not told from it
+        let params = f.params.get(e.id()).cloned().unwrap_or_default();
+        let converter_lag = (accepted && !dynamic && e.family() == Some(Family::Delay))
+            .then(|| params.get("delay_s").copied())
+            .flatten()
+            .filter(|d| *d < settings.converter_lag_s);
+        let accepted = accepted && converter_lag.is_none();
         // a slow change within the encoders' rounding is not told from it
         let rounding = if accepted {
             self.within_rounding(e, &f)
@@ -343,7 +350,6 @@ impl<'l, 'a> Judge<'l, 'a> {
             None
         };
         let accepted = accepted && rounding.is_none();
-        let params = f.params.get(e.id()).cloned().unwrap_or_default();
         let mut evidence = format!(
             "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the {} error (fold gains {:.1} ± {:.1} %, t = {:.1} against {:.1}), changing the prediction by {:.2} % of the signal ({} parameter{})",
             e.signature(),
@@ -358,6 +364,13 @@ impl<'l, 'a> Judge<'l, 'a> {
             f.added_params,
             if f.added_params == 1 { "" } else { "s" },
         );
+        if let Some(d) = converter_lag {
+            evidence.push_str(&format!(
+                "; a delay of {:.1} ms lies within the converters' own lag (up to {:.0} ms: a dead time and the muscle's fill, each converter its own, which the base's one second order lacks): the log cannot tell it from them",
+                1000.0 * d,
+                1000.0 * settings.converter_lag_s
+            ));
+        }
         if let Some((change, bound)) = rounding {
             evidence.push_str(&format!(
                 "; a slow change of {change:.3} N RMS lies within what the encoders' rounding can put in the force's level (up to {bound:.3} N RMS in {draws} draws of it: it is frozen while a count is held): the log cannot tell it from their rounding",

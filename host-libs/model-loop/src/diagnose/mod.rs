@@ -93,6 +93,12 @@ pub struct Settings {
     /// already in it removes: a first effect whose true shape is not the catalog's leaves
     /// a residual of 0.5–3 % that other families fit too (a refinement, reported as such).
     pub min_family_gain: f64,
+    /// Step trials: a transport delay is a family only when it is longer than this. The
+    /// base's second order (Table 5.2) has no dead time, and every converter has one of a
+    /// few milliseconds plus the fill of its muscle, each converter its own: a delay that
+    /// short is the converters' own lag, which the base's one second order for all four
+    /// does not hold, not a missing effect.
+    pub converter_lag_s: f64,
 }
 
 impl Default for Settings {
@@ -113,6 +119,7 @@ impl Default for Settings {
             adapt_cutoff: true,
             mass_floor_share: 0.35,
             min_family_gain: 0.03,
+            converter_lag_s: 0.01,
         }
     }
 }

@@ -1,0 +1,518 @@
+//! The model loop judged strictly (right verdict, right first family, no family in the
+//! final model that is not in the log) on the three generators, and the refinement gate
+//! `min_family_gain` calibrated on one generator and validated on the others.
+//!
+//! `cargo run -p pam-eval --release --example crossgen -- [--generators physgen,synth,twin]
+//!  [--logs N] [--seed0 S] [--gains 0.01,0.03,0.08] [--lags 0,0.01,0.02] [--jobs 2]
+//!  [--experiment dynamic|step]`
+//!
+//! Each generator's N logs (about a quarter controls, carrying the generator's sensor
+//! behaviour) are diagnosed at every point of the grid (the refinement gate
+//! `min_family_gain` × the step delay's floor `converter_lag_s`; the loop's defaults when
+//! not given); the tables show, per generator and point, the strict accuracy and the false
+//! alarms, then the cross-generator table: the point that is best on X (most logs strictly
+//! right, then fewest false alarms) scored on Y.
+//!
+//! - physgen: pam-physgen, the rig's physics (rigid-body arm, gas-volume muscles, LuGre,
+//!   Maxwell-slip, Bouc–Wen, a load cell's 1/f and AR noise, a tare in the sensor frame);
+//! - synth: pam-synth's balanced plan;
+//! - twin: the digital twin's effects (as `pamctl simulate --with SPEC` draws them) at the
+//!   five Table 4.1 points (1 and 10 ms) and at step poses within ±10° (10 ms).
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use pam_effect_id::EffectId;
+use pam_eval::strict::{self, FinalModel, Strict, Tally};
+use pam_ident::Trial;
+use pam_log::Log;
+use pam_model::RobotModel;
+use pam_model_loop::diagnose::{diagnose, Settings};
+use pam_model_loop::effects::Experiment;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// One log to diagnose: its generator's label, the trial, the truth's family.
+struct Case {
+    label: String,
+    family: String,
+    experiment: Experiment,
+    log: Result<Log, String>,
+}
+
+fn physgen_case(k: usize, seed0: u64, n: usize, only: Option<Experiment>) -> Case {
+    use pam_physgen::{generate, CaseSpec, Effect};
+    let seed = seed0 + k as u64;
+    let controls = n / 4;
+    // the controls spread through the plan, as `pam-physgen --cases N` spreads them
+    let control = controls > 0 && (k * controls) / n != ((k + 1) * controls) / n;
+    let before = (k * controls) / n;
+    // the plan's controls alternate dynamic and step, its effects run through the dynamic
+    // ones then the step ones: one experiment alone keeps its own in turn
+    let (per, skip) = (
+        Effect::DYNAMIC.len() + Effect::STEP.len(),
+        Effect::DYNAMIC.len(),
+    );
+    let (control_k, effect_k) = match only {
+        None => (before, k - before),
+        Some(Experiment::Dynamic) => (2 * before, {
+            let i = k - before;
+            (i / skip) * per + i % skip
+        }),
+        Some(Experiment::Step) => (2 * before + 1, {
+            let i = k - before;
+            let m = per - skip;
+            (i / m) * per + skip + i % m
+        }),
+    };
+    let spec = if control {
+        CaseSpec::control(control_k, seed)
+    } else {
+        let mut draw = ChaCha8Rng::seed_from_u64(seed0 ^ (k as u64).wrapping_mul(0x9e37));
+        CaseSpec::effect_case(effect_k, seed, &mut draw)
+    };
+    let experiment = match spec.experiment {
+        pam_physgen::Experiment::Dynamic => Experiment::Dynamic,
+        pam_physgen::Experiment::Step => Experiment::Step,
+    };
+    match generate(&spec, None) {
+        Ok(g) => Case {
+            label: format!(
+                "physgen {seed} {} {}",
+                g.truth.experiment, g.truth.physical_effect
+            ),
+            family: g.truth.family.clone(),
+            experiment,
+            log: pam_log::read_str(&g.log_text, None).map_err(|e| e.to_string()),
+        },
+        Err(e) => Case {
+            label: format!("physgen {seed}"),
+            family: spec.effect.family().into(),
+            experiment,
+            log: Err(e.to_string()),
+        },
+    }
+}
+
+fn synth_case(spec: &pam_synth::CaseSpec) -> Case {
+    let experiment = match spec.experiment {
+        pam_synth::Experiment::Dynamic => Experiment::Dynamic,
+        pam_synth::Experiment::Step => Experiment::Step,
+    };
+    match pam_synth::generate(spec) {
+        Ok(g) => Case {
+            label: format!(
+                "synth {} {} {}",
+                spec.seed,
+                g.truth.experiment.name(),
+                g.truth.shape.name()
+            ),
+            family: g.truth.family.name().to_string(),
+            experiment,
+            log: pam_log::read_str(&g.log_text, None).map_err(|e| e.to_string()),
+        },
+        Err(e) => Case {
+            label: format!("synth {}", spec.seed),
+            family: spec.family.name().to_string(),
+            experiment,
+            log: Err(e.to_string()),
+        },
+    }
+}
+
+/// The twin's effects as `pamctl simulate --with` takes them, two magnitudes each.
+const TWIN_DYNAMIC: &[&str] = &[
+    "",
+    "carrier_ball_friction:coulomb_n=1",
+    "carrier_ball_friction:coulomb_n=3",
+    "velocity_squared:coeff_n_s2_per_m2=150",
+    "velocity_squared:coeff_n_s2_per_m2=400",
+    "muscle_hysteresis",
+    "muscle_hysteresis:fraction=0.08",
+    "pose_dependence:gain_per_rad_1=0.6,gain_per_rad_2=-0.4",
+    "cable_slip",
+    "cable_slip:backlash_rad=0.01",
+    "loadcell_drift",
+    "loadcell_drift:offset_x_n=-3,drift_x_n_per_s=0.03",
+];
+const TWIN_STEP: &[&str] = &[
+    "",
+    "transport_delay",
+    "transport_delay:delay_s=0.02",
+    "asymmetric_ip_rates",
+    "asymmetric_ip_rates:inflation_s=4,deflation_s=1",
+    "pressure_saturation",
+    "pressure_saturation:max_bar=3.5,knee_bar=2.8",
+];
+
+fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
+    use pam_twin::experiments::{dynamic_trial, force_step_test, ExperimentConfig, StiffnessLevel};
+    use pam_twin::{EffectSet, TwinConfig};
+    let seed = seed0 + k as u64;
+    let mut r = ChaCha8Rng::seed_from_u64(seed);
+    // a control every fourth log, the effects of each trial in turn between them
+    let dynamic = match only {
+        Some(e) => e == Experiment::Dynamic,
+        None => k.is_multiple_of(2),
+    };
+    let list = if dynamic { TWIN_DYNAMIC } else { TWIN_STEP };
+    let spec = if k % 8 < 2 {
+        ""
+    } else {
+        list[1 + (k / 2) % (list.len() - 1)]
+    };
+    let family = if spec.is_empty() {
+        "none".to_string()
+    } else {
+        let id = spec.split(':').next().unwrap_or(spec);
+        match id.parse::<EffectId>().ok().map(EffectId::family) {
+            Some(Some(f)) => f.name().to_string(),
+            _ => "unexplained".to_string(),
+        }
+    };
+    let mut tw = TwinConfig::thesis();
+    tw.seed = seed;
+    // a step test is 24 steps at one pose: at 10 ms (the thesis's rig logs at 30–50 ms)
+    let period_s = if dynamic && r.random::<bool>() {
+        0.001
+    } else {
+        0.01
+    };
+    if !spec.is_empty() {
+        match EffectSet::parse_list(&[spec]) {
+            Ok(e) => tw.effects = e,
+            Err(e) => {
+                return Case {
+                    label: format!("twin {seed} {spec}"),
+                    family,
+                    experiment: Experiment::Dynamic,
+                    log: Err(e.to_string()),
+                }
+            }
+        }
+    }
+    let mut cfg = ExperimentConfig::new(tw);
+    cfg.period_s = period_s;
+    let (experiment, log, where_) = if dynamic {
+        // the friction-heavy specs stay at point 1, where the twin's preload is in range
+        let point = if spec.starts_with("nonlinear") {
+            1
+        } else {
+            r.random_range(1..=5)
+        };
+        (
+            Experiment::Dynamic,
+            dynamic_trial(&cfg, point, StiffnessLevel::Low, 60.0),
+            format!("point {point}"),
+        )
+    } else {
+        let pose = [
+            r.random_range(-10.0..10.0f64),
+            r.random_range(-10.0..10.0f64),
+        ]
+        .map(|x| (x * 10.0).round() / 10.0);
+        (
+            Experiment::Step,
+            force_step_test(&cfg, pose),
+            format!("pose {pose:?}"),
+        )
+    };
+    Case {
+        label: format!(
+            "twin {seed} {} {} {where_} {period_s} s",
+            if dynamic { "dynamic" } else { "step" },
+            if spec.is_empty() { "control" } else { spec }
+        ),
+        family,
+        experiment,
+        log: log.map_err(|e| e.to_string()),
+    }
+}
+
+fn cases(generator: &str, n: usize, seed0: u64, k: usize, only: Option<Experiment>) -> Case {
+    match generator {
+        "physgen" => physgen_case(k, seed0, n, only),
+        "twin" => twin_case(k, seed0, only),
+        _ => {
+            let only = only.map(|e| match e {
+                Experiment::Dynamic => pam_synth::Experiment::Dynamic,
+                Experiment::Step => pam_synth::Experiment::Step,
+            });
+            let plan = pam_synth::balanced::plan(n, seed0, only);
+            synth_case(&plan[k])
+        }
+    }
+}
+
+/// The decision's two calibrated thresholds: the refinement gate and the step delay's
+/// floor (the converters' own lag).
+#[derive(Clone, Copy)]
+struct Point {
+    gain: f64,
+    lag_s: f64,
+}
+
+/// The final model at every gain of the grid, for one converter lag. The greedy sequence
+/// is deterministic: when the smallest and the largest gain give the same final model,
+/// every family after the first was let in (or left out) with a margin outside the grid, so
+/// every gain between gives it too, and only those two diagnoses are run.
+fn final_models_at(
+    trial: &Trial,
+    experiment: Experiment,
+    gains: &[f64],
+    lag_s: f64,
+) -> Result<Vec<FinalModel>, String> {
+    let model = RobotModel::<f64>::thesis();
+    let at = |g: f64| -> Result<FinalModel, String> {
+        let settings = Settings {
+            min_family_gain: g,
+            converter_lag_s: lag_s,
+            ..Settings::default()
+        };
+        let (d, _) = diagnose(trial, &model, experiment, settings).map_err(|e| e.to_string())?;
+        let v = serde_json::to_value(&d).map_err(|e| e.to_string())?;
+        Ok(strict::read(&v))
+    };
+    let lo = at(gains[0])?;
+    if gains.len() == 1 {
+        return Ok(vec![lo]);
+    }
+    let hi = at(gains[gains.len() - 1])?;
+    if lo.families == hi.families && lo.verdict == hi.verdict {
+        return Ok(vec![lo; gains.len()]);
+    }
+    let mut out = vec![lo];
+    for &g in &gains[1..gains.len() - 1] {
+        out.push(at(g)?);
+    }
+    out.push(hi);
+    Ok(out)
+}
+
+/// The final model at every point of the grid (lags outer, gains inner); the converter lag
+/// acts on step trials only, so a dynamic trial is diagnosed at the first lag alone.
+fn final_models(case: &Case, gains: &[f64], lags: &[f64]) -> Result<Vec<FinalModel>, String> {
+    let log = case.log.as_ref().map_err(Clone::clone)?;
+    let trial = Trial::from_log(log).map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    let mut first: Option<Vec<FinalModel>> = None;
+    for &lag in lags {
+        let row = match (&first, case.experiment) {
+            (Some(f), Experiment::Dynamic) => f.clone(),
+            _ => final_models_at(&trial, case.experiment, gains, lag)?,
+        };
+        first.get_or_insert_with(|| row.clone());
+        out.extend(row);
+    }
+    Ok(out)
+}
+
+struct Judged {
+    family: String,
+    /// One final model per point of the grid.
+    says: Vec<FinalModel>,
+}
+
+fn run(
+    generator: &str,
+    n: usize,
+    seed0: u64,
+    grid: &Grid,
+    jobs: usize,
+    only: Option<Experiment>,
+) -> Vec<Judged> {
+    let next = AtomicUsize::new(0);
+    let points = grid.points().len();
+    let show = grid.default_index();
+    let out: Mutex<Vec<Option<Judged>>> = Mutex::new((0..n).map(|_| None).collect());
+    std::thread::scope(|s| {
+        for _ in 0..jobs.max(1) {
+            s.spawn(|| loop {
+                let k = next.fetch_add(1, Ordering::SeqCst);
+                if k >= n {
+                    break;
+                }
+                let t = Instant::now();
+                let case = cases(generator, n, seed0, k, only);
+                let says = final_models(&case, &grid.gains, &grid.lags).unwrap_or_else(|e| {
+                    vec![
+                        FinalModel {
+                            verdict: format!("error: {e}"),
+                            ..Default::default()
+                        };
+                        points
+                    ]
+                });
+                let mid = &says[show];
+                let mark = match strict::judge(&case.family, mid) {
+                    Strict::Right => "ok ",
+                    Strict::Stacked => "stk",
+                    Strict::Wrong => "BAD",
+                };
+                eprintln!(
+                    "{mark} {:<60} truth {:<12} -> {:<11} {:<22} final [{}] {:.1} s",
+                    case.label,
+                    case.family,
+                    mid.verdict,
+                    mid.first.as_deref().unwrap_or("-"),
+                    mid.families.join(", "),
+                    t.elapsed().as_secs_f64()
+                );
+                out.lock().unwrap()[k] = Some(Judged {
+                    family: case.family,
+                    says,
+                });
+            });
+        }
+    });
+    out.into_inner().unwrap().into_iter().flatten().collect()
+}
+
+struct Grid {
+    gains: Vec<f64>,
+    lags: Vec<f64>,
+}
+
+impl Grid {
+    fn points(&self) -> Vec<Point> {
+        self.lags
+            .iter()
+            .flat_map(|&lag_s| self.gains.iter().map(move |&gain| Point { gain, lag_s }))
+            .collect()
+    }
+
+    /// The grid point of the loop's default settings (or the middle one).
+    fn default_index(&self) -> usize {
+        let d = Settings::default();
+        self.points()
+            .iter()
+            .position(|p| {
+                (p.gain - d.min_family_gain).abs() < 1e-12
+                    && (p.lag_s - d.converter_lag_s).abs() < 1e-12
+            })
+            .unwrap_or(self.points().len() / 2)
+    }
+}
+
+fn tally(judged: &[Judged], g: usize) -> Tally {
+    let mut t = Tally::default();
+    for j in judged {
+        t.add(&j.family, &j.says[g]);
+    }
+    t
+}
+
+/// The grid point best on one generator: most logs strictly right, then fewest false
+/// alarms, then the point nearest the loop's default.
+fn calibrate(judged: &[Judged], grid: &Grid) -> usize {
+    let d = grid.default_index() as f64;
+    (0..grid.points().len())
+        .max_by(|&a, &b| {
+            let (ta, tb) = (tally(judged, a), tally(judged, b));
+            ta.right
+                .cmp(&tb.right)
+                .then(tb.false_alarms.cmp(&ta.false_alarms))
+                .then(((b as f64 - d).abs()).total_cmp(&(a as f64 - d).abs()))
+        })
+        .unwrap_or(0)
+}
+
+fn list(s: String) -> Vec<f64> {
+    let mut v: Vec<f64> = s.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+    v.sort_by(f64::total_cmp);
+    v
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let get = |k: &str| {
+        args.iter()
+            .position(|a| a == k)
+            .and_then(|i| args.get(i + 1).cloned())
+    };
+    let generators: Vec<String> = get("--generators")
+        .unwrap_or("physgen,synth,twin".into())
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let n: usize = get("--logs").and_then(|s| s.parse().ok()).unwrap_or(40);
+    let seed0: u64 = get("--seed0")
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(900_000);
+    let jobs: usize = get("--jobs").and_then(|s| s.parse().ok()).unwrap_or(2);
+    let only = match get("--experiment").as_deref() {
+        None => None,
+        Some("dynamic") => Some(Experiment::Dynamic),
+        Some("step") => Some(Experiment::Step),
+        Some(other) => {
+            eprintln!("--experiment dynamic|step, not `{other}`");
+            std::process::exit(2);
+        }
+    };
+    let d = Settings::default();
+    let grid = Grid {
+        gains: list(get("--gains").unwrap_or(d.min_family_gain.to_string())),
+        lags: list(get("--lags").unwrap_or(d.converter_lag_s.to_string())),
+    };
+    if grid.gains.is_empty()
+        || grid.lags.is_empty()
+        || generators
+            .iter()
+            .any(|g| !["physgen", "synth", "twin"].contains(&g.as_str()))
+    {
+        eprintln!("usage: crossgen [--generators physgen,synth,twin] [--logs N] [--seed0 S] [--gains G,G] [--lags S,S] [--jobs J] [--experiment dynamic|step]");
+        std::process::exit(2);
+    }
+    let wall = Instant::now();
+    let runs: Vec<(String, Vec<Judged>)> = generators
+        .iter()
+        .map(|g| (g.clone(), run(g, n, seed0, &grid, jobs, only)))
+        .collect();
+    let points = grid.points();
+    let def = grid.default_index();
+    let name = |i: usize| {
+        format!(
+            "{} / {} ms{}",
+            points[i].gain,
+            1000.0 * points[i].lag_s,
+            if i == def { " (default)" } else { "" }
+        )
+    };
+    println!("| generator | min_family_gain / converter_lag | strictly right | first family right | stacked | false alarms | alarms said | strictly right per family |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (gen, judged) in &runs {
+        for i in 0..points.len() {
+            let t = tally(judged, i);
+            println!(
+                "| {gen} | {} | {} | {} | {} | {} | {} | {} |",
+                name(i),
+                Tally::ratio(t.right, t.cases),
+                Tally::ratio(t.first_right, t.cases),
+                t.stacked,
+                Tally::ratio(t.false_alarms, t.controls),
+                t.alarms_said(),
+                t.per_family_said()
+            );
+        }
+    }
+    if runs.len() > 1 && points.len() > 1 {
+        println!();
+        println!("| calibrated on | chosen | scored on | strictly right | false alarms |");
+        println!("|---|---|---|---|---|");
+        for (x, jx) in &runs {
+            let c = calibrate(jx, &grid);
+            for (y, jy) in &runs {
+                let t = tally(jy, c);
+                println!(
+                    "| {x} | {} | {y}{} | {} | {} |",
+                    name(c),
+                    if x == y { " (itself)" } else { "" },
+                    Tally::ratio(t.right, t.cases),
+                    Tally::ratio(t.false_alarms, t.controls)
+                );
+            }
+        }
+    }
+    eprintln!("wall time {:.0} s", wall.elapsed().as_secs_f64());
+}

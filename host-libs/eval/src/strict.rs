@@ -1,0 +1,207 @@
+//! The strict judgement: what the user takes home is the final model, so a diagnosis is
+//! right only with the right verdict, the right first family, and no family in the final
+//! model that is not in the log. Read through the diagnosis's JSON only, like [`crate::judge`],
+//! and on the truth's family name only, so every generator (pam-synth, the twin, pam-physgen)
+//! is scored by the same rule.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+use serde_json::Value;
+
+/// What the loop said, strictly: the verdict, the first family and the final model's
+/// families in order.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FinalModel {
+    /// `effect`, `none`, `unexplained` (or `error`).
+    pub verdict: String,
+    /// The family of `effects[0]` when the verdict is `effect`.
+    pub first: Option<String>,
+    /// The families of the effects in the last step of the sequence (the final model), in
+    /// the order they entered.
+    pub families: Vec<String>,
+}
+
+/// Reads the final model from `serde_json::to_value(&diagnosis)`.
+pub fn read(v: &Value) -> FinalModel {
+    let verdict = v["verdict"].as_str().unwrap_or("?").to_string();
+    let effects = v["effects"].as_array().cloned().unwrap_or_default();
+    let family_of_effect = |id: &str| {
+        effects.iter().find_map(|e| {
+            let same = e["effect"].as_str() == Some(id)
+                || e["other_shapes"]
+                    .as_array()
+                    .is_some_and(|o| o.iter().any(|s| s["effect"].as_str() == Some(id)));
+            same.then(|| e["family"].as_str().unwrap_or(id).to_string())
+        })
+    };
+    let families: Vec<String> = v["steps"]
+        .as_array()
+        .and_then(|s| s.last())
+        .and_then(|s| s["effects"].as_array())
+        .map(|ids| {
+            ids.iter()
+                .filter_map(Value::as_str)
+                .map(|id| family_of_effect(id).unwrap_or_else(|| id.to_string()))
+                .collect()
+        })
+        .unwrap_or_default();
+    let first = (verdict == "effect")
+        .then(|| effects.first().and_then(|e| e["family"].as_str()))
+        .flatten()
+        .map(str::to_string);
+    FinalModel {
+        verdict,
+        first,
+        families,
+    }
+}
+
+/// How one log was judged strictly.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Strict {
+    /// Right verdict, right first family, nothing else in the final model.
+    Right,
+    /// The right first family, with a family in the final model that is not in the log.
+    Stacked,
+    /// The wrong verdict or the wrong first family.
+    Wrong,
+}
+
+/// Judges the final model against the truth's family name (`none` for a control,
+/// `unexplained` for structure outside the catalog).
+pub fn judge(truth_family: &str, says: &FinalModel) -> Strict {
+    match truth_family {
+        "none" | "unexplained" => {
+            if says.verdict == truth_family {
+                Strict::Right
+            } else {
+                Strict::Wrong
+            }
+        }
+        t => {
+            if says.verdict != "effect" || says.first.as_deref() != Some(t) {
+                Strict::Wrong
+            } else if says.families.iter().any(|f| f != t) {
+                Strict::Stacked
+            } else {
+                Strict::Right
+            }
+        }
+    }
+}
+
+/// Totals of a strictly judged run.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Tally {
+    pub cases: usize,
+    pub right: usize,
+    /// Right first family (or right verdict for a control / unexplained).
+    pub first_right: usize,
+    pub stacked: usize,
+    pub controls: usize,
+    /// Controls whose verdict is not `none`.
+    pub false_alarms: usize,
+    /// What the controls' false alarms said (the verdict, or the family named first).
+    pub alarms: BTreeMap<String, usize>,
+    /// Per truth family: (strictly right, cases).
+    pub per_family: BTreeMap<String, (usize, usize)>,
+}
+
+impl Tally {
+    pub fn add(&mut self, truth_family: &str, says: &FinalModel) -> Strict {
+        let s = judge(truth_family, says);
+        self.cases += 1;
+        self.right += usize::from(s == Strict::Right);
+        self.first_right += usize::from(s != Strict::Wrong);
+        self.stacked += usize::from(s == Strict::Stacked);
+        if truth_family == "none" {
+            self.controls += 1;
+            if says.verdict != "none" {
+                self.false_alarms += 1;
+                let what = says.first.clone().unwrap_or_else(|| says.verdict.clone());
+                *self.alarms.entry(what).or_default() += 1;
+            }
+        }
+        let e = self.per_family.entry(truth_family.to_string()).or_default();
+        e.0 += usize::from(s == Strict::Right);
+        e.1 += 1;
+        s
+    }
+
+    pub fn accuracy(&self) -> f64 {
+        self.right as f64 / self.cases.max(1) as f64
+    }
+
+    pub fn false_alarm_rate(&self) -> f64 {
+        self.false_alarms as f64 / self.controls.max(1) as f64
+    }
+
+    /// `a/b = x %`.
+    pub fn ratio(a: usize, b: usize) -> String {
+        format!("{a}/{b} = {:.0} %", 100.0 * a as f64 / b.max(1) as f64)
+    }
+
+    /// What the controls' false alarms said, `drift 2, unexplained 1`.
+    pub fn alarms_said(&self) -> String {
+        if self.alarms.is_empty() {
+            return "—".into();
+        }
+        self.alarms
+            .iter()
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// Per truth family, `friction 3/8, delay 1/4`.
+    pub fn per_family_said(&self) -> String {
+        self.per_family
+            .iter()
+            .map(|(k, (r, n))| format!("{k} {r}/{n}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{judge, read, Strict, Tally};
+    use serde_json::json;
+
+    fn diagnosis(verdict: &str, first: &str, final_ids: &[&str]) -> serde_json::Value {
+        json!({
+            "verdict": verdict,
+            "effects": [
+                {"family": first, "effect": "a_shape", "other_shapes": [{"effect": "b_shape"}]},
+                {"family": "hysteresis", "effect": "maxwell_slip", "other_shapes": []},
+            ],
+            "steps": [{"effects": []}, {"effects": final_ids}],
+        })
+    }
+
+    #[test]
+    fn a_stacked_family_is_not_right() {
+        let alone = read(&diagnosis("effect", "friction", &["a_shape"]));
+        assert_eq!(alone.families, ["friction"]);
+        assert_eq!(judge("friction", &alone), Strict::Right);
+        let stacked = read(&diagnosis(
+            "effect",
+            "friction",
+            &["b_shape", "maxwell_slip"],
+        ));
+        assert_eq!(stacked.families, ["friction", "hysteresis"]);
+        assert_eq!(judge("friction", &stacked), Strict::Stacked);
+        assert_eq!(judge("hysteresis", &stacked), Strict::Wrong);
+    }
+
+    #[test]
+    fn a_control_is_right_only_when_none() {
+        let mut t = Tally::default();
+        t.add("none", &read(&diagnosis("none", "friction", &[])));
+        t.add("none", &read(&diagnosis("effect", "drift", &["a_shape"])));
+        assert_eq!((t.right, t.controls, t.false_alarms), (1, 2, 1));
+        assert_eq!(t.alarms_said(), "drift 1");
+    }
+}

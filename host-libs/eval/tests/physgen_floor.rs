@@ -1,0 +1,92 @@
+//! The model loop on a few logs of the physics generator (pam-physgen: rigid-body arm,
+//! gas-volume muscles behind their regulators, literature friction and hysteresis, a load
+//! cell with coloured noise and a tare in the sensor frame), judged strictly: the right
+//! verdict, the right first family and no family in the final model that is not in the log.
+//! A regression floor; the full runs are `cargo xtask eval --only physgen` and
+//! `--only crossgen`.
+
+use pam_eval::strict::{self, Tally};
+use pam_ident::Trial;
+use pam_model::RobotModel;
+use pam_model_loop::diagnose::{diagnose, Settings};
+use pam_model_loop::effects::Experiment;
+use pam_physgen::{generate, CaseSpec, Effect};
+
+/// Short logs keep the test within a few seconds.
+const DURATION_S: f64 = 30.0;
+
+/// The truth's family, the final model, and what the loop found unexplained (for the report).
+fn judged(spec: &CaseSpec) -> (String, strict::FinalModel, String) {
+    let g = generate(spec, Some(DURATION_S)).expect("generating");
+    let exp = match spec.experiment {
+        pam_physgen::Experiment::Dynamic => Experiment::Dynamic,
+        pam_physgen::Experiment::Step => Experiment::Step,
+    };
+    let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
+    let trial = Trial::from_log(&log).expect("a trial");
+    let (d, _) =
+        diagnose(&trial, &RobotModel::thesis(), exp, Settings::default()).expect("diagnosing");
+    let v = serde_json::to_value(&d).expect("json");
+    let unexplained = v["unexplained"]
+        .as_array()
+        .map(|u| {
+            u.iter()
+                .filter_map(|x| x["detail"].as_str())
+                .collect::<Vec<_>>()
+                .join("; ")
+        })
+        .unwrap_or_default();
+    (g.truth.family, strict::read(&v), unexplained)
+}
+
+#[test]
+fn the_physics_generators_logs_hold_the_floor() {
+    // dynamic logs only: a step log is slow to integrate in a debug build
+    let dynamic = |effect, seed, severity| CaseSpec {
+        experiment: pam_physgen::Experiment::Dynamic,
+        effect,
+        seed,
+        severity,
+    };
+    let specs = [
+        CaseSpec::control(0, 801),
+        CaseSpec::control(2, 803),
+        dynamic(Effect::HandleLugre, 804, 0.9),
+        dynamic(Effect::AmplifierLag, 805, 0.8),
+    ];
+    let mut t = Tally::default();
+    let mut lines = Vec::new();
+    for s in &specs {
+        let (family, says, unexplained) = judged(s);
+        let j = t.add(&family, &says);
+        lines.push(format!(
+            "{:?} {} {}: truth {family} -> {} {:?} final {:?}: {j:?} {unexplained}",
+            s.experiment,
+            s.effect.name(),
+            s.seed,
+            says.verdict,
+            says.first,
+            says.families
+        ));
+    }
+    let report = lines.join("\n");
+    eprintln!("{report}");
+    assert!(
+        t.right >= FLOOR_RIGHT,
+        "{} of {} strictly right:\n{report}",
+        t.right,
+        t.cases
+    );
+    assert!(
+        t.false_alarms <= CEILING_FALSE_ALARMS,
+        "{} controls raised an alarm:\n{report}",
+        t.false_alarms
+    );
+}
+
+/// Measured 1/4 strictly right (the handle's friction) and 2/2 false alarms: the load cell's
+/// 1/f noise reads as a slow wander (`unexplained`) on both controls and outweighs the
+/// amplifier's lag. The floor holds the friction; a null that knows the load cell's colour
+/// raises it.
+const FLOOR_RIGHT: usize = 1;
+const CEILING_FALSE_ALARMS: usize = 2;
