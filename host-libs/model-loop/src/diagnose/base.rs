@@ -2,7 +2,7 @@
 //! forms (Cartesian, joint space, the muscles' force law), a force offset per axis and the
 //! muscles' pneumatic compliance; and the derivative filter's cutoff that suits the data.
 
-use super::decide::effective_samples_of;
+use super::sizes::effective_samples_of;
 use crate::effects::DynCtx;
 use pam_ident::msd;
 use pam_ident::msd::MSD_POSITIVE;

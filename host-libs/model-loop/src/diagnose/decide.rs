@@ -2,48 +2,24 @@
 //! they pay; the families the data cannot tell apart.
 
 use super::cv::{held_out_blocks, FoldScores, STEP_BLOCKS};
-use super::diagnosis::{
-    BaseReport, Diagnosis, EffectReport, Refinement, ShapeScore, StepReport, Verdict,
-};
+use super::diagnosis::{BaseReport, Diagnosis, EffectReport, Refinement, ShapeScore, StepReport};
 use super::recording::loop_without_spikes;
 use super::recording::sampling_warning;
 use super::resolution::encoder_floor;
 use super::selection::fold_test;
 use super::selection::paired_test;
 use super::selection::t_critical;
-use super::unexplained::UnexplainedReport;
+use super::sizes::{change_rms_n, effect_size, effective_samples, effective_samples_of};
+use super::verdict::{lag_warning, verdict_of};
 use super::AxisPair;
 use super::Loop;
 use super::ModelFit;
 use super::Settings;
-use super::Warning;
 use crate::effects::Experiment;
 use crate::effects::ModelEffect;
 use crate::effects::{self, Family};
 use pam_ident::trial::Trial;
 use pam_model::RobotModel;
-use pam_numerics::stats::rms;
-use pam_numerics::stats::std_dev;
-use std::collections::BTreeMap;
-
-/// RMS of the change an effect makes to the held-out prediction, over the measured signal's
-/// standard deviation on the whole trial; the largest over the scored axes.
-fn effect_size(base: &ModelFit, f: &ModelFit) -> f64 {
-    f.axes
-        .iter()
-        .map(|&a| change_rms_n(base, f, a) / std_dev(&f.measured[a]).max(1e-12))
-        .fold(0.0, f64::max)
-}
-
-/// RMS of the change an effect makes to axis `a`'s held-out prediction, N.
-fn change_rms_n(base: &ModelFit, f: &ModelFit, a: usize) -> f64 {
-    let d: Vec<f64> = f
-        .held_out
-        .rows()
-        .map(|i| f.predicted[a][i] - base.predicted[a][i])
-        .collect();
-    rms(&d)
-}
 
 /// Diagnoses a trial against the standard catalog.
 pub fn diagnose(
@@ -140,7 +116,7 @@ pub fn diagnose_observed(
     let structure = super::unexplained::structure(&lp, &current_fit, &settings);
     let unexplained = structure.found;
     let verdict = verdict_of(
-        &reports,
+        reports.iter().map(|t| &t.report),
         !current.is_empty(),
         &current_fit,
         judge.e_base,
@@ -582,102 +558,9 @@ fn best_shape_per_family(mut tried: Vec<Tried>) -> Vec<Tried> {
     reports
 }
 
-/// The verdict names what is missing most: a structure no effect explains (a tone, a
-/// wander) that carries more of the residual than the accepted effects removed of the
-/// base's error outweighs them (they stay listed and accepted); a twin's few-millisecond
-/// lag accepted at 0.2 % beside a 60 Hz line that carries most of the residual is not the
-/// story of that log. (What was removed: the held-out gain of the accepted set, or the best
-/// accepted effect's own gain — the cross-validated one in a dynamic trial — where that is
-/// larger.)
-fn verdict_of(
-    reports: &[Tried],
-    some_kept: bool,
-    current_fit: &ModelFit,
-    e_base: f64,
-    unexplained: &[UnexplainedReport],
-) -> Verdict {
-    let removed = reports
-        .iter()
-        .filter(|t| t.report.accepted)
-        .map(|t| t.report.improvement)
-        .fold(
-            1.0 - current_fit.relative_mse() / e_base.max(1e-300),
-            f64::max,
-        );
-    let largest_unexplained = unexplained
-        .iter()
-        .map(|u| u.variance_share)
-        .fold(0.0, f64::max);
-    if some_kept && (unexplained.is_empty() || largest_unexplained <= removed) {
-        Verdict::Effect
-    } else if !unexplained.is_empty() {
-        Verdict::Unexplained
-    } else {
-        Verdict::None
-    }
-}
-
-/// Honest doubt where the verdict cannot show it: the base describes a force that lags the
-/// motion by the muscles' pneumatic lag (its gains negative) and a sensor-sync delay removes
-/// a little more, but not beyond the fold-to-fold spread. To first order both are the same
-/// lag, so the data cannot say which; the user should know the lag is there.
-fn lag_warning(base: &BTreeMap<String, f64>, delay: Option<&EffectReport>) -> Option<Warning> {
-    let delay = delay.filter(|d| !d.accepted && d.improvement > 0.005)?;
-    let kp = |k: &str| base.get(k).copied().unwrap_or(0.0);
-    let (kx, ky) = (kp("kp_xx"), kp("kp_yy"));
-    if !(kx < 0.0 || ky < 0.0) {
-        return None;
-    }
-    let delay_ms = 1000.0 * delay.params.get("delay_s").copied().unwrap_or(0.0);
-    Some(Warning::ForceLagsMotion {
-        kp_xx_n_per_m: kx,
-        kp_yy_n_per_m: ky,
-        delay_ms,
-        improvement: delay.improvement,
-    })
-}
-
 /// The family an effect is judged in (an effect outside the families is its own).
 fn family_key(e: &dyn ModelEffect) -> String {
     e.family()
         .map(|f| f.name().to_string())
         .unwrap_or_else(|| e.id().to_string())
-}
-
-/// n (1 − ρ)/(1 + ρ) over per-axis residuals.
-pub(crate) fn effective_samples_of(res: &[Vec<f64>]) -> f64 {
-    let mut rho = Vec::new();
-    let mut n = 0usize;
-    for r in res {
-        n += r.len();
-        let m = r.iter().sum::<f64>() / r.len().max(1) as f64;
-        let var: f64 = r.iter().map(|v| (v - m).powi(2)).sum();
-        if var > 0.0 {
-            rho.push(
-                (r.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum::<f64>() / var)
-                    .clamp(-0.99, 0.999),
-            );
-        }
-    }
-    let rho = if rho.is_empty() {
-        0.0
-    } else {
-        rho.iter().sum::<f64>() / rho.len() as f64
-    };
-    let n = n as f64;
-    (n * (1.0 - rho) / (1.0 + rho)).clamp(10.0, n.max(10.0))
-}
-
-/// Number of independent samples the training residual is worth: n (1 − ρ)/(1 + ρ) with ρ
-/// the lag-one autocorrelation, averaged over the axes.
-fn effective_samples(lp: &Loop, base: &ModelFit) -> f64 {
-    let train: Vec<Vec<f64>> = base
-        .axes
-        .iter()
-        .map(|&a| {
-            let r = base.residual(a);
-            lp.p.held_out.train_rows().map(|i| r[i]).collect()
-        })
-        .collect();
-    effective_samples_of(&train)
 }

@@ -13,14 +13,15 @@ mod dynamic;
 mod recording;
 mod resolution;
 mod selection;
+mod sizes;
 mod step_fit;
 mod unexplained;
+mod verdict;
 mod warning;
 use base::{analysis_stride, choose_pneumatic, BaseVariant, SharedColumns};
 pub use base::{joint_stiffness_columns, pneumatic_columns, prepare_with_best_cutoff, Stiffness};
 pub use compare::{compare, nrmse_pair, Bin, Comparison, Window};
 pub use cv::{FoldScores, FOLDS};
-use decide::effective_samples_of;
 pub use decide::{diagnose, diagnose_observed, diagnose_with, Progress};
 pub use diagnosis::{
     BaseReport, Diagnosis, EffectReport, Refinement, ShapeScore, StepReport, Verdict,
@@ -28,6 +29,7 @@ pub use diagnosis::{
 pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
 pub use resolution::{encoder_floor, encoder_step_rad, EncoderFloor};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
+use sizes::effective_samples_of;
 pub use unexplained::unexplained_structure;
 pub use warning::Warning;
 
