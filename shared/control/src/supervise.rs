@@ -118,10 +118,10 @@ impl Controller {
         } else {
             self.balance.reset();
         }
-        let watched = matches!(
-            self.mode,
-            Mode::Joint { .. } | Mode::Pressures { .. } | Mode::Force { .. }
-        );
+        // Not the open-loop force mode: at a blocked handle its large force steps change the
+        // model's torque by more than the bound while the load cell carries the rig's (not the
+        // model's) torque, and the identified rig's twin faults falsely at pose 3.
+        let watched = matches!(self.mode, Mode::Joint { .. } | Mode::Pressures { .. });
         if !(armed && finite && watched) {
             self.unseen_motion.reset();
         } else if unseen_motion_judged(&mut self.unseen_motion, model, &pose, torques(), period_s) {
@@ -184,9 +184,8 @@ impl Controller {
     }
 }
 
-/// The encoders in the modes whose pressures do not follow the handle (joint, pressures,
-/// open-loop force): a torque change the arm should follow, not seen by the encoder nor
-/// carried by the handle ([`crate::guard::EncoderMotion`]); `torques` is (τ_model, Jᵀ F).
+/// The encoders in the modes whose pressures are the command (joint, pressures): a torque
+/// change the arm should follow, not seen by the encoder nor carried by the handle ([`crate::guard::EncoderMotion`]); `torques` is (τ_model, Jᵀ F).
 #[inline(always)]
 fn unseen_motion_judged(
     motion: &mut EncoderMotion,
