@@ -211,8 +211,16 @@ pub fn check(what: &str, measured: f64, expected: f64, tolerance: f64) -> [Strin
         what.to_string(),
         format!("{measured:+.3}"),
         format!("{expected:+.3}"),
-        format!("±{tolerance} (margin {margin:+.3})"),
+        format!("±{} (margin {margin:+.3})", short(tolerance)),
     ]
+}
+
+/// A tolerance as it reads: at most three decimals, without trailing zeros (`0.15`, `3`,
+/// `6.482`).
+fn short(x: f64) -> String {
+    let text = format!("{x:.3}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    text.to_string()
 }
 
 fn closed_loop_step(
@@ -276,4 +284,19 @@ fn closed_loop_step(
         });
     }
     conclude(state, "closed_loop", findings, out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check;
+
+    #[test]
+    fn a_tolerance_reads_with_at_most_three_decimals() {
+        assert_eq!(
+            check("gain", 1.0, 1.0, 6.482342409500256)[3],
+            "±6.482 (margin +6.482)"
+        );
+        assert_eq!(check("tare", 0.0, 0.0, 3.0)[3], "±3 (margin +3.000)");
+        assert_eq!(check("ζ", 0.0, 0.0, 0.15)[3], "±0.15 (margin +0.150)");
+    }
 }
