@@ -36,12 +36,20 @@ pub fn test() -> i32 {
     }
 
     println!("== hardware-in-the-loop: cargo test -p {REAL_TIME_PACKAGE} (real time, in the background; its output follows the rest)");
-    let real_time = Captured::spawn(cargo_in(&root()).args(["test", "-p", REAL_TIME_PACKAGE]));
+    // --no-fail-fast: a failing test binary must not hide the tests of the others from the
+    // counts
+    let real_time = Captured::spawn(cargo_in(&root()).args([
+        "test",
+        "--no-fail-fast",
+        "-p",
+        REAL_TIME_PACKAGE,
+    ]));
     lower_own_priority();
 
     println!("== host: cargo test --workspace --exclude {REAL_TIME_PACKAGE}");
     let (host_code, host_lines) = run_streaming(cargo_in(&root()).args([
         "test",
+        "--no-fail-fast",
         "--workspace",
         "--exclude",
         REAL_TIME_PACKAGE,
