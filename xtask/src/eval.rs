@@ -444,7 +444,16 @@ fn section(s: &Section, quick: bool, stamp: &str) -> (String, bool) {
             }
             Kind::Lines(words) => {
                 body.push_str("```text\n");
-                for l in lines.iter().filter(|l| words.iter().any(|w| l.contains(w))) {
+                for (i, l) in lines.iter().enumerate() {
+                    if !words.iter().any(|w| l.contains(w)) {
+                        continue;
+                    }
+                    // criterion puts a long name on a line of its own, the figures indented
+                    // on the next: keep the name with them
+                    if l.starts_with(char::is_whitespace) && i > 0 {
+                        body.push_str(lines[i - 1].trim_end());
+                        body.push('\n');
+                    }
                     body.push_str(l.trim_end());
                     body.push('\n');
                 }
