@@ -13,10 +13,10 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use pam_control::{Mode, SafetyConfig, State};
 use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
-use pam_protocol::{Request, RequestBody, Version};
 use pam_model::checks::{precision, workload, Check, CHECKS_F32, CHECKS_F64};
 use pam_model::kinematics::Kinematics;
 use pam_model::{RobotModel, RobotParams};
+use pam_protocol::{Request, RequestBody, Version};
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
@@ -213,12 +213,14 @@ fn main() -> ! {
     }));
     dev.handle(&req(RequestBody::Home));
     dev.handle(&req(RequestBody::Arm));
-    dev.handle(&req(RequestBody::SetMode(Mode::Force {
-        force_n: [9.1, -4.0],
-        stiffness_nm_per_rad: [60.0, 27.0],
-        feed_forward: true,
-    }
-    .into())));
+    dev.handle(&req(RequestBody::SetMode(
+        Mode::Force {
+            force_n: [9.1, -4.0],
+            stiffness_nm_per_rad: [60.0, 27.0],
+            feed_forward: true,
+        }
+        .into(),
+    )));
     let mut k = 0u32;
     let step_ticks = ticks(|| {
         for _ in 0..REPS {
@@ -350,7 +352,10 @@ fn main() -> ! {
     for _ in 0..1100 {
         dev.handle(&req(RequestBody::Heartbeat));
         k += 1;
-        dev.step(wandering(k, &inputs[k as usize % inputs.len()]), StepTiming::default());
+        dev.step(
+            wandering(k, &inputs[k as usize % inputs.len()]),
+            StepTiming::default(),
+        );
     }
     let joint_ticks = ticks(|| {
         for _ in 0..REPS {
@@ -383,7 +388,10 @@ fn main() -> ! {
         || per_step_joint > STEP_BUDGET_INSTRUCTIONS
     {
         failed += 1;
-        hprintln!("FAIL bench: a control step takes more than {} instructions", STEP_BUDGET_INSTRUCTIONS);
+        hprintln!(
+            "FAIL bench: a control step takes more than {} instructions",
+            STEP_BUDGET_INSTRUCTIONS
+        );
     }
     // The slowest requests, so the firmware knows what handling one costs wherever it
     // calls it: the handshake (hashes the parameters) and a new parameter set (rebuilds the
