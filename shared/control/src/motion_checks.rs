@@ -284,30 +284,9 @@ pub fn a_stuck_encoder_faults_in_joint_mode() -> CheckResult {
         torque_nm: [0.0; 2],
         stiffness_nm_per_rad: [120.0, 40.0],
     };
-    let run = |follow: bool| -> Result<(Faults, [f32; 4]), Failure> {
-        let mut c = Controller::new(RobotModel::thesis(), SafetyConfig::default_1khz());
-        c.step(&at(from, 0));
-        holds("armed", c.arm().is_ok())?;
-        holds("mode accepted", c.set_mode(mode).is_ok())?;
-        let mut out = c.step(&at(from, 0));
-        for k in 1..6000u32 {
-            c.heartbeat();
-            // a free arm follows its reference: 0.12 rad in ≈ 1.2 s
-            let a = if follow {
-                from[0] + 0.12 * (k as f32 / 1200.0).min(1.0)
-            } else {
-                from[0]
-            };
-            out = c.step(&at([a, from[1]], k));
-            if out.state != State::Armed {
-                break;
-            }
-        }
-        Ok((out.faults, out.current_ma))
-    };
-    let (faults, _) = run(true)?;
+    let (faults, _) = stuck_or_following(mode, from, true)?;
     holds("an arm that follows is no stuck encoder", faults.is_none())?;
-    let (faults, current_ma) = run(false)?;
+    let (faults, current_ma) = stuck_or_following(mode, from, false)?;
     holds("stuck: faulted", faults.contains(Faults::STATIC_IMBALANCE))?;
     holds("vented", current_ma.iter().all(|&i| i == VENT_CURRENT_MA))
 }
