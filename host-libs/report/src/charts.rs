@@ -4,23 +4,12 @@
 use crate::bins::Grid;
 use crate::plots::{round_sig, round_to, BEFORE};
 use plotly::common::{ColorBar, ColorScale, ColorScalePalette, Marker, Mode, Title};
-use plotly::layout::{Axis, BarMode, HoverMode, Legend, Margin};
+use plotly::layout::{Axis, BarMode};
 use plotly::{Bar, Configuration, HeatMap, Layout, Plot, Scatter};
 
 /// A figure's layout: its title, a horizontal legend above the plot and room for labels.
 fn layout(title: &str, height: usize) -> Layout {
-    Layout::new()
-        .title(Title::with_text(title))
-        .height(height)
-        .margin(Margin::new().left(70).right(20).top(70).bottom(60))
-        .hover_mode(HoverMode::Closest)
-        .legend(
-            Legend::new()
-                .orientation(plotly::common::Orientation::Horizontal)
-                .y(1.0)
-                .x(0.0)
-                .y_anchor(plotly::common::Anchor::Bottom),
-        )
+    crate::plots::framed(title, height, 60)
 }
 
 fn axis(title: &str) -> Axis {

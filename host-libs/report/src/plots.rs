@@ -212,23 +212,13 @@ pub fn stack(s: Stack) -> String {
     let gap = 0.06;
     let h = (1.0 - gap * (n - 1) as f64) / n as f64;
     let mut seen = std::collections::BTreeSet::new();
-    let mut layout = Layout::new()
-        .title(Title::with_text(s.title))
-        .height(s.panel_height * n + 110)
-        .margin(Margin::new().left(70).right(20).top(70).bottom(50))
-        .hover_mode(HoverMode::Closest)
-        .legend(
-            Legend::new()
-                .orientation(plotly::common::Orientation::Horizontal)
-                .y(1.0)
-                .x(0.0)
-                .y_anchor(plotly::common::Anchor::Bottom),
-        )
-        .x_axis(axis(s.x_title, s.log_x).anchor(if n == 1 {
+    let mut layout = framed(s.title, s.panel_height * n + 110, 50).x_axis(
+        axis(s.x_title, s.log_x).anchor(if n == 1 {
             "y".to_string()
         } else {
             format!("y{n}")
-        }));
+        }),
+    );
     for (k, (y_title, traces)) in s.panels.into_iter().take(n).enumerate() {
         let top = 1.0 - k as f64 * (h + gap);
         let mut ya = axis(&y_title, s.log_y)
@@ -313,6 +303,23 @@ pub fn stack(s: Stack) -> String {
         "<div class=\"zoomable\">{}</div>",
         plot.to_inline_html(Some(s.id))
     )
+}
+
+/// The frame every figure of the report shares: its title, a horizontal legend above the
+/// plot, `bottom_px` below it for the axis' labels.
+pub(crate) fn framed(title: &str, height: usize, bottom_px: usize) -> Layout {
+    Layout::new()
+        .title(Title::with_text(title))
+        .height(height)
+        .margin(Margin::new().left(70).right(20).top(70).bottom(bottom_px))
+        .hover_mode(HoverMode::Closest)
+        .legend(
+            Legend::new()
+                .orientation(plotly::common::Orientation::Horizontal)
+                .y(1.0)
+                .x(0.0)
+                .y_anchor(plotly::common::Anchor::Bottom),
+        )
 }
 
 #[cfg(test)]
