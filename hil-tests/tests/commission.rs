@@ -48,6 +48,33 @@ fn commission(miswire: Option<&str>) -> (i32, String, String) {
     (code, all, report)
 }
 
+/// An emulator wired with `miswire` and the handle blocked in force mode, commissioned run
+/// after run with one state file, as a person resumes the procedure.
+struct Resumable {
+    target: Target,
+    state: std::path::PathBuf,
+}
+
+impl Resumable {
+    fn new(miswire: &[&str], state_name: &str) -> Self {
+        let mut sim = vec!["--handle", "blocked"];
+        sim.extend_from_slice(miswire);
+        let target = Target::acquire(&sim);
+        target.prepare(1.0);
+        let state = tmp(state_name);
+        let _ = std::fs::remove_file(&state);
+        Self { target, state }
+    }
+
+    /// `pamctl commission --state … args`: its exit code and its output.
+    fn run(&self, args: &[&str]) -> (i32, String) {
+        let mut all = vec!["commission", "--state", self.state.to_str().unwrap()];
+        all.extend_from_slice(args);
+        let (code, out, err) = pamctl(&self.target.address, &all);
+        (code, format!("{out}{err}"))
+    }
+}
+
 /// Every step's largest speed and force the output reports, checked against its bounds.
 fn assert_within_bounds(out: &str) {
     let lines: Vec<&str> = out
@@ -258,21 +285,11 @@ fn each_miswiring_is_named_with_its_fix() {
 #[test]
 fn a_fix_written_to_the_configuration_record_is_checked_again() {
     let _serial = exclusive();
-    let target = Target::acquire(&[
-        "--handle",
-        "blocked",
-        "--miswire",
-        "loadcell_gain:axis=z,scale=1.5",
-    ]);
-    target.prepare(1.0);
-    let state = tmp("commission-apply.json");
-    let _ = std::fs::remove_file(&state);
-    let run = |args: &[&str]| {
-        let mut all = vec!["commission", "--state", state.to_str().unwrap()];
-        all.extend_from_slice(args);
-        let (code, out, err) = pamctl(&target.address, &all);
-        (code, format!("{out}{err}"))
-    };
+    let rig = Resumable::new(
+        &["--miswire", "loadcell_gain:axis=z,scale=1.5"],
+        "commission-apply.json",
+    );
+    let run = |args: &[&str]| rig.run(args);
     let (code, out) = run(&["--restart", "--handle", "free"]);
     assert_eq!(code, 0, "{out}");
     let (code, out) = run(&["--handle", "blocked", "--apply"]);
@@ -297,23 +314,16 @@ fn a_fix_written_to_the_configuration_record_is_checked_again() {
 #[test]
 fn the_channel_map_and_the_zero_written_with_apply_pass_the_next_run() {
     let _serial = exclusive();
-    let target = Target::acquire(&[
-        "--handle",
-        "blocked",
-        "--miswire",
-        "swap_channels:1,3",
-        "--miswire",
-        "encoder_zero:joint=2,deg=-2",
-    ]);
-    target.prepare(1.0);
-    let state = tmp("commission-apply-map.json");
-    let _ = std::fs::remove_file(&state);
-    let run = |args: &[&str]| {
-        let mut all = vec!["commission", "--state", state.to_str().unwrap()];
-        all.extend_from_slice(args);
-        let (code, out, err) = pamctl(&target.address, &all);
-        (code, format!("{out}{err}"))
-    };
+    let rig = Resumable::new(
+        &[
+            "--miswire",
+            "swap_channels:1,3",
+            "--miswire",
+            "encoder_zero:joint=2,deg=-2",
+        ],
+        "commission-apply-map.json",
+    );
+    let run = |args: &[&str]| rig.run(args);
     let (code, out) = run(&["--restart", "--handle", "free", "--apply"]);
     assert_ne!(code, 0, "{out}");
     assert!(out.contains("FAULT channels_swapped:"), "{out}");
