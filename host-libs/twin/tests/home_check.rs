@@ -165,3 +165,27 @@ fn a_home_tens_of_degrees_off_is_refused_on_the_twins() {
     }
     const { assert!(HOME_OFFSET_MAX_RAD < 0.35) };
 }
+
+#[test]
+fn a_healthy_rig_at_rest_never_faults_its_static_balance() {
+    // the identified rig's parallel stick-slip element is anchored where the arm was placed:
+    // from a start away from the neutral pose it holds the arm short of a joint target
+    // on the other side, by up to its break-away torque over the muscles' force ratio
+    let starts = [[0.0, 0.0], [0.15, -0.2], [-0.3, 0.4], [0.3, 0.4]];
+    for rig in [Rig::Identified, Rig::IdentifiedWithEffects] {
+        for start in starts {
+            for a1 in [-18.0, -12.0, 12.0, 18.0] {
+                for a2 in [-20.0, 0.0, 20.0] {
+                    for k in [[95.0, 40.0], [200.0, 80.0]] {
+                        let mode = joint([a1, a2], k);
+                        let outcome = run(rig, start, [0.0; 2], mode, 10.0);
+                        assert!(
+                            !matches!(outcome, Outcome::Faulted(_) | Outcome::Refused),
+                            "{rig:?}, from {start:?}, {mode:?}: {outcome:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

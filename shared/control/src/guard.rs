@@ -174,8 +174,9 @@ pub const UNSEEN_MOTION_HELD_FRACTION: f32 = 0.25;
 pub const UNSEEN_MOTION_TIME_S: f32 = 1.5;
 
 /// The encoders' plausibility where the pressures do not follow the handle (joint,
-/// pressures and open-loop force modes), per joint: the muscles' torque at the measured angle (τ_model(α, P), the
-/// commanded pressures) and the torque the load cell says holds the arm (Jᵀ F), both as
+/// pressures and open-loop force modes), per joint: the torque the muscles' cables transmit
+/// at the measured angle for the commanded pressures (the model's, each force floored at zero)
+/// and the torque the load cell says holds the arm (Jᵀ F), both as
 /// they were when the angle last changed. A torque that has since changed by more than
 /// [`UNSEEN_MOTION_TORQUE_NM`] with the held torque following by less than
 /// [`UNSEEN_MOTION_HELD_FRACTION`] of it, for [`UNSEEN_MOTION_TIME_S`], the angle

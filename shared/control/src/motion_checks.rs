@@ -275,7 +275,7 @@ pub fn a_stuck_encoder_faults_in_impedance_mode() -> CheckResult {
 /// In joint mode a stuck encoder hides the arm's motion from the speed guard. A move of
 /// 0.12 rad at 120 N·m/rad changes the muscles' torque at the stuck angle by ≈ 14 N·m with
 /// nothing holding the handle: faulted within 6 s (at 0.2 rad the balance check's
-/// tolerance, 8 + 116 · 0.2 N·m, is above that change, so it alone never judges). The same
+/// tolerance, 16 + 116 · 0.2 N·m, is above that change, so it alone never judges). The same
 /// move with the angle following is no fault.
 pub fn a_stuck_encoder_faults_in_joint_mode() -> CheckResult {
     let from = [0.2, 0.0];
@@ -328,6 +328,23 @@ pub fn a_stuck_encoder_faults_in_pressures_mode() -> CheckResult {
     let (faults, _) = stuck_or_following(mode, [0.0; 2], true)?;
     holds("an arm that follows is no stuck encoder", faults.is_none())?;
     let (faults, current_ma) = stuck_or_following(mode, [0.0; 2], false)?;
+    holds("stuck: faulted", faults.contains(Faults::STATIC_IMBALANCE))?;
+    holds("vented", current_ma.iter().all(|&i| i == VENT_CURRENT_MA))
+}
+
+/// Open-loop force mode at joint 1's 0.2 rad: 20 N along x asked of a free handle turns the
+/// arm; an encoder that does not see it faults (the pressures follow the stuck angle, the
+/// load cell reads nothing), one that does is no fault. At 0.2 rad the balance check's
+/// bound (16 + 116 · 0.2 N·m) is above the ≈ 14 N·m asked: it alone never judges.
+pub fn a_stuck_encoder_faults_in_open_loop_force_mode() -> CheckResult {
+    let mode = Mode::Force {
+        force_n: [20.0, 0.0],
+        stiffness_nm_per_rad: [60.0, 27.0],
+        feed_forward: false,
+    };
+    let (faults, _) = stuck_or_following(mode, [0.2, 0.0], true)?;
+    holds("an arm that follows is no stuck encoder", faults.is_none())?;
+    let (faults, current_ma) = stuck_or_following(mode, [0.2, 0.0], false)?;
     holds("stuck: faulted", faults.contains(Faults::STATIC_IMBALANCE))?;
     holds("vented", current_ma.iter().all(|&i| i == VENT_CURRENT_MA))
 }
@@ -401,5 +418,6 @@ pam_model::register_checks!(
     a_stuck_encoder_faults_in_impedance_mode,
     a_stuck_encoder_faults_in_joint_mode,
     a_stuck_encoder_faults_in_pressures_mode,
+    a_stuck_encoder_faults_in_open_loop_force_mode,
     the_muscles_are_tensioned_without_moving_the_arm,
 );

@@ -84,6 +84,19 @@ impl<R: Real> JointPose<R> {
             * (self.muscles[1].force_n(pressure_bar[1]) - self.muscles[0].force_n(pressure_bar[0]))
     }
 
+    /// (τ, τ as the cables transmit it), from one evaluation of the forces. The cables'
+    /// floors each muscle's force at zero: eq. 3.1 gives a negative force (a push) to a
+    /// muscle stretched little at a low pressure, whose cable goes slack instead and
+    /// transmits nothing.
+    #[inline]
+    pub fn torque_and_cable_torque_nm(&self, pressure_bar: [R; 2]) -> (R, R) {
+        let f = self.forces_n(pressure_bar);
+        (
+            self.pulley_radius_m * (f[1] - f[0]),
+            self.pulley_radius_m * (f[1].max(R::ZERO) - f[0].max(R::ZERO)),
+        )
+    }
+
     /// K = −(R²/l0)(∂F1/∂ε1 + ∂F2/∂ε2) (eq. 3.6, B.7).
     #[inline]
     pub fn stiffness_nm_per_rad(&self, pressure_bar: [R; 2]) -> R {
