@@ -91,8 +91,10 @@ pub fn imbalance_at_nm(
     [torque[0] - held[0], torque[1] - held[1]]
 }
 
-/// (τ_model(α, P), Jᵀ F) per joint, N·m: the muscles' torque at the measured pose for the
-/// commanded pressures, and the torque the measured handle force holds.
+/// (τ_model(α, P), Jᵀ F) per joint, N·m: the torque the muscles' cables transmit at the
+/// measured pose for the commanded pressures (the model's, each muscle's force floored at
+/// zero: a muscle the model has push is a slack cable on the rig, and a blocked handle
+/// carries none of that push), and the torque the measured handle force holds.
 pub fn torques_at_nm(
     model: &RobotModel<f32>,
     alpha: Vec2<f32>,
@@ -100,45 +102,18 @@ pub fn torques_at_nm(
     force_user: Vec2<f32>,
     pressure_bar: [f32; 4],
 ) -> (Vec2<f32>, Vec2<f32>) {
-    let t = pose_torques_nm(model, alpha, trig, force_user, pressure_bar);
-    (t.muscles_nm, t.held_nm)
-}
-
-/// The torques of one measured pose the checks share, per joint, N·m.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PoseTorques {
-    /// τ_model(α, P) for the commanded pressures.
-    pub muscles_nm: Vec2<f32>,
-    /// The same with each muscle's force floored at zero, as the cables transmit it.
-    pub cables_nm: Vec2<f32>,
-    /// Jᵀ F, what the measured handle force holds.
-    pub held_nm: Vec2<f32>,
-}
-
-/// [`PoseTorques`] at the measured pose, from one evaluation of the muscles' forces.
-pub fn pose_torques_nm(
-    model: &RobotModel<f32>,
-    alpha: Vec2<f32>,
-    trig: &PoseTrig<f32>,
-    force_user: Vec2<f32>,
-    pressure_bar: [f32; 4],
-) -> PoseTorques {
     let joint_pressure_bar = model.joint_pressures_bar(pressure_bar);
-    let t = [0, 1].map(|j| {
+    let cables = [0, 1].map(|j| {
         model
             .pose(j, alpha[j])
-            .torque_and_cable_torque_nm(joint_pressure_bar[j])
+            .cable_torque_nm(joint_pressure_bar[j])
     });
-    let held_nm = model
+    let held = model
         .kinematics
         .jacobian_at(trig)
         .transpose()
         .mul_vec(force_user);
-    PoseTorques {
-        muscles_nm: [t[0].0, t[1].0],
-        cables_nm: [t[0].1, t[1].1],
-        held_nm,
-    }
+    (cables, held)
 }
 
 /// The model's error bound at `alpha_rad`, per joint, N·m.

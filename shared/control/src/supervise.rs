@@ -7,7 +7,7 @@ use crate::faults::Faults;
 use crate::guard::EncoderMotion;
 use crate::home_check::HomeVerdict;
 use crate::mode::{Mode, Sensors, State};
-use crate::plausibility::{pose_torques_nm, PoseTorques, STOP_BAND_RAD};
+use crate::plausibility::{torques_at_nm, STOP_BAND_RAD};
 use crate::safety::LOADCELL_AMPLIFIER_FULL_SCALE_V;
 use crate::supervisor::Controller;
 
@@ -95,9 +95,9 @@ impl Controller {
         let model = &self.model;
         let pressure_bar = self.pressure_bar;
         let mut cached = None;
-        let mut torques = || -> PoseTorques {
+        let mut torques = || {
             *cached.get_or_insert_with(|| {
-                pose_torques_nm(
+                torques_at_nm(
                     model,
                     pose.alpha_rad,
                     &pose.trig,
@@ -111,10 +111,7 @@ impl Controller {
         if armed && finite {
             if self
                 .balance
-                .update_at(model, period_s, pose.alpha_rad, pressure_bar, || {
-                    let t = torques();
-                    (t.muscles_nm, t.held_nm)
-                })
+                .update_at(model, period_s, pose.alpha_rad, pressure_bar, &mut torques)
             {
                 faults = faults.with(Faults::STATIC_IMBALANCE);
             }
@@ -136,10 +133,7 @@ impl Controller {
             self.home.restart();
         } else if self
             .home
-            .update(model, period_s, pose.alpha_rad, pressure_bar, {
-                let t = torques();
-                (t.muscles_nm, t.held_nm)
-            })
+            .update(model, period_s, pose.alpha_rad, pressure_bar, torques())
             == HomeVerdict::Refused
         {
             faults = faults.with(Faults::STATIC_IMBALANCE);
@@ -192,16 +186,15 @@ impl Controller {
 
 /// The encoders in the modes whose pressures are the command (joint, pressures, open-loop
 /// force): a torque change the arm should follow, not seen by the encoder nor carried by the
-/// handle ([`crate::guard::EncoderMotion`]). The muscles' torque is the
-/// cables': where the model has a muscle push (a large force step toward one side, or the
-/// vented muscles before the tensioning ramp), the rig's cable is slack and carries none of
-/// it, and a blocked handle would carry far less than the model's change.
+/// handle ([`crate::guard::EncoderMotion`]); `torques` is (τ of the cables, Jᵀ F): where
+/// the model has a muscle push (a large force step toward one side), the rig's cable is
+/// slack, and a blocked handle carries none of that push.
 #[inline(always)]
 fn unseen_motion_judged(
     motion: &mut EncoderMotion,
     model: &RobotModel<f32>,
     pose: &Pose,
-    torques: PoseTorques,
+    torques: (Vec2<f32>, Vec2<f32>),
     period_s: f32,
 ) -> bool {
     let j = &model.params.joints;
@@ -209,10 +202,5 @@ fn unseen_motion_judged(
         pose.alpha_rad[k] >= j[k].alpha_min_rad + STOP_BAND_RAD
             && pose.alpha_rad[k] <= j[k].alpha_max_rad - STOP_BAND_RAD
     });
-    motion.update(
-        pose.alpha_rad,
-        (torques.cables_nm, torques.held_nm),
-        in_range,
-        period_s,
-    )
+    motion.update(pose.alpha_rad, torques, in_range, period_s)
 }

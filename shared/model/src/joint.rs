@@ -84,17 +84,14 @@ impl<R: Real> JointPose<R> {
             * (self.muscles[1].force_n(pressure_bar[1]) - self.muscles[0].force_n(pressure_bar[0]))
     }
 
-    /// (τ, τ as the cables transmit it), from one evaluation of the forces. The cables'
-    /// floors each muscle's force at zero: eq. 3.1 gives a negative force (a push) to a
-    /// muscle stretched little at a low pressure, whose cable goes slack instead and
-    /// transmits nothing.
+    /// τ as the cables transmit it: each muscle's force floored at zero. Eq. 3.1 gives a
+    /// negative force (a push) to a muscle stretched little at a low pressure, whose cable
+    /// goes slack instead and transmits nothing. Equal to [`JointPose::torque_nm`] while both
+    /// muscles pull.
     #[inline]
-    pub fn torque_and_cable_torque_nm(&self, pressure_bar: [R; 2]) -> (R, R) {
+    pub fn cable_torque_nm(&self, pressure_bar: [R; 2]) -> R {
         let f = self.forces_n(pressure_bar);
-        (
-            self.pulley_radius_m * (f[1] - f[0]),
-            self.pulley_radius_m * (f[1].max(R::ZERO) - f[0].max(R::ZERO)),
-        )
+        self.pulley_radius_m * (f[1].max(R::ZERO) - f[0].max(R::ZERO))
     }
 
     /// K = −(R²/l0)(∂F1/∂ε1 + ∂F2/∂ε2) (eq. 3.6, B.7).
