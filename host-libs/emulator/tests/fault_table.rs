@@ -1,6 +1,9 @@
 //! The fault table's harness: one fault from one mode, fast-forwarded.
 
-use pam_emulator::soak::fault_table::{markdown, run_case, Hand, TableMode, WATCH_S};
+use pam_control::Faults;
+use pam_emulator::soak::fault_table::{
+    markdown, run_case, run_case_watched, Hand, Outcome, TableMode, WATCH_S,
+};
 use pam_emulator::soak::Kind;
 
 #[test]
@@ -43,5 +46,54 @@ fn a_held_hand_takes_force_and_keeps_the_handle_closer_than_a_free_one() {
     assert!(
         held.excursion_mm < free.excursion_mm,
         "held {held:?} free {free:?}"
+    );
+}
+
+/// The closed force loop with a free handle: at 0 N (the only force a free handle holds)
+/// it runs through the setup without a fault of its own, the home judged at the
+/// pretension's rest; then an E-stop vents at once and a lost link after the command
+/// timeout and its ramp. Watched 2.5 s: the slowest channel exhausts 5 bar in 2.412 s.
+#[test]
+fn the_closed_force_loop_runs_with_a_free_handle_until_the_fault_and_then_vents() {
+    for (kind, fault, vent_by_s) in [
+        (Kind::EStop, Faults::ESTOP, 0.002),
+        (Kind::LinkLoss, Faults::COMMAND_TIMEOUT, 1.0),
+    ] {
+        let o = run_case_watched(kind, TableMode::ForceClosedLoop, Hand::Free, 2.5).expect("runs");
+        assert_eq!(o.setup_problem, None, "{o:?}");
+        assert!(Faults(o.faults).contains(fault), "{o:?}");
+        let vent = o.to_vent_s.expect("vent command");
+        assert!(vent <= vent_by_s, "vent command after {vent} s: {o:?}");
+        let vented = o.to_vented_s.expect("muscles below 0.5 bar");
+        assert!(vented > vent && vented < 2.5, "{o:?}");
+        assert!(o.excursion_mm.is_finite() && o.hand_force_n == 0.0, "{o:?}");
+    }
+}
+
+#[test]
+fn a_case_that_did_not_run_says_why_below_the_table() {
+    let o = Outcome {
+        kind: Kind::LinkLoss,
+        mode: TableMode::Impedance,
+        hand: Hand::Free,
+        setup_problem: Some("CONTROL_UNSTABLE (0x4000) latched 0.40 s into the mode".into()),
+        faults: 0,
+        to_vent_s: None,
+        to_vented_s: None,
+        excursion_mm: 0.0,
+        speed_mm_s: 0.0,
+        hand_force_n: 0.0,
+    };
+    let table = markdown(&[o]);
+    assert!(
+        table.contains("| link loss | impedance | — / — | | | | | not run (1) | | | |"),
+        "{table}"
+    );
+    assert!(
+        table.contains(
+            "1. link loss, impedance, free handle: CONTROL_UNSTABLE (0x4000) latched 0.40 s \
+             into the mode."
+        ),
+        "{table}"
     );
 }
