@@ -499,19 +499,22 @@ fn ms(v: Option<f64>) -> String {
 }
 
 /// The four figures of one case; a case that did not run reads "not run" with the number
-/// of the note that says why (`notes` collects the reasons).
+/// of the note that says why (`notes` collects the reasons, one per mode, holder and
+/// reason: the setup comes before the fault and is the same for every fault kind).
 fn cells(o: Option<&Outcome>, notes: &mut Vec<String>) -> String {
     match o {
         None => "| | | | ".into(),
         Some(o) => match &o.setup_problem {
             Some(p) => {
-                notes.push(format!(
-                    "{}, {}, {}: {p}.",
-                    o.kind.name(),
-                    o.mode.name(),
-                    o.hand.name()
-                ));
-                format!("| not run ({}) | | | ", notes.len())
+                let note = format!("{}, {}: {p}.", o.mode.name(), o.hand.name());
+                let n = match notes.iter().position(|n| *n == note) {
+                    Some(i) => i + 1,
+                    None => {
+                        notes.push(note);
+                        notes.len()
+                    }
+                };
+                format!("| not run ({n}) | | | ")
             }
             None => format!(
                 "| {} | {} | {:.1} | {:.0} ",
@@ -570,7 +573,9 @@ pub fn markdown(outcomes: &[Outcome]) -> String {
         }
     }
     if !notes.is_empty() {
-        s.push_str("\nNot run:\n\n");
+        s.push_str(
+            "\nNot run (the setup comes before the fault: the same for every fault kind):\n\n",
+        );
         for (i, n) in notes.iter().enumerate() {
             s.push_str(&format!("{}. {n}\n", i + 1));
         }
