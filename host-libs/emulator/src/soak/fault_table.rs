@@ -88,9 +88,10 @@ impl TableMode {
     /// The closed loops hold a force on a hand. A free handle cannot hold any force but
     /// 0 N: a 5 N target pushes it away, and the loop's released-handle guard rightly faults
     /// that before any fault is injected. So with a free handle the closed force loop runs
-    /// at 0 N and the impedance's rest point is where the handle is: both modes then run
-    /// steadily until the fault. The other modes do not read the load cell's force against
-    /// a target and keep one target for both.
+    /// at 0 N, steadily until the fault, and the impedance's rest point is where the handle
+    /// is (its loop still swings a free handle until its own guard latches, which the
+    /// table's note reports). The other modes do not read the load cell's force against a
+    /// target and keep one target for both.
     pub fn target(self, hand: Hand, here_user_m: [f32; 2]) -> wire::Mode {
         match (self, hand) {
             (TableMode::Pressures, _) => wire::Mode::Pressures {
