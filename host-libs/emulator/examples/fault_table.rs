@@ -3,7 +3,7 @@
 //! fast-forwarded; prints the markdown table. `--stamp TEXT` heads it with TEXT (the date
 //! and commit the xtask passes).
 
-use pam_emulator::soak::fault_table::{markdown, run_all};
+use pam_emulator::soak::fault_table::{markdown, run_all, targets_markdown};
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -19,13 +19,16 @@ fn main() {
     }
     let outcomes = match run_all(|o| {
         eprintln!(
-            "  {} / {} / {:?}: vent {:?} s, < 0.5 bar {:?} s, {:.1} mm",
+            "  {} / {} / {:?}: vent {:?} s, < 0.5 bar {:?} s, {:.1} mm{}",
             o.kind.name(),
             o.mode.name(),
             o.hand,
             o.to_vent_s,
             o.to_vented_s,
-            o.excursion_mm
+            o.excursion_mm,
+            o.setup_problem
+                .as_deref()
+                .map_or(String::new(), |p| format!(" (not run: {p})"))
         )
     }) {
         Ok(o) => o,
@@ -37,5 +40,6 @@ fn main() {
     if let Some(s) = stamp {
         println!("{s}\n");
     }
+    println!("The targets before the fault:\n\n{}", targets_markdown());
     print!("{}", markdown(&outcomes));
 }

@@ -11,6 +11,7 @@
 //! `cargo xtask fault-table [--write]` prints the table (`examples/fault_table.rs`) or
 //! rewrites its section of hil-tests/README.md.
 
+use pam_control::Faults;
 use pam_protocol::{
     wire, ReplyData, Request, RequestBody, SessionId, NO_SESSION, PROTOCOL_VERSION,
     SCHEMA_FINGERPRINT,
@@ -43,7 +44,12 @@ const PRETENSION: wire::Mode = wire::Mode::Joint {
     torque_nm: [0.0, 0.0],
     stiffness_nm_per_rad: [50.0, 25.0],
 };
+/// The pretension lasts at least this long (s)…
 const PRETENSION_S: f64 = 2.0;
+/// …and until the home is judged at its first rest
+/// (`pam_control::home_check`), at most this long (s): a free handle swings for a while
+/// after the muscles come up.
+const PRETENSION_MAX_S: f64 = 30.0;
 /// Heartbeat interval of the host (periods), as the soak's.
 const HEARTBEAT_PERIODS: u64 = 20;
 
@@ -76,35 +82,71 @@ impl TableMode {
         }
     }
 
-    /// The target held before the fault.
-    pub fn target(self) -> wire::Mode {
-        match self {
-            TableMode::Pressures => wire::Mode::Pressures {
+    /// The target held before the fault, for what holds the handle; `here_user_m`: the
+    /// handle's position as the host reads it from the telemetry when it sets the mode.
+    ///
+    /// The closed loops hold a force on a hand. A free handle cannot hold any force but
+    /// 0 N: a 5 N target pushes it away, and the loop's released-handle guard rightly faults
+    /// that before any fault is injected. So with a free handle the closed force loop runs
+    /// at 0 N, steadily until the fault, and the impedance's rest point is where the handle
+    /// is (its loop still swings a free handle until its own guard latches, which the
+    /// table's note reports). The other modes do not read the load cell's force against a
+    /// target and keep one target for both.
+    pub fn target(self, hand: Hand, here_user_m: [f32; 2]) -> wire::Mode {
+        match (self, hand) {
+            (TableMode::Pressures, _) => wire::Mode::Pressures {
                 pressure_bar: [2.5, 2.0, 2.5, 2.0],
             },
-            TableMode::Joint => wire::Mode::Joint {
+            (TableMode::Joint, _) => wire::Mode::Joint {
                 alpha_rad: [0.1, -0.1],
                 torque_nm: [0.0, 0.0],
                 stiffness_nm_per_rad: [50.0, 25.0],
             },
-            TableMode::ForceOpenLoop => wire::Mode::Force {
+            (TableMode::ForceOpenLoop, _) => wire::Mode::Force {
                 force_n: [5.0, 0.0],
                 stiffness_nm_per_rad: [20.0, 20.0],
                 feed_forward: true,
             },
-            TableMode::ForceClosedLoop => wire::Mode::ForceClosedLoop {
-                force_n: [5.0, 0.0],
+            (TableMode::ForceClosedLoop, hand) => wire::Mode::ForceClosedLoop {
+                force_n: match hand {
+                    Hand::Held => [5.0, 0.0],
+                    Hand::Free => [0.0, 0.0],
+                },
                 stiffness_nm_per_rad: [20.0, 20.0],
                 feed_forward: true,
                 gain_scale: 1.0,
             },
-            TableMode::Impedance => wire::Mode::Impedance {
-                // where the handle is: a target away from it is a hand that does not
-                // follow, which the loop's released-handle guard faults on
-                target_user_m: [0.0, 0.0],
+            (TableMode::Impedance, hand) => wire::Mode::Impedance {
+                // a rest point away from a free handle is a hand that does not follow,
+                // which the released-handle guard faults on
+                target_user_m: match hand {
+                    Hand::Held => [0.0, 0.0],
+                    Hand::Free => here_user_m,
+                },
                 stiffness_n_per_m: [200.0, 200.0],
                 damping_n_s_per_m: [20.0, 20.0],
             },
+        }
+    }
+
+    /// [`TableMode::target`] in words, for the table's text.
+    pub fn target_text(self, hand: Hand) -> &'static str {
+        match (self, hand) {
+            (TableMode::Pressures, _) => "2.5 / 2.0 / 2.5 / 2.0 bar",
+            (TableMode::Joint, _) => "(0.1, −0.1) rad at 50 / 25 N·m/rad",
+            (TableMode::ForceOpenLoop, _) => "5 N along x at 20 N·m/rad, feed-forward",
+            (TableMode::ForceClosedLoop, Hand::Held) => {
+                "5 N along x at 20 N·m/rad, feed-forward, gain scale 1"
+            }
+            (TableMode::ForceClosedLoop, Hand::Free) => {
+                "0 N at 20 N·m/rad, feed-forward, gain scale 1"
+            }
+            (TableMode::Impedance, Hand::Held) => {
+                "rest point at the neutral pose, 200 N/m, 20 N·s/m"
+            }
+            (TableMode::Impedance, Hand::Free) => {
+                "rest point where the handle is when the mode is set, 200 N/m, 20 N·s/m"
+            }
         }
     }
 }
@@ -119,6 +161,15 @@ pub enum Hand {
     Free,
 }
 
+impl Hand {
+    pub fn name(self) -> &'static str {
+        match self {
+            Hand::Held => "held hand",
+            Hand::Free => "free handle",
+        }
+    }
+}
+
 /// One measured case. Times are from the fault's first period (s); `None`: not within
 /// [`WATCH_S`].
 #[derive(Clone, Debug, PartialEq)]
@@ -126,8 +177,9 @@ pub struct Outcome {
     pub kind: Kind,
     pub mode: TableMode,
     pub hand: Hand,
-    /// Why the case could not run as set up (a refused request, a fault before the
-    /// injection); the figures are then absent.
+    /// Why the case could not run as set up (a refused request, a home not judged, a
+    /// fault latched by the setup or by the mode itself before the injection); the figures
+    /// are then absent.
     pub setup_problem: Option<String>,
     /// The fault bits latched after the injection (0: none).
     pub faults: u16,
@@ -148,6 +200,8 @@ struct Rig {
     silent: bool,
     /// The session the device gave the table's host in the handshake.
     session: SessionId,
+    /// The joint angles of the last telemetry sample: the pose as the host reads it.
+    telemetry_alpha_rad: Option<[f32; 2]>,
 }
 
 impl Rig {
@@ -193,6 +247,9 @@ impl Rig {
             result.current_ma,
         );
         plant.last_currents_ma = driven.map(f64::from);
+        if let Some(t) = &result.telemetry {
+            self.telemetry_alpha_rad = Some(t.alpha_rad);
+        }
         let at_converters = plant.board.converter_currents(plant.last_currents_ma);
         plant.last = plant
             .twin
@@ -210,6 +267,51 @@ impl Rig {
         }
     }
 
+    /// Runs the setup's `step` for at least `min_s` and until `done`, at most `max_s`: a
+    /// fault latched meanwhile ends the setup, with what latched, when and how fast the
+    /// handle then moved.
+    fn settle(
+        &mut self,
+        step: &str,
+        (min_s, max_s): (f64, f64),
+        done: fn(&Rig) -> bool,
+    ) -> Result<(), String> {
+        let (min, max) = (periods(min_s), periods(max_s));
+        let mut k = 0;
+        while k < min || !done(self) {
+            if k >= max {
+                return Err(format!("{step} not over within {max_s:.0} s"));
+            }
+            self.period(k);
+            k += 1;
+            let faults = self.plant.device.controller().faults().0;
+            if faults != 0 {
+                let v = self.plant.twin.state().handle_velocity_user_m_s;
+                return Err(format!(
+                    "{} latched {:.2} s into {step}, the handle at {:.2} m/s",
+                    fault_names(faults),
+                    k as f64 * 1e-3,
+                    v[0].hypot(v[1])
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The handle's position as the host computes it from the last telemetry sample.
+    fn here_user_m(&self) -> Result<[f32; 2], String> {
+        let alpha = self
+            .telemetry_alpha_rad
+            .ok_or_else(|| "no telemetry to read the pose from".to_string())?;
+        Ok(self
+            .plant
+            .device
+            .controller()
+            .model()
+            .kinematics
+            .forward_user(alpha))
+    }
+
     fn hold_here(&mut self, hand: Hand) {
         self.hand = match hand {
             Hand::Free => HandleCondition::Free,
@@ -221,6 +323,34 @@ impl Rig {
             }),
         };
     }
+}
+
+/// The latched fault bits by their names in `pam_control::Faults`, and the code.
+fn fault_names(bits: u16) -> String {
+    const NAMES: [(Faults, &str); 16] = [
+        (Faults::COMMAND_TIMEOUT, "COMMAND_TIMEOUT"),
+        (Faults::NON_FINITE, "NON_FINITE"),
+        (Faults::ANGLE_OUT_OF_RANGE, "ANGLE_OUT_OF_RANGE"),
+        (Faults::ENCODER_JUMP, "ENCODER_JUMP"),
+        (Faults::LOADCELL_SATURATED, "LOADCELL_SATURATED"),
+        (Faults::LOADCELL_STUCK, "LOADCELL_STUCK"),
+        (Faults::OUTPUT_NON_FINITE, "OUTPUT_NON_FINITE"),
+        (Faults::WATCHDOG_RESET, "WATCHDOG_RESET"),
+        (Faults::OUTPUT_OPEN_LOOP, "OUTPUT_OPEN_LOOP"),
+        (Faults::CPU_FAULT, "CPU_FAULT"),
+        (Faults::LOOP_OVERRUN, "LOOP_OVERRUN"),
+        (Faults::STACK_LOW, "STACK_LOW"),
+        (Faults::ESTOP, "ESTOP"),
+        (Faults::STATIC_IMBALANCE, "STATIC_IMBALANCE"),
+        (Faults::CONTROL_UNSTABLE, "CONTROL_UNSTABLE"),
+        (Faults::SELF_CHECK, "SELF_CHECK"),
+    ];
+    let names: Vec<&str> = NAMES
+        .iter()
+        .filter(|(f, _)| Faults(bits).contains(*f))
+        .map(|(_, n)| *n)
+        .collect();
+    format!("{} ({bits:#06x})", names.join(" + "))
 }
 
 fn periods(seconds: f64) -> u64 {
@@ -243,6 +373,16 @@ pub fn sim_config(seed: u64) -> SimConfig {
 /// Runs one case in fast-forward: home, arm, the mode's target for [`SETTLE_S`], the fault,
 /// [`WATCH_S`] watched.
 pub fn run_case(kind: Kind, mode: TableMode, hand: Hand) -> Result<Outcome, EmulatorError> {
+    run_case_watched(kind, mode, hand, WATCH_S)
+}
+
+/// [`run_case`] with the fault watched for `watch_s`.
+pub fn run_case_watched(
+    kind: Kind,
+    mode: TableMode,
+    hand: Hand,
+    watch_s: f64,
+) -> Result<Outcome, EmulatorError> {
     let (reports, _) = std::sync::mpsc::channel();
     let plant = Plant::new(&sim_config(1), reports)?;
     let mut rig = Rig {
@@ -252,6 +392,7 @@ pub fn run_case(kind: Kind, mode: TableMode, hand: Hand) -> Result<Outcome, Emul
         hand: HandleCondition::Free,
         silent: false,
         session: NO_SESSION,
+        telemetry_alpha_rad: None,
     };
     let mut out = Outcome {
         kind,
@@ -265,44 +406,45 @@ pub fn run_case(kind: Kind, mode: TableMode, hand: Hand) -> Result<Outcome, Emul
         speed_mm_s: 0.0,
         hand_force_n: 0.0,
     };
-    rig.run_s(0.01);
-    let setup = [
-        RequestBody::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            schema_fingerprint: SCHEMA_FINGERPRINT,
-        },
-        RequestBody::Home,
-        // the pressures mode is a service mode: the table enables it for every run, so that
-        // each mode starts from the same sequence
-        RequestBody::SetServiceMode { enabled: true },
-        RequestBody::Arm,
-        RequestBody::SetMode(PRETENSION),
-        RequestBody::SetMode(mode.target()),
-    ];
-    for body in setup {
-        if matches!(body, RequestBody::SetMode(_)) {
-            rig.hold_here(hand);
-        }
-        if let Err(e) = rig.request(body) {
-            out.setup_problem = Some(e);
-            return Ok(out);
-        }
-        if body == RequestBody::SetMode(PRETENSION) {
-            rig.run_s(PRETENSION_S);
-        }
+    match set_up(&mut rig, mode, hand) {
+        Ok(()) => watch(&mut rig, kind, watch_s, &mut out),
+        Err(e) => out.setup_problem = Some(e),
     }
-    rig.run_s(SETTLE_S);
-    let before = rig.plant.device.controller().faults().0;
-    if before != 0 {
-        out.setup_problem = Some(format!("not run: {before:#06x} latched before the fault"));
-        return Ok(out);
-    }
-    watch(&mut rig, kind, &mut out);
     Ok(out)
 }
 
+/// What a user does: the handshake, the home at the neutral pose with the arm vented, the
+/// service interlock for the pressures mode only, arm, bring the muscles up at the neutral
+/// pose, then the mode's target for [`SETTLE_S`]. The home is judged at the first
+/// tensioned rest (`pam_control::home_check`): it must be judged, and right, before the
+/// fault, so that no fault of the setup is taken for the injected one.
+fn set_up(rig: &mut Rig, mode: TableMode, hand: Hand) -> Result<(), String> {
+    rig.run_s(0.01);
+    rig.request(RequestBody::Hello {
+        protocol_version: PROTOCOL_VERSION,
+        schema_fingerprint: SCHEMA_FINGERPRINT,
+    })?;
+    rig.request(RequestBody::Home)?;
+    if mode == TableMode::Pressures {
+        rig.request(RequestBody::SetServiceMode { enabled: true })?;
+    }
+    rig.request(RequestBody::Arm)?;
+    rig.hold_here(hand);
+    rig.request(RequestBody::SetMode(PRETENSION))?;
+    let home_judged = |r: &Rig| !r.plant.device.controller().home_check().pending();
+    rig.settle(
+        "the pretension (until the home is judged)",
+        (PRETENSION_S, PRETENSION_MAX_S),
+        home_judged,
+    )?;
+    rig.hold_here(hand);
+    let target = mode.target(hand, rig.here_user_m()?);
+    rig.request(RequestBody::SetMode(target))?;
+    rig.settle("the mode", (SETTLE_S, SETTLE_S), |_| true)
+}
+
 /// Injects `kind` and measures what follows.
-fn watch(rig: &mut Rig, kind: Kind, out: &mut Outcome) {
+fn watch(rig: &mut Rig, kind: Kind, watch_s: f64, out: &mut Outcome) {
     // an overrun two periods longer than the count that latches, as in the hil-test
     let overrun = rig.plant.device.controller().safety().overrun_fault_periods + 2;
     match injection_at(kind, 0, 0, overrun) {
@@ -310,7 +452,7 @@ fn watch(rig: &mut Rig, kind: Kind, out: &mut Outcome) {
         None => rig.silent = true,
     }
     let start = rig.plant.twin.state().handle_user_m;
-    for k in 0..periods(WATCH_S) {
+    for k in 0..periods(watch_s) {
         rig.period(k);
         let t_s = (k + 1) as f64 * 1e-3;
         let s = rig.plant.twin.state();
@@ -357,11 +499,24 @@ fn ms(v: Option<f64>) -> String {
     })
 }
 
-fn cells(o: Option<&Outcome>) -> String {
+/// The four figures of one case; a case that did not run reads "not run" with the number
+/// of the note that says why (`notes` collects the reasons, one per mode, holder and
+/// reason: the setup comes before the fault and is the same for every fault kind).
+fn cells(o: Option<&Outcome>, notes: &mut Vec<String>) -> String {
     match o {
         None => "| | | | ".into(),
         Some(o) => match &o.setup_problem {
-            Some(p) => format!("| {p} | | | "),
+            Some(p) => {
+                let note = format!("{}, {}: {p}.", o.mode.name(), o.hand.name());
+                let n = match notes.iter().position(|n| *n == note) {
+                    Some(i) => i + 1,
+                    None => {
+                        notes.push(note);
+                        notes.len()
+                    }
+                };
+                format!("| not run ({n}) | | | ")
+            }
             None => format!(
                 "| {} | {} | {:.1} | {:.0} ",
                 ms(o.to_vent_s),
@@ -373,9 +528,26 @@ fn cells(o: Option<&Outcome>) -> String {
     }
 }
 
-/// The markdown table: one row per fault × mode, held hand then free.
+/// The targets of each mode, held and free, as a markdown table.
+pub fn targets_markdown() -> String {
+    let mut s = String::from("| mode | target with a held hand | target with a free handle |\n");
+    s.push_str("|---|---|---|\n");
+    for mode in TABLE_MODES {
+        s.push_str(&format!(
+            "| {} | {} | {} |\n",
+            mode.name(),
+            mode.target_text(Hand::Held),
+            mode.target_text(Hand::Free)
+        ));
+    }
+    s
+}
+
+/// The markdown table: one row per fault × mode, held hand then free; below it, why each
+/// case that did not run did not (none when all ran).
 pub fn markdown(outcomes: &[Outcome]) -> String {
     let mut s = String::new();
+    let mut notes = Vec::new();
     s.push_str("| fault | mode | faults latched (held / free) | held: to vent command (ms) | held: all < 0.5 bar (ms) | held: excursion (mm) | held: speed (mm/s) | free: to vent command (ms) | free: all < 0.5 bar (ms) | free: excursion (mm) | free: speed (mm/s) |\n");
     s.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
     for kind in KINDS {
@@ -386,17 +558,27 @@ pub fn markdown(outcomes: &[Outcome]) -> String {
                     .find(|o| o.kind == kind && o.mode == mode && o.hand == hand)
             };
             let (held, free) = (find(Hand::Held), find(Hand::Free));
-            let bits =
-                |o: Option<&Outcome>| o.map_or("—".into(), |o| format!("{:#06x}", o.faults));
+            let bits = |o: Option<&Outcome>| match o {
+                Some(o) if o.setup_problem.is_none() => format!("{:#06x}", o.faults),
+                _ => "—".into(),
+            };
+            let held_cells = cells(held, &mut notes);
+            let free_cells = cells(free, &mut notes);
             s.push_str(&format!(
-                "| {} | {} | {} / {} {}{}|\n",
+                "| {} | {} | {} / {} {held_cells}{free_cells}|\n",
                 kind.name(),
                 mode.name(),
                 bits(held),
                 bits(free),
-                cells(held),
-                cells(free)
             ));
+        }
+    }
+    if !notes.is_empty() {
+        s.push_str(
+            "\nNot run (the setup comes before the fault: the same for every fault kind):\n\n",
+        );
+        for (i, n) in notes.iter().enumerate() {
+            s.push_str(&format!("{}. {n}\n", i + 1));
         }
     }
     s
