@@ -107,6 +107,16 @@ pub struct ForceLoopConfig {
 /// (the load cell's noise is 0.15 N).
 pub const COMPLIANCE_FORCE_MIN_N: f32 = 2.0;
 
+/// The compliance [`ForceLoop::observe_handle`] assumes until it has seen a block, m/N: a
+/// relaxed hand's (1000 N/m), the gentlest gains. The arming ramp moves nothing, so the loop
+/// starts without knowing what holds the handle, and the gentle gains are the safe guess.
+pub const UNDECIDED_COMPLIANCE_M_PER_N: f32 = 1e-3;
+
+/// Force change since the loop started, with the handle still within the dead band, that
+/// tells a block from a hand, N: a firm grip (5000 N/m) gives way 0.6 mm under it, two
+/// encoder counts at the handle, where a block does not move.
+pub const BLOCK_FORCE_N: f32 = 3.0;
+
 /// Largest multiplier of the designed feedback gains a mode may request: the design's gain
 /// margin (2–3, docs/closed-loop.md), so no accepted scale is far past the edge of
 /// stability; the guard catches a loop driven to it.
@@ -190,8 +200,10 @@ pub struct ForceLoop {
     measured_rate_n_s: Vec2<f32>,
     guard: Guard,
     handle_seen: bool,
+    block_seen: bool,
     handle0_m: Vec2<f32>,
     force0_n: Vec2<f32>,
+    measured_compliance_m_per_n: f32,
     compliance_m_per_n: f32,
     plant_gain: PlantGain,
 }
@@ -242,8 +254,10 @@ impl ForceLoop {
             measured_rate_n_s: [0.0; 2],
             guard: Guard::new(),
             handle_seen: false,
+            block_seen: false,
             handle0_m: [0.0; 2],
             force0_n: [0.0; 2],
+            measured_compliance_m_per_n: 0.0,
             compliance_m_per_n: 0.0,
             plant_gain: PlantGain::new(),
         }
@@ -275,7 +289,8 @@ impl ForceLoop {
     }
 
     /// The compliance of what holds the handle, as [`ForceLoop::observe_handle`] last saw it,
-    /// m/N (0 until it is called: a blocked handle).
+    /// m/N (0 until it is called: a blocked handle; at least
+    /// [`UNDECIDED_COMPLIANCE_M_PER_N`] from its first call until it has seen a block).
     pub fn compliance_m_per_n(&self) -> f32 {
         self.compliance_m_per_n
     }
@@ -284,10 +299,13 @@ impl ForceLoop {
     /// frame origin, `handle_m` is only differenced). The handle's travel beyond
     /// `handle_deadband_m` per newton of force change since the loop started, held at its
     /// peak and forgotten over about a second. A blocked handle (§5.2) does not move and the
-    /// gains stay the design's; a hand gives way, and the arm's mass on it makes a resonance
+    /// gains are the design's; a hand gives way, and the arm's mass on it makes a resonance
     /// at 20–60 rad/s, on the loop's crossover, where the converters' lag leaves no phase to
     /// damp it with: there the feedback gains fall toward `compliant_gain_scale`
-    /// (docs/closed-loop.md, "A held handle").
+    /// (docs/closed-loop.md, "A held handle"). The loop starts as against a relaxed hand
+    /// ([`UNDECIDED_COMPLIANCE_M_PER_N`]) and takes the block's gains once the force has
+    /// changed by [`BLOCK_FORCE_N`] with the handle within the dead band: a mistake is a
+    /// slower step at a block, never a block's gains against a hand.
     pub fn observe_handle(
         &mut self,
         cfg: &ForceLoopConfig,
@@ -313,9 +331,18 @@ impl ForceLoop {
             .sqrt()
             .max(COMPLIANCE_FORCE_MIN_N);
         let c = travel_m / force_n;
-        let decayed = self.compliance_m_per_n * (1.0 - dt_s).max(0.0);
+        let decayed = self.measured_compliance_m_per_n * (1.0 - dt_s).max(0.0);
         // NaN: keeps the decayed value (the guard trips on a non-finite force anyway)
-        self.compliance_m_per_n = if c > decayed { c } else { decayed };
+        let measured = if c > decayed { c } else { decayed };
+        self.measured_compliance_m_per_n = measured;
+        let still = travel_m <= 0.0;
+        if still && df[0] * df[0] + df[1] * df[1] >= BLOCK_FORCE_N * BLOCK_FORCE_N {
+            self.block_seen = true;
+        }
+        self.compliance_m_per_n = match self.block_seen {
+            true => measured,
+            false => measured.max(UNDECIDED_COMPLIANCE_M_PER_N),
+        };
     }
 
     /// The feedback gains' factor for the compliance seen.
