@@ -107,14 +107,18 @@ pub struct ForceLoopConfig {
 /// (the load cell's noise is 0.15 N).
 pub const COMPLIANCE_FORCE_MIN_N: f32 = 2.0;
 
-/// The compliance [`ForceLoop::observe_handle`] assumes until it has seen a block, m/N: a
-/// relaxed hand's (1000 N/m), the gentlest gains. The arming ramp moves nothing, so the loop
-/// starts without knowing what holds the handle, and the gentle gains are the safe guess.
+/// The compliance the feedback gains and the reference are set for until
+/// [`ForceLoop::observe_handle`] has seen a block, m/N: a relaxed hand's (1000 N/m), the
+/// gentlest gains. The arming ramp moves nothing, so the loop starts without knowing what
+/// holds the handle, and the gentle gains are the safe guess (a block only gets a slower
+/// first step; docs/closed-loop.md, "Arming").
 pub const UNDECIDED_COMPLIANCE_M_PER_N: f32 = 1e-3;
 
 /// Force change since the loop started, with the handle still within the dead band, that
 /// tells a block from a hand, N: a firm grip (5000 N/m) gives way 0.6 mm under it, two
-/// encoder counts at the handle, where a block does not move.
+/// encoder counts at the handle, where a block does not move. At 2 N the twin's firm grip,
+/// whose damping holds it back early in a step, is taken for a block at some poses and gets
+/// up to 1.09 N beyond a 9.1 N step.
 pub const BLOCK_FORCE_N: f32 = 3.0;
 
 /// Largest multiplier of the designed feedback gains a mode may request: the design's gain
@@ -203,7 +207,6 @@ pub struct ForceLoop {
     block_seen: bool,
     handle0_m: Vec2<f32>,
     force0_n: Vec2<f32>,
-    measured_compliance_m_per_n: f32,
     compliance_m_per_n: f32,
     plant_gain: PlantGain,
 }
@@ -257,7 +260,6 @@ impl ForceLoop {
             block_seen: false,
             handle0_m: [0.0; 2],
             force0_n: [0.0; 2],
-            measured_compliance_m_per_n: 0.0,
             compliance_m_per_n: 0.0,
             plant_gain: PlantGain::new(),
         }
@@ -289,8 +291,7 @@ impl ForceLoop {
     }
 
     /// The compliance of what holds the handle, as [`ForceLoop::observe_handle`] last saw it,
-    /// m/N (0 until it is called: a blocked handle; at least
-    /// [`UNDECIDED_COMPLIANCE_M_PER_N`] from its first call until it has seen a block).
+    /// m/N (0 until it is called: a blocked handle).
     pub fn compliance_m_per_n(&self) -> f32 {
         self.compliance_m_per_n
     }
@@ -302,10 +303,10 @@ impl ForceLoop {
     /// gains are the design's; a hand gives way, and the arm's mass on it makes a resonance
     /// at 20–60 rad/s, on the loop's crossover, where the converters' lag leaves no phase to
     /// damp it with: there the feedback gains fall toward `compliant_gain_scale`
-    /// (docs/closed-loop.md, "A held handle"). The loop starts as against a relaxed hand
-    /// ([`UNDECIDED_COMPLIANCE_M_PER_N`]) and takes the block's gains once the force has
-    /// changed by [`BLOCK_FORCE_N`] with the handle within the dead band: a mistake is a
-    /// slower step at a block, never a block's gains against a hand.
+    /// (docs/closed-loop.md, "A held handle"). The gains and the reference start as against a
+    /// relaxed hand ([`ForceLoop::gains_compliance_m_per_n`]) and take the block's once the
+    /// force has changed by [`BLOCK_FORCE_N`] with the handle within the dead band: the
+    /// mistake this risks is a slower step at a block, not a block's gains against a hand.
     pub fn observe_handle(
         &mut self,
         cfg: &ForceLoopConfig,
@@ -331,24 +332,29 @@ impl ForceLoop {
             .sqrt()
             .max(COMPLIANCE_FORCE_MIN_N);
         let c = travel_m / force_n;
-        let decayed = self.measured_compliance_m_per_n * (1.0 - dt_s).max(0.0);
+        let decayed = self.compliance_m_per_n * (1.0 - dt_s).max(0.0);
         // NaN: keeps the decayed value (the guard trips on a non-finite force anyway)
-        let measured = if c > decayed { c } else { decayed };
-        self.measured_compliance_m_per_n = measured;
+        self.compliance_m_per_n = if c > decayed { c } else { decayed };
         let still = travel_m <= 0.0;
         if still && df[0] * df[0] + df[1] * df[1] >= BLOCK_FORCE_N * BLOCK_FORCE_N {
             self.block_seen = true;
         }
-        self.compliance_m_per_n = match self.block_seen {
-            true => measured,
-            false => measured.max(UNDECIDED_COMPLIANCE_M_PER_N),
-        };
+    }
+
+    /// The compliance the feedback gains and the reference are set for, m/N: the one seen,
+    /// and at least a relaxed hand's from the first [`ForceLoop::observe_handle`] until a
+    /// block is seen.
+    pub fn gains_compliance_m_per_n(&self) -> f32 {
+        match self.handle_seen && !self.block_seen {
+            true => self.compliance_m_per_n.max(UNDECIDED_COMPLIANCE_M_PER_N),
+            false => self.compliance_m_per_n,
+        }
     }
 
     /// The feedback gains' factor for the compliance seen.
     fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
         let s = cfg.compliant_gain_scale;
-        s + (1.0 - s) / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n)
+        s + (1.0 - s) / (1.0 + self.gains_compliance_m_per_n() / cfg.compliance_ref_m_per_n)
     }
 
     /// How much of the gain plane's correction the feed-forward gets, 0–1: all of it at a
