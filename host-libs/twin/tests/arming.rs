@@ -163,6 +163,11 @@ const ARMING_RUN_PERIODS: usize = (ARM_RAMP_S as f64 * 1000.0) as usize + 1500;
 /// force, not a position: a free handle, which takes no force, drifts with whatever the model
 /// misses (up to 18 mm within 1.5 s), the mode's transparency and not the arming.
 const RAMP_PERIODS: usize = (ARM_RAMP_S as f64 * 1000.0) as usize;
+/// Periods after the ramp that belong to the closed force loop's arming: its entry, from the
+/// force measured when the ramp ends, and one swing of the arm (≈ 2 Hz). After it the loop
+/// keeps 0 N, not a position, and a free handle drifts like the impedance mode's (up to
+/// 6.4 mm within 1.5 s at 16 mm/s on the default twin).
+const ENTRY_PERIODS: usize = 500;
 /// Largest handle excursion while arming, m: 6 mm, the travel of a hand resting on the
 /// handle that the patient feels as a nudge, not a pull. What is left is the converters'
 /// lag, longer into the larger volume of the more contracted muscle, which the model does
@@ -183,6 +188,9 @@ fn arm_everywhere(holder: Holder) -> ((f64, f64), Vec<String>) {
             for alpha in poses() {
                 let a = match (holder, name) {
                     (Holder::Free, "impedance") => arm_for(rig, alpha, mode, holder, RAMP_PERIODS),
+                    (Holder::Free, "closed loop") => {
+                        arm_for(rig, alpha, mode, holder, RAMP_PERIODS + ENTRY_PERIODS)
+                    }
                     _ => arm_at(rig, alpha, mode, holder),
                 };
                 println!(

@@ -108,11 +108,13 @@ pub struct ForceLoopConfig {
 pub const COMPLIANCE_FORCE_MIN_N: f32 = 2.0;
 
 /// The compliance the feedback gains and the reference are set for until
-/// [`ForceLoop::observe_handle`] has seen a block, m/N: a relaxed hand's (1000 N/m), the
-/// gentlest gains. The arming ramp moves nothing, so the loop starts without knowing what
-/// holds the handle, and the gentle gains are the safe guess (a block only gets a slower
-/// first step; docs/closed-loop.md, "Arming").
-pub const UNDECIDED_COMPLIANCE_M_PER_N: f32 = 1e-3;
+/// [`ForceLoop::observe_handle`] has seen a block, m/N: the twin's firm grip's (5000 N/m, the
+/// stiffest hand the loop is designed for; a softer hand gets its own, gentler gains once it
+/// has moved past the dead band). The arming ramp moves nothing, so the loop starts without
+/// knowing what holds the handle, and a hand's gains are the safe guess (a block only gets a
+/// slower first step; docs/closed-loop.md, "Arming"). A relaxed hand's (1 mm/N) slows the
+/// first step at a block to 0.27–0.32 s for no less overshoot into a hand.
+pub const UNDECIDED_COMPLIANCE_M_PER_N: f32 = 2e-4;
 
 /// Force change since the loop started, with the handle still within the dead band, that
 /// tells a block from a hand, N: a firm grip (5000 N/m) gives way 0.6 mm under it, two
@@ -304,7 +306,7 @@ impl ForceLoop {
     /// at 20–60 rad/s, on the loop's crossover, where the converters' lag leaves no phase to
     /// damp it with: there the feedback gains fall toward `compliant_gain_scale`
     /// (docs/closed-loop.md, "A held handle"). The gains and the reference start as against a
-    /// relaxed hand ([`ForceLoop::gains_compliance_m_per_n`]) and take the block's once the
+    /// hand ([`ForceLoop::gains_compliance_m_per_n`]) and take the block's once the
     /// force has changed by [`BLOCK_FORCE_N`] with the handle within the dead band: the
     /// mistake this risks is a slower step at a block, not a block's gains against a hand.
     pub fn observe_handle(
@@ -342,8 +344,8 @@ impl ForceLoop {
     }
 
     /// The compliance the feedback gains and the reference are set for, m/N: the one seen,
-    /// and at least a relaxed hand's from the first [`ForceLoop::observe_handle`] until a
-    /// block is seen.
+    /// and at least [`UNDECIDED_COMPLIANCE_M_PER_N`] from the first
+    /// [`ForceLoop::observe_handle`] until a block is seen.
     pub fn gains_compliance_m_per_n(&self) -> f32 {
         match self.handle_seen && !self.block_seen {
             true => self.compliance_m_per_n.max(UNDECIDED_COMPLIANCE_M_PER_N),
