@@ -153,14 +153,23 @@ impl Controller {
     #[inline(never)]
     fn closed_loop_arming(&mut self, pose: &Pose) -> Option<([f32; 4], Limited)> {
         let (alpha, trig) = (pose.alpha_rad, &pose.trig);
+        // a force target beyond the muscles is flagged from the start, as the loop will scale it
+        let mut limited = Limited::NONE;
         let sol = match self.mode {
             Mode::ForceClosedLoop {
+                force_n,
                 stiffness_nm_per_rad,
+                feed_forward,
                 ..
             } => {
-                let taut = self.force_loop_cfg.taut_force_fraction;
-                let zero = [0.0; 2];
-                let model = &self.model;
+                let (cfg, model) = (&self.force_loop_cfg, &self.model);
+                let reach =
+                    self.force_loop
+                        .reachable_scale(cfg, model, alpha, trig, force_n, feed_forward);
+                if reach < 1.0 {
+                    limited = Limited::TARGET;
+                }
+                let (zero, taut) = ([0.0; 2], cfg.taut_force_fraction);
                 model
                     .force_command_taut_at(alpha, trig, zero, stiffness_nm_per_rad, false, taut)
                     .joints
@@ -168,7 +177,7 @@ impl Controller {
             Mode::Impedance { .. } => self.model.inverse(alpha, [0.0; 2], [0.0; 2]),
             _ => return None,
         };
-        let limited = sol[0].limited.with(sol[1].limited);
+        let limited = limited.with(sol[0].limited).with(sol[1].limited);
         let p = [sol[0].pressure_bar, sol[1].pressure_bar];
         let target_bar = self.model.channel_pressures_bar(p);
         Some((self.tensioning(pose, target_bar), limited))
