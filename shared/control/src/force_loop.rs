@@ -107,6 +107,22 @@ pub struct ForceLoopConfig {
 /// (the load cell's noise is 0.15 N).
 pub const COMPLIANCE_FORCE_MIN_N: f32 = 2.0;
 
+/// The compliance the feedback gains and the reference are set for until
+/// [`ForceLoop::observe_handle`] has seen a block, m/N: the twin's firm grip's (5000 N/m, the
+/// stiffest hand the loop is designed for; a softer hand gets its own, gentler gains once it
+/// has moved past the dead band). The arming ramp moves nothing, so the loop starts without
+/// knowing what holds the handle, and a hand's gains are the safe guess (a block only gets a
+/// slower first step; docs/closed-loop.md, "Arming"). A relaxed hand's (1 mm/N) slows the
+/// first step at a block to 0.27–0.32 s for no less overshoot into a hand.
+pub const UNDECIDED_COMPLIANCE_M_PER_N: f32 = 2e-4;
+
+/// Force change since the loop started, with the handle still within the dead band, that
+/// tells a block from a hand, N: a firm grip (5000 N/m) gives way 0.6 mm under it, two
+/// encoder counts at the handle, where a block does not move. At 2 N the twin's firm grip,
+/// whose damping holds it back early in a step, is taken for a block at some poses and gets
+/// up to 1.09 N beyond a 9.1 N step.
+pub const BLOCK_FORCE_N: f32 = 3.0;
+
 /// Largest multiplier of the designed feedback gains a mode may request: the design's gain
 /// margin (2–3, docs/closed-loop.md), so no accepted scale is far past the edge of
 /// stability; the guard catches a loop driven to it.
@@ -190,6 +206,7 @@ pub struct ForceLoop {
     measured_rate_n_s: Vec2<f32>,
     guard: Guard,
     handle_seen: bool,
+    block_seen: bool,
     handle0_m: Vec2<f32>,
     force0_n: Vec2<f32>,
     compliance_m_per_n: f32,
@@ -242,6 +259,7 @@ impl ForceLoop {
             measured_rate_n_s: [0.0; 2],
             guard: Guard::new(),
             handle_seen: false,
+            block_seen: false,
             handle0_m: [0.0; 2],
             force0_n: [0.0; 2],
             compliance_m_per_n: 0.0,
@@ -284,10 +302,13 @@ impl ForceLoop {
     /// frame origin, `handle_m` is only differenced). The handle's travel beyond
     /// `handle_deadband_m` per newton of force change since the loop started, held at its
     /// peak and forgotten over about a second. A blocked handle (§5.2) does not move and the
-    /// gains stay the design's; a hand gives way, and the arm's mass on it makes a resonance
+    /// gains are the design's; a hand gives way, and the arm's mass on it makes a resonance
     /// at 20–60 rad/s, on the loop's crossover, where the converters' lag leaves no phase to
     /// damp it with: there the feedback gains fall toward `compliant_gain_scale`
-    /// (docs/closed-loop.md, "A held handle").
+    /// (docs/closed-loop.md, "A held handle"). The gains and the reference start as against a
+    /// hand ([`ForceLoop::gains_compliance_m_per_n`]) and take the block's once the
+    /// force has changed by [`BLOCK_FORCE_N`] with the handle within the dead band: the
+    /// mistake this risks is a slower step at a block, not a block's gains against a hand.
     pub fn observe_handle(
         &mut self,
         cfg: &ForceLoopConfig,
@@ -316,12 +337,26 @@ impl ForceLoop {
         let decayed = self.compliance_m_per_n * (1.0 - dt_s).max(0.0);
         // NaN: keeps the decayed value (the guard trips on a non-finite force anyway)
         self.compliance_m_per_n = if c > decayed { c } else { decayed };
+        let still = travel_m <= 0.0;
+        if still && df[0] * df[0] + df[1] * df[1] >= BLOCK_FORCE_N * BLOCK_FORCE_N {
+            self.block_seen = true;
+        }
+    }
+
+    /// The compliance the feedback gains and the reference are set for, m/N: the one seen,
+    /// and at least [`UNDECIDED_COMPLIANCE_M_PER_N`] from the first
+    /// [`ForceLoop::observe_handle`] until a block is seen.
+    pub fn gains_compliance_m_per_n(&self) -> f32 {
+        match self.handle_seen && !self.block_seen {
+            true => self.compliance_m_per_n.max(UNDECIDED_COMPLIANCE_M_PER_N),
+            false => self.compliance_m_per_n,
+        }
     }
 
     /// The feedback gains' factor for the compliance seen.
     fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
         let s = cfg.compliant_gain_scale;
-        s + (1.0 - s) / (1.0 + self.compliance_m_per_n / cfg.compliance_ref_m_per_n)
+        s + (1.0 - s) / (1.0 + self.gains_compliance_m_per_n() / cfg.compliance_ref_m_per_n)
     }
 
     /// How much of the gain plane's correction the feed-forward gets, 0–1: all of it at a

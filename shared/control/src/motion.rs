@@ -59,8 +59,7 @@ pub fn pressures_within_limits(pressure_bar: &[f32; 4], pairs: [[u8; 2]; 2]) -> 
     })
 }
 
-/// The tensioning ramp that precedes the pressures, joint, open-loop force and impedance
-/// modes (from arming, or from idle). Per joint,
+/// The tensioning ramp that precedes every mode (from arming, or from idle). Per joint,
 /// at the measured angle: both muscles rise from the vent to the pressure where their
 /// cable turns taut at the same instant (the first half of [`ARM_RAMP_S`]: a slack cable
 /// pulls nothing), then each muscle's pressure moves in proportion from there to the
@@ -88,11 +87,6 @@ impl ArmRamp {
     /// Start again (armed, or idle: vented).
     pub fn reset(&mut self) {
         *self = Self::new();
-    }
-
-    /// End the ramp: the muscles are up (the closed force loop brought them).
-    pub fn finish(&mut self) {
-        self.elapsed_s = ARM_RAMP_S;
     }
 
     /// Whether the ramp is over.

@@ -142,31 +142,45 @@ impl Controller {
             .step(&self.model, pose.alpha_rad, target_bar, dt)
     }
 
-    /// The impedance mode's arming, `None` once it is over and the loop may start: the
-    /// tensioning ramp toward the pressures that put no force on the handle at the measured
-    /// angles, the muscles at their least stiffness as the mode asks (the loop's own command
-    /// is built on the force it measures, which the ramp has not yet made). The closed force
-    /// loop enters at once: what holds the handle (a hand, a block) it learns from the force
-    /// its entry puts on the handle, which a ramp that moves nothing would hide.
+    /// A closed loop's arming, `None` once it is over and the loop may start: the tensioning
+    /// ramp toward the pressures of the loop's own command for no force at the handle at the
+    /// measured angles (the impedance mode's muscles at their least stiffness, the force
+    /// mode's at its stiffness). The loop's command is built on the force it measures, which
+    /// the ramp has not yet made, so the loop starts once the ramp is over, from the force
+    /// measured then. What holds the handle (a hand, a block) the force loop learns during
+    /// its first step ([`crate::force_loop::ForceLoop::observe_handle`]).
     #[cold]
     #[inline(never)]
     fn closed_loop_arming(&mut self, pose: &Pose) -> Option<([f32; 4], Limited)> {
-        if !matches!(self.mode, Mode::Impedance { .. }) {
-            self.arm_ramp.finish();
-            return None;
-        }
-        let alpha = pose.alpha_rad;
-        let sol = self.model.inverse(alpha, [0.0; 2], [0.0; 2]);
-        let limited = sol[0].limited.with(sol[1].limited);
+        let (alpha, trig) = (pose.alpha_rad, &pose.trig);
+        // a force target beyond the muscles is flagged from the start, as the loop will scale it
+        let mut limited = Limited::NONE;
+        let sol = match self.mode {
+            Mode::ForceClosedLoop {
+                force_n,
+                stiffness_nm_per_rad,
+                feed_forward,
+                ..
+            } => {
+                let (cfg, model) = (&self.force_loop_cfg, &self.model);
+                let reach =
+                    self.force_loop
+                        .reachable_scale(cfg, model, alpha, trig, force_n, feed_forward);
+                if reach < 1.0 {
+                    limited = Limited::TARGET;
+                }
+                let (zero, taut) = ([0.0; 2], cfg.taut_force_fraction);
+                model
+                    .force_command_taut_at(alpha, trig, zero, stiffness_nm_per_rad, false, taut)
+                    .joints
+            }
+            Mode::Impedance { .. } => self.model.inverse(alpha, [0.0; 2], [0.0; 2]),
+            _ => return None,
+        };
+        let limited = limited.with(sol[0].limited).with(sol[1].limited);
         let p = [sol[0].pressure_bar, sol[1].pressure_bar];
         let target_bar = self.model.channel_pressures_bar(p);
-        self.shaper.reset();
-        self.force_loop.reset();
-        self.impedance.reset();
-        self.encoders.reset();
-        let dt = self.safety.period_s;
-        let ramp = self.arm_ramp.step(&self.model, alpha, target_bar, dt);
-        Some((ramp, limited))
+        Some((self.tensioning(pose, target_bar), limited))
     }
 
     /// Joint mode: the target shaped from where the arm is (rate and acceleration
