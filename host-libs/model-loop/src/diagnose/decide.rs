@@ -42,6 +42,9 @@ struct Tried<'e> {
     report: EffectReport,
     effect: &'e dyn ModelEffect,
     folds: FoldScores,
+    /// The effect's fit alone, kept when it is accepted: the final model's first step is
+    /// this same fit, not fitted again (a step trial's fits are most of a diagnosis's time).
+    fit: Option<ModelFit>,
     /// The family's other shapes (filled by [`best_shape_per_family`]).
     alternatives: Vec<&'e dyn ModelEffect>,
 }
@@ -380,6 +383,7 @@ impl<'l, 'a> Judge<'l, 'a> {
             },
             effect: e,
             folds,
+            fit: accepted.then_some(f),
             alternatives: Vec::new(),
         }
     }
@@ -431,7 +435,10 @@ impl<'l, 'a> Judge<'l, 'a> {
         for t in reports.iter().filter(|r| r.report.accepted).take(4) {
             let mut trial_set = current.clone();
             trial_set.push(t.effect);
-            let f = self.lp.fit(&trial_set);
+            let f = match (&t.fit, current.is_empty()) {
+                (Some(alone), true) => alone.clone(),
+                _ => self.lp.fit(&trial_set),
+            };
             let mut folds_if_kept = None;
             let pays = if current.is_empty() {
                 true

@@ -278,6 +278,14 @@ impl<const K: usize> Plan<K> {
             }
         };
         let n = self.n;
+        // the state and the plan's switches in locals for the sub-steps: read through `st`
+        // and `self`, every sub-step loads and stores them again (measured: 7 % more
+        // instructions per simulation, and the simulation is most of a step fit)
+        let (mut x, mut v, mut driven) = (st.x, st.v, st.driven);
+        let (mut hx, mut hv) = (st.hx, st.hv);
+        let (limited, slew_the_command, hysteresis) =
+            (self.limited, self.slew_the_command, self.hysteresis);
+        let (rise, fall) = (self.rise, self.fall);
         for m in 0..sub {
             // the delayed sub-step, spanning at most two samples (before the first sample:
             // the first set-point): sample j with weight w_first, the rest from j + 1
@@ -302,35 +310,29 @@ impl<const K: usize> Plan<K> {
                 } else {
                     w_first * self.set_at(j, c) + (1.0 - w_first) * self.set_at(j + 1, c)
                 };
-                if self.limited && self.slew_the_command {
-                    s = bounded(
-                        s,
-                        st.driven[c] - self.fall * h,
-                        st.driven[c] + self.rise * h,
-                    );
-                    st.driven[c] = s;
+                if limited && slew_the_command {
+                    s = bounded(s, driven[c] - fall * h, driven[c] + rise * h);
+                    driven[c] = s;
                 }
-                let (e, vc) = phi.step(st.x[c] - s, st.v[c]);
-                st.v[c] = if self.limited && !self.slew_the_command {
-                    bounded(vc, -self.fall, self.rise)
+                let (e, vc) = phi.step(x[c] - s, v[c]);
+                v[c] = if limited && !slew_the_command {
+                    bounded(vc, -fall, rise)
                 } else {
                     vc
                 };
-                st.x[c] = if st.v[c] == vc {
-                    s + e
-                } else {
-                    st.x[c] + h * st.v[c]
-                };
+                x[c] = if v[c] == vc { s + e } else { x[c] + h * v[c] };
             }
-            if self.hysteresis {
+            if hysteresis {
                 for a in 0..2 {
                     let target = r.hysteresis_n[a] * d.direction[a][j.min(n - 1)];
-                    let (e, va) = phi.step(st.hx[a] - target, st.hv[a]);
-                    st.hx[a] = target + e;
-                    st.hv[a] = va;
+                    let (e, va) = phi.step(hx[a] - target, hv[a]);
+                    hx[a] = target + e;
+                    hv[a] = va;
                 }
             }
         }
+        (st.x, st.v, st.driven) = (x, v, driven);
+        (st.hx, st.hv) = (hx, hv);
     }
 }
 
