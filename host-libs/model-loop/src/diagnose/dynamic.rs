@@ -41,9 +41,10 @@ impl<'a> Loop<'a> {
         let bv = &self.base_variants[variant];
         let preload = bv.stiffness == Stiffness::ForceLawWithPreload;
         // an effect's own constant (an offset, an equilibrium shift) replaces the base's
+        // (and the load cell's tare in its frame, which a sensor-frame offset is)
         let nb = bv.cols.len()
             - if bv.offset && terms.iter().any(|t| t.carries_constant) {
-                2
+                2 + if bv.tare { 2 } else { 0 }
             } else {
                 0
             };
