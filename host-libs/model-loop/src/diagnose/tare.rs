@@ -3,9 +3,10 @@
 //! turns with the pose. Its constant part is the base's offset per axis; its turning part
 //! is a force proportional to the handle's rotation that no stiffness form holds (it is
 //! not symmetric), which a drift in the sensor frame or a pose dependence would otherwise
-//! take up. It is a sensor's nuisance, not an effect: part of the base when the data asks
-//! for it, and replaced, with the offsets, by an effect's own constant (a drift's offset in
-//! the sensor frame is the tare itself: both in one fit would be collinear).
+//! take up. It is a sensor's nuisance, not an effect: part of the base alone when the data
+//! asks for it (a drift's offset in the sensor frame is the tare itself, and a pose
+//! dependence turns with the pose much as it does: in one fit with either it would be
+//! collinear).
 
 use super::base::BaseVariant;
 use pam_ident::msd;
@@ -51,8 +52,8 @@ fn turning_parts(p: &Prepared, model: &RobotModel<f64>) -> [[Vec<f64>; 2]; 2] {
     parts
 }
 
-/// Adds the tare's turning part to the dynamic base's variants (before their offsets: an
-/// effect with its own constant, such as the sensor-frame offset of a drift, replaces both)
+/// Adds the tare's turning part to the dynamic base's variants (before their offsets; the
+/// fits with effects leave it out, see [`super::Loop::assemble`])
 /// when it pays by the information criterion, counted on the residual's `n_eff`
 /// independent samples, on top of the variant the base alone prefers. `None` (and the
 /// variants unchanged) when it does not: a log without a turning tare keeps its base.
