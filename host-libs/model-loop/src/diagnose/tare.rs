@@ -16,6 +16,10 @@ use pam_numerics::lsq;
 use pam_numerics::lsq::Column;
 use pam_numerics::stats::rms;
 
+/// The largest tare offset in the load cell's frame a log may carry, N per axis: the
+/// device's bound on the force at a tare.
+const TARE_MAX_N: f64 = 5.0;
+
 /// The tare taken out of a dynamic trial's force.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SensorTare {
@@ -109,6 +113,12 @@ pub(super) fn add_tare(
     }
     let at = variants[best].cols.len() - 2;
     let sensor_n = [th[at], th[at + 1]];
+    // a tare left in the cell's frame is what the handle carried when it was tared, and the
+    // device refuses a tare above 5 N on either axis (`pam_device::calibration::
+    // TARE_MAX_FORCE_N`): a larger fit is the columns standing in for something else
+    if !sensor_n.iter().all(|f| f.abs() <= TARE_MAX_N) {
+        return None;
+    }
     let turning_rms_n = [0, 1].map(|a| {
         let turning: Vec<f64> = (0..p.len())
             .map(|i| sensor_n[0] * parts[0][a][i] + sensor_n[1] * parts[1][a][i])
