@@ -20,6 +20,9 @@ pub(super) struct BaseVariant {
     /// The base columns; with `offset`, the last two are a constant force per axis.
     pub(super) cols: Vec<Column>,
     pub(super) offset: bool,
+    /// With `offset`: the load cell's tare in its frame, two columns before the offsets
+    /// (see [`super::tare`]).
+    pub(super) tare: bool,
     pub(super) pneumatic: (f64, f64),
     pub(super) stiffness: Stiffness,
     /// Normal equations of `cols` on the training rows: shared by every fit with this

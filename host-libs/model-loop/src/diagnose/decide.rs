@@ -1,6 +1,7 @@
 //! The verdict: every effect against the base, fold by fold; the accepted ones added while
 //! they pay; the families the data cannot tell apart.
 
+use super::colour::coloured_noise;
 use super::cv::{held_out_blocks, FoldScores, STEP_BLOCKS};
 use super::diagnosis::{BaseReport, Diagnosis, EffectReport, Refinement, ShapeScore, StepReport};
 use super::recording::loop_without_spikes;
@@ -10,6 +11,7 @@ use super::selection::fold_test;
 use super::selection::paired_test;
 use super::selection::t_critical;
 use super::sizes::{change_rms_n, effect_size, effective_samples, effective_samples_of};
+use super::unexplained::rounding_colours;
 use super::verdict::{lag_warning, verdict_of};
 use super::AxisPair;
 use super::Loop;
@@ -20,6 +22,7 @@ use crate::effects::ModelEffect;
 use crate::effects::{self, Family};
 use pam_ident::trial::Trial;
 use pam_model::RobotModel;
+use pam_numerics::stats::rms;
 
 /// Diagnoses a trial against the standard catalog.
 pub fn diagnose(
@@ -134,6 +137,13 @@ pub fn diagnose_observed(
         .collect();
     let base_params = base.params.get("base").cloned().unwrap_or_default();
     let mut warnings = base.warnings.clone();
+    if let Some(t) = &lp.tare {
+        warnings.push(super::Warning::TareInSensorFrame {
+            sensor_n: t.sensor_n,
+            turning_rms_n: t.turning_rms_n,
+            gain: t.gain,
+        });
+    }
     if let Some(s) = &spikes {
         warnings.push(s.warning());
     }
@@ -272,6 +282,37 @@ impl<'l, 'a> Judge<'l, 'a> {
         (change <= bound).then_some((change, bound))
     }
 
+    /// A slow level change within what the load cell's coloured noise puts in a record's
+    /// level cannot be told from it: (its RMS over the trial, the noise's bound, the
+    /// noise's exponent) when so. Asked after the rounding; where the encoders' rounding
+    /// fills the slow band, the white null stands (the frozen levels would colour the law).
+    fn within_colour(&self, e: &dyn ModelEffect, f: &ModelFit) -> Option<(f64, f64, f64)> {
+        if !self.dynamic || e.family() != Some(Family::Drift) {
+            return None;
+        }
+        let p = &self.lp.p;
+        let floor = self.floor.get().copied().flatten();
+        let mut worst: Option<(f64, f64, f64)> = None;
+        for &a in &f.axes {
+            let d: Vec<f64> = (0..p.len())
+                .map(|i| f.predicted[a][i] - self.base.predicted[a][i])
+                .collect();
+            let change = rms(&d);
+            if floor.is_some_and(|fl| rounding_colours(fl.expected_n[a], change)) {
+                return None;
+            }
+            let noise = coloured_noise(&self.base.residual(a), &p.t_s, p.dt_s)?;
+            let bound = noise.trend_bound_n(self.level);
+            if !(change <= bound) {
+                return None;
+            }
+            if worst.is_none_or(|w| change / bound > w.0 / w.1) {
+                worst = Some((change, bound, noise.exponent));
+            }
+        }
+        worst
+    }
+
     /// One effect alone against the base: its scores, its evidence, and whether it is
     /// accepted.
     fn tried<'e>(&self, e: &'e dyn ModelEffect, f: ModelFit, folds: FoldScores) -> Tried<'e> {
@@ -329,6 +370,13 @@ impl<'l, 'a> Judge<'l, 'a> {
             None
         };
         let accepted = accepted && rounding.is_none();
+        // nor one within the load cell's coloured noise
+        let colour = if accepted {
+            self.within_colour(e, &f)
+        } else {
+            None
+        };
+        let accepted = accepted && colour.is_none();
         let mut evidence = format!(
             "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the {} error (fold gains {:.1} ± {:.1} %, t = {:.1} against {:.1}), changing the prediction by {:.2} % of the signal ({} parameter{})",
             e.signature(),
@@ -348,6 +396,11 @@ impl<'l, 'a> Judge<'l, 'a> {
                 "; a delay of {:.1} ms lies within the converters' own lag (up to {:.0} ms: a dead time and the muscle's fill, each converter its own, which the base's one second order lacks): the log cannot tell it from them",
                 1000.0 * d,
                 1000.0 * settings.converter_lag_s
+            ));
+        }
+        if let Some((change, bound, exponent)) = colour {
+            evidence.push_str(&format!(
+                "; a slow change of {change:.3} N RMS lies within what the load cell's coloured noise puts in a record's level (its spectrum falls as f^−{exponent:.2} above the slow band; extended below it, a straight line of up to {bound:.3} N RMS at the test's level): the log cannot tell it from that noise"
             ));
         }
         if let Some((change, bound)) = rounding {

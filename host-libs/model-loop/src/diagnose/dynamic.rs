@@ -40,10 +40,14 @@ impl<'a> Loop<'a> {
     pub(super) fn assemble(&self, variant: usize, terms: &[DynTerm]) -> Option<DynColumns> {
         let bv = &self.base_variants[variant];
         let preload = bv.stiffness == Stiffness::ForceLawWithPreload;
-        // an effect's own constant (an offset, an equilibrium shift) replaces the base's
+        // an effect's own constant (an offset, an equilibrium shift) replaces the base's;
+        // the load cell's tare in its frame is the base's alone (an effect's fit leaves it
+        // out: its turning part is near what a pose-dependent effect turns with)
+        let constant = bv.offset && terms.iter().any(|t| t.carries_constant);
+        let tare_out = bv.tare && !terms.is_empty();
         let nb = bv.cols.len()
-            - if bv.offset && terms.iter().any(|t| t.carries_constant) {
-                2
+            - if constant || tare_out {
+                2 + if bv.tare { 2 } else { 0 }
             } else {
                 0
             };
@@ -51,6 +55,10 @@ impl<'a> Loop<'a> {
         let mut positive: Vec<usize> = self.base_variants[variant].positive();
         let mut delay = 0.0f64;
         let mut extra = Vec::new();
+        if tare_out && !constant {
+            // the offsets, after the tare left out
+            extra.extend(bv.cols[bv.cols.len() - 2..].iter().cloned());
+        }
         let mut ranges = Vec::new();
         for term in terms {
             let term = term.clone();

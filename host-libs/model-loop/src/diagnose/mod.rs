@@ -5,6 +5,7 @@
 //! structure no effect explains.
 
 mod base;
+mod colour;
 mod compare;
 mod cv;
 mod decide;
@@ -15,6 +16,7 @@ mod resolution;
 mod selection;
 mod sizes;
 mod step_fit;
+mod tare;
 mod unexplained;
 mod verdict;
 mod warning;
@@ -30,6 +32,7 @@ pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
 pub use resolution::{encoder_floor, encoder_step_rad, EncoderFloor};
 pub use selection::{fold_test, paired_test, t_critical, FoldTest};
 use sizes::effective_samples_of;
+pub use tare::SensorTare;
 pub use unexplained::unexplained_structure;
 pub use warning::Warning;
 
@@ -231,6 +234,9 @@ pub struct Loop<'a> {
     /// Lower bounds of the dynamic fits' mass diagonals (kg), see
     /// [`Loop::solve_dynamic`].
     mass_floor_kg: [f64; 2],
+    /// The load cell's tare in its own frame, in the dynamic base when the data asks for it
+    /// (see [`tare`]).
+    pub tare: Option<SensorTare>,
 }
 
 /// The base variants alone, best first by the criterion on the training rows.
@@ -461,7 +467,7 @@ impl<'a> Loop<'a> {
         // the base model's variants: stiffness in Cartesian or joint space, with or without
         // the pneumatic term; every fit (base alone or with effects) uses the variant that
         // its training part prefers by the information criterion
-        let (base_variants, n_eff) = if experiment == Experiment::Dynamic {
+        let (mut base_variants, n_eff) = if experiment == Experiment::Dynamic {
             // the stiffness forms on both cores, kept in their order
             let shared = SharedColumns::of(&p);
             let v: Vec<BaseVariant> = Stiffness::ALL
@@ -492,6 +498,7 @@ impl<'a> Loop<'a> {
                             BaseVariant {
                                 cols,
                                 offset,
+                                tare: false,
                                 pneumatic,
                                 stiffness,
                                 normal,
@@ -510,6 +517,7 @@ impl<'a> Loop<'a> {
         } else {
             (Vec::new(), 0.0)
         };
+        let tare = tare::add_tare(&p, model, &mut base_variants, n_eff);
         Ok(Loop {
             step_init,
             drive,
@@ -525,6 +533,7 @@ impl<'a> Loop<'a> {
                 [0.0; 2]
             },
             base_variants,
+            tare,
             p,
             model,
             experiment,

@@ -1,6 +1,7 @@
 //! Structure left in the residual that no effect accounts for: spectral lines and a slow
 //! wander of the level.
 
+use super::colour::coloured_noise;
 use super::resolution::encoder_floor;
 use super::Loop;
 use super::ModelFit;
@@ -14,6 +15,19 @@ use pam_numerics::stats::rms;
 use pam_numerics::stats::std_dev;
 use pam_numerics::stats::{wander_test, WANDER_BINS, WANDER_LEVEL, WANDER_MIN_SHARE};
 use serde::Serialize;
+
+/// A wander whose variance the encoders' rounding alone gives at least this share of is
+/// judged against white noise, not the load cell's colour: the rounding, frozen at rests,
+/// puts its power in the slow band and the octaves just above it, where the noise's law is
+/// measured, and colours the residual itself (a reach-and-hold trial's rounding of a
+/// third of a wander's amplitude turns a white residual's law to f^−0.9).
+const ROUNDING_SHARE: f64 = 1.0 / 16.0;
+
+/// Whether the encoders' rounding (a wander of `expected_n` RMS alone) colours a slow
+/// change of `change_n` RMS: then the change is judged against white noise.
+pub(super) fn rounding_colours(expected_n: f64, change_n: f64) -> bool {
+    expected_n * expected_n >= ROUNDING_SHARE * change_n * change_n
+}
 
 /// Structure in the residual that no catalog effect explains (a tone, a slow wander).
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -141,6 +155,27 @@ pub(super) fn structure(lp: &Loop, fit: &ModelFit, s: &Settings) -> Structure {
                 expected_n: f.expected_n[a],
                 bound_n: f.bound_n[a],
                 draws: super::resolution::DRAWS,
+            });
+            continue;
+        }
+        // the load cell's own noise is coloured (1/f below a corner of a few Hz): its bin
+        // means vary more than a short-range correlation allows, and that is no structure.
+        // Asked after the rounding: a residual whose slow band the rounding fills keeps
+        // the white null (its frozen levels would colour the law, and excuse a wander)
+        let rounding_colours = floor
+            .as_ref()
+            .is_some_and(|f| rounding_colours(f.expected_n[a], w.amplitude_n));
+        let c = (!rounding_colours)
+            .then(|| coloured_noise(&r, &p.t_s, p.dt_s))
+            .flatten();
+        if let Some(c) = c.filter(|c| c.p_value > WANDER_LEVEL) {
+            set_aside.push(Warning::WanderWithinColouredNoise {
+                axis: a,
+                amplitude_n: w.amplitude_n,
+                low_hz: c.low_hz,
+                ratio: c.ratio,
+                exponent: c.exponent,
+                p_value: c.p_value,
             });
             continue;
         }

@@ -38,6 +38,30 @@ pub enum Warning {
         bound_n: f64,
         draws: usize,
     },
+    /// A residual's level wanders by no more than the load cell's own coloured noise (its
+    /// spectrum above the slow band, extended into it) allows: no effect is named for it.
+    WanderWithinColouredNoise {
+        /// 0 fx, 1 fy.
+        axis: usize,
+        amplitude_n: f64,
+        /// The slow band's upper edge, Hz.
+        low_hz: f64,
+        /// The slow band's power over the extended noise's.
+        ratio: f64,
+        /// β of the noise's spectrum f^−β.
+        exponent: f64,
+        p_value: f64,
+    },
+    /// The load cell's tare in its own frame turns with the handle: its turning part was
+    /// taken out of the force before the fits.
+    TareInSensorFrame {
+        /// The tare along the cell's X and Z, N.
+        sensor_n: [f64; 2],
+        /// RMS of the part taken out, per handle axis, N.
+        turning_rms_n: [f64; 2],
+        /// The share of the base's training residual it removes.
+        gain: f64,
+    },
     /// The force lags the motion, and the log cannot tell a regulation lag (the base's
     /// negative pressure stiffness) from a sampling delay.
     ForceLagsMotion {
@@ -116,6 +140,36 @@ impl fmt::Display for Warning {
                 expected_n,
                 bound_n,
                 draws
+            ),
+            Warning::WanderWithinColouredNoise {
+                axis,
+                amplitude_n,
+                low_hz,
+                ratio,
+                exponent,
+                p_value,
+            } => write!(
+                f,
+                "the {} residual's level wanders by {:.3} N RMS, but no more than its own coloured noise allows: below {:.2} Hz it holds {:.1} × the power that the noise's spectrum above (falling as f^−{:.2}, a load cell's 1/f noise at most) extends to (p = {:.1e}), so none is named",
+                AXES[*axis],
+                amplitude_n,
+                low_hz,
+                ratio,
+                exponent,
+                p_value
+            ),
+            Warning::TareInSensorFrame {
+                sensor_n,
+                turning_rms_n,
+                gain,
+            } => write!(
+                f,
+                "the load cell's tare in its own frame ({:.2} N along X, {:.2} N along Z) turns with the handle: its turning part ({:.3} N RMS in fx, {:.3} N in fy, {:.1} % of the base's training residual) was taken out of the force before the fits: a sensor's offset, not an effect",
+                sensor_n[0],
+                sensor_n[1],
+                turning_rms_n[0],
+                turning_rms_n[1],
+                100.0 * gain
             ),
             Warning::ForceLagsMotion {
                 kp_xx_n_per_m: kx,
