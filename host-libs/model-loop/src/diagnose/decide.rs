@@ -3,7 +3,7 @@
 
 use super::colour::coloured_noise;
 use super::cv::{held_out_blocks, FoldScores, STEP_BLOCKS};
-use super::diagnosis::{BaseReport, Diagnosis, EffectReport, Refinement, ShapeScore, StepReport};
+use super::diagnosis::{BaseReport, Diagnosis, EffectReport, Refinement, StepReport};
 use super::recording::loop_without_spikes;
 use super::recording::sampling_warning;
 use super::resolution::encoder_floor;
@@ -11,6 +11,7 @@ use super::selection::fold_test;
 use super::selection::paired_test;
 use super::selection::t_critical;
 use super::sizes::{change_rms_n, effect_size, effective_samples, effective_samples_of};
+use super::tried::{best_shape_per_family, family_key, Tried};
 use super::unexplained::rounding_colours;
 use super::verdict::{lag_warning, verdict_of};
 use super::AxisPair;
@@ -38,18 +39,6 @@ pub fn diagnose(
         settings,
         &crate::effects::catalog(),
     )
-}
-
-/// One catalog effect tried alone against the base.
-struct Tried<'e> {
-    report: EffectReport,
-    effect: &'e dyn ModelEffect,
-    folds: FoldScores,
-    /// The effect's fit alone, kept when it is accepted: the final model's first step is
-    /// this same fit, not fitted again (a step trial's fits are most of a diagnosis's time).
-    fit: Option<ModelFit>,
-    /// The family's other shapes (filled by [`best_shape_per_family`]).
-    alternatives: Vec<&'e dyn ModelEffect>,
 }
 
 /// Diagnoses a trial against a given catalog. Returns the diagnosis and the fits of the
@@ -589,38 +578,4 @@ impl<'l, 'a> Judge<'l, 'a> {
             evidence,
         })
     }
-}
-
-/// One entry per family: its best shape (an accepted one before any other), the others
-/// listed under it.
-fn best_shape_per_family(mut tried: Vec<Tried>) -> Vec<Tried> {
-    let rank = |t: &Tried| (t.report.accepted, t.report.score);
-    tried.sort_by(|a, b| {
-        let (ra, rb) = (rank(a), rank(b));
-        rb.0.cmp(&ra.0).then(rb.1.total_cmp(&ra.1))
-    });
-    let mut reports: Vec<Tried> = Vec::new();
-    for t in tried {
-        let key = family_key(t.effect);
-        if let Some(head) = reports.iter_mut().find(|r| family_key(r.effect) == key) {
-            head.alternatives.push(t.effect);
-            head.report.other_shapes.push(ShapeScore {
-                shape: t.report.shape.clone(),
-                effect: t.report.effect.clone(),
-                improvement: t.report.improvement,
-                accepted: t.report.accepted,
-            });
-        } else {
-            reports.push(t);
-        }
-    }
-
-    reports
-}
-
-/// The family an effect is judged in (an effect outside the families is its own).
-fn family_key(e: &dyn ModelEffect) -> String {
-    e.family()
-        .map(|f| f.name().to_string())
-        .unwrap_or_else(|| e.id().to_string())
 }

@@ -17,6 +17,7 @@ mod selection;
 mod sizes;
 mod step_fit;
 mod tare;
+mod tried;
 mod unexplained;
 mod verdict;
 mod warning;
