@@ -228,6 +228,13 @@ fn fuzz_runs(quick: bool) -> Vec<Vec<String>> {
         .collect()
 }
 
+fn fuzz_rate_runs(quick: bool) -> Vec<Vec<String>> {
+    let seconds = if quick { 10 } else { 60 };
+    vec![words(&format!(
+        "xtask fuzz --time {seconds} --sanitizer none"
+    ))]
+}
+
 fn qemu_runs(_quick: bool) -> Vec<Vec<String>> {
     vec![words("xtask qemu-bench")]
 }
@@ -351,6 +358,15 @@ control step, checked by the QEMU suite.",
         intro: "cargo-fuzz with libFuzzer, release builds without a sanitizer, one worker each; new units go to a scratch corpus in the target directory and the seed corpus is only read (docs/fuzzing.md). Each run's last line: executions, seconds, the average rate and the crashes.",
         kind: Kind::Lines(&["executions in"]),
         runs: fuzz_runs,
+    },
+    Section {
+        name: "fuzz-rate",
+        title: "Fuzzing rates on an idle machine",
+        intro: "A minute per target with nothing else running (the load average is on each line): \
+the rate a target reaches alone. On this 2-core machine a build on the other core more than \
+halves it, so the long runs above, made beside other work, are slower.",
+        kind: Kind::Lines(&["executions in"]),
+        runs: fuzz_rate_runs,
     },
 ];
 
