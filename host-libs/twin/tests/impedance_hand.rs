@@ -3,7 +3,9 @@
 //! not excite. Armed straight into the mode, 10 s of twin time, at a spring (K = 200 N/m,
 //! B = 20 N·s/m) and transparent (K = 0, B = 5 N·s/m), with equal converters and with the
 //! converters' measured spread of rates (`ConverterRates::spread`: the slowest channel fills
-//! at 1.4 bar/s). Figures with `--nocapture`.
+//! at 1.4 bar/s), on the identified rig, and with the hand nudging the handle by 3 mm. The
+//! loop may ring for a period or two before it takes the hand's gains; what is judged is that
+//! it stays armed and what remains. Figures with `--nocapture`.
 
 use pam_control::motion::ARM_RAMP_S;
 use pam_control::{Controller, Mode, SafetyConfig, Sensors, State};
@@ -37,10 +39,9 @@ const HAND: (f64, f64) = (1000.0, 50.0);
 /// Largest handle speed after the settling, m/s: the few periods of ringing the loop takes
 /// to see that a relaxed hand holds the handle (a 1.5 mm swing at 4.5 Hz runs at 42 mm/s).
 const SPEED_MAX_M_S: f64 = 0.05;
-/// Largest handle speed over the last seconds, m/s: what the loop's ringing detector lets
-/// through before it acts (a force error within ±0.75 N, ±0.75 mm on the hand's spring,
-/// 21 mm/s at 4.5 Hz); the growing ringing of a loop that does not see it passes it within
-/// seconds.
+/// Largest handle speed over the last seconds, m/s: a little above what the ringing
+/// detector lets through before it acts (its band, 20 mm/s); the growing ringing of a loop
+/// that does not see it passes it within seconds.
 const RESIDUAL_SPEED_MAX_M_S: f64 = 0.025;
 /// Largest force ripple over the last seconds, N: 0.15 N is the load cell's noise.
 const RIPPLE_MAX_N: f64 = 0.4;
@@ -179,14 +180,14 @@ fn the_identified_rig_holds_a_relaxed_hand_without_ringing() {
     assert!(bad.is_empty(), "{bad:#?}");
 }
 
-/// A relaxed hand that nudges the handle by 5 mm for 0.1 s, 2 s after the ramp, at the
+/// A relaxed hand that nudges the handle by 3 mm for 0.1 s, 2 s after the ramp, at the
 /// spring with equal converters and with their spread: no fault, and the same residual as
 /// a still hand within the last five seconds.
 #[test]
 fn a_nudge_of_a_relaxed_hand_does_not_make_the_spring_ring() {
     let bad = failures(
         &[(false, false, 200.0, 20.0), (true, false, 200.0, 20.0)],
-        0.005,
+        0.003,
     );
     assert!(bad.is_empty(), "{bad:#?}");
 }

@@ -21,7 +21,9 @@
 //!   B/K), and the feed-forward gives up the gain plane's correction
 //!   ([`ForceLoop::through_plane`]): the plane is a bet on the plant's static gain that only
 //!   a fast feedback can take back, and against a hand the feedback is slow, so the bet
-//!   would go into the patient's hand.
+//!   would go into the patient's hand. The direct loop (impedance mode) keeps the design's
+//!   gains until the handle rings at a relaxed hand's 3.3–7 Hz, then takes the square of
+//!   this factor ([`ForceLoop::held_scale`]): an operator moving the handle is no compliance.
 //! - **The plant's gain** ([`crate::plant_gain`], force mode, at a block): measured at steady
 //!   levels and within a step, the command divided by it as the gain plane divides; and the
 //!   integral waits while the force closes the error by itself in a step not (yet) known to
@@ -37,10 +39,9 @@
 //! The design, its margins and the measured tables are in docs/closed-loop.md. f32, no heap.
 
 pub use crate::force_loop_config::ForceLoopConfig;
-use crate::guard::{Guard, Ringing};
+use crate::guard::Guard;
 pub use crate::guard::{
-    GuardTrip, RINGING_BAND_N, RINGING_FLIPS, RINGING_HALF_PERIOD_S, SLOW_OSCILLATION_BAND_N,
-    SLOW_OSCILLATION_FLIPS, SLOW_OSCILLATION_TAU_S,
+    GuardTrip, SLOW_OSCILLATION_BAND_N, SLOW_OSCILLATION_FLIPS, SLOW_OSCILLATION_TAU_S,
 };
 use crate::plant_gain::PlantGain;
 use pam_model::kinematics::PoseTrig;
@@ -90,7 +91,6 @@ pub struct ForceLoop {
     force0_n: Vec2<f32>,
     compliance_m_per_n: f32,
     plant_gain: PlantGain,
-    ringing: Ringing,
 }
 
 impl Default for ForceLoop {
@@ -144,7 +144,6 @@ impl ForceLoop {
             force0_n: [0.0; 2],
             compliance_m_per_n: 0.0,
             plant_gain: PlantGain::new(),
-            ringing: Ringing::new(),
         }
     }
 
@@ -235,27 +234,20 @@ impl ForceLoop {
     }
 
     /// The feedback gains' factor for the compliance seen.
-    fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
+    pub fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
         let s = cfg.compliant_gain_scale;
         s + (1.0 - s) / (1.0 + self.gains_compliance_m_per_n() / cfg.compliance_ref_m_per_n)
     }
 
-    /// The direct loop's factor on its feedback gains and on what the impedance mode feeds
-    /// forward of the arm's inertia: 1 (the design) until the loop rings (`Ringing`:
-    /// the error's sign flipping at 3.3–7 Hz across ±[`RINGING_BAND_N`]), from then until the
-    /// loop is reset the square of the force mode's compliance factor
-    /// ([`ForceLoop::observe_handle`]; 0.09–0.2 against a hand, 1 at a block). A relaxed hand
-    /// (1000 N/m) puts the arm's mass on it at 4–5 Hz, on the converters' own resonance,
-    /// where the lagging feedback and inertia feed-forward take more damping than the hand
-    /// has; a firm grip (≈ 9 Hz) is damped at the design's gains, and an operator who moves
-    /// the handle needs them: the travel the operator imposes is no compliance of the hand.
-    pub fn direct_scale(&self, cfg: &ForceLoopConfig) -> f32 {
-        if self.ringing.rang() {
-            let c = self.compliance_scale(cfg);
-            c * c
-        } else {
-            1.0
-        }
+    /// The feedback gains' factor for a loop that rang against what holds the handle: the
+    /// square of [`ForceLoop::compliance_scale`] (0.09–0.2 against a hand, 1 at a block).
+    /// The impedance mode takes it, on its feedback and on the arm's inertia it feeds forward,
+    /// once the handle has rung (`crate::impedance::Ringing`): a relaxed hand puts the arm's
+    /// mass on it at 4–5 Hz, on the converters' own resonance, where the lagging feedback
+    /// and feed-forward take more damping than the hand has (docs/impedance.md).
+    pub fn held_scale(&self, cfg: &ForceLoopConfig) -> f32 {
+        let c = self.compliance_scale(cfg);
+        c * c
     }
 
     /// How much of the gain plane's correction the feed-forward gets, 0–1: all of it at a
@@ -333,8 +325,9 @@ impl ForceLoop {
 
     /// [`ForceLoop::step`] without the reference model: the target is followed as it comes,
     /// only rate-limited (impedance mode, where the target is itself a function of the
-    /// measured motion and any lag would change the rendered impedance). The designed gains,
-    /// the integral's × `integral_scale`.
+    /// measured motion and any lag would change the rendered impedance). The designed gains
+    /// × `gain_scale` (no compliance factor of its own: [`ForceLoop::held_scale`] is the
+    /// caller's), the integral's also × `integral_scale`.
     #[allow(clippy::too_many_arguments)]
     pub fn step_direct(
         &mut self,
@@ -342,11 +335,11 @@ impl ForceLoop {
         ip: &IpConverter<f32>,
         target_n: Vec2<f32>,
         measured_n: Vec2<f32>,
-        integral_scale: f32,
+        [gain_scale, integral_scale]: [f32; 2],
         saturated: bool,
         dt_s: f32,
     ) -> ForceLoopOutput {
-        let gains = [1.0, integral_scale];
+        let gains = [gain_scale, integral_scale];
         self.run(cfg, ip, target_n, measured_n, gains, saturated, dt_s, false)
     }
 
@@ -378,7 +371,7 @@ impl ForceLoop {
         // direct: the target follows the handle, its rate is not a step's to slow
         let (max_df, g) = match shaped {
             true => (cfg.force_rate_n_per_s * c * dt_s, gain_scale * c),
-            false => (cfg.force_rate_n_per_s * dt_s, self.direct_scale(cfg)),
+            false => (cfg.force_rate_n_per_s * dt_s, gain_scale),
         };
         let (kp, ki, kd) = (cfg.kp * g, cfg.ki_per_s * g * integral_scale, cfg.kd_s * g);
         let wf_dt = cfg.derivative_filter_rad_s * dt_s;
@@ -479,9 +472,6 @@ impl ForceLoop {
             self.plant_gain.drive(command_n, wn, zeta, dt_s);
         }
         let mut trip = self.guard.update(cfg, self.error_n, err_sq, dt_s);
-        if !shaped {
-            self.ringing.update(self.error_n, dt_s);
-        }
         // the reference model's loop (force mode) is the one a dead cell winds up; in
         // impedance mode the force follows the handle's motion, checked by its own guards
         if shaped && trip.is_none() && self.guard.cell_implausible(command_n, measured_n, dt_s) {

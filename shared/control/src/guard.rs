@@ -89,73 +89,6 @@ impl FlipCount {
     }
 }
 
-/// The ringing detector's band, N: five times the load cell's noise (0.15 N).
-pub const RINGING_BAND_N: f32 = 0.75;
-/// Shortest and longest time between two flips across the band that count as ringing, s:
-/// half a period at 7 Hz and at 3.3 Hz. The arm's mass on a relaxed hand (1000 N/m) rings at
-/// 4–5 Hz; the operator moves the handle below 2 Hz (a quarter second or more between flips),
-/// and a firm grip (5000 N/m) puts the arm's mass at ≈ 9 Hz, which the design's gains damp
-/// and an operator who imposes a path needs.
-pub const RINGING_HALF_PERIOD_S: [f32; 2] = [0.07, 0.15];
-/// Flips in the leaky count (time constant 1 s) beyond which the loop rings: two flips, one
-/// period of it (the guard trips at six beyond ±2 N).
-pub const RINGING_FLIPS: f32 = 1.5;
-
-/// A loop that rings, long before the guard's oscillation trip: the error's sign flips
-/// across ±[`RINGING_BAND_N`] within [`RINGING_HALF_PERIOD_S`] of the previous flip, per
-/// axis, in a leaky count (time constant 1 s); once it passes [`RINGING_FLIPS`] the loop
-/// has rung, until reset.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Ringing {
-    sign: [i8; 2],
-    since_flip_s: Vec2<f32>,
-    flips: Vec2<f32>,
-    rang: bool,
-}
-
-impl Ringing {
-    pub(crate) const fn new() -> Self {
-        Ringing {
-            sign: [0; 2],
-            since_flip_s: [0.0; 2],
-            flips: [0.0; 2],
-            rang: false,
-        }
-    }
-
-    /// Whether the loop has rung.
-    pub(crate) fn rang(&self) -> bool {
-        self.rang
-    }
-
-    /// One period of the loop's error.
-    pub(crate) fn update(&mut self, error_n: Vec2<f32>, dt_s: f32) {
-        let [short_s, long_s] = RINGING_HALF_PERIOD_S;
-        for a in 0..2 {
-            self.flips[a] *= 1.0 - dt_s;
-            self.since_flip_s[a] += dt_s;
-            let e = error_n[a];
-            let last = self.sign[a];
-            let s = if e > RINGING_BAND_N {
-                1
-            } else if e < -RINGING_BAND_N {
-                -1
-            } else {
-                last
-            };
-            if s != last {
-                let t = self.since_flip_s[a];
-                if last != 0 && t >= short_s && t <= long_s {
-                    self.flips[a] += 1.0;
-                }
-                self.since_flip_s[a] = 0.0;
-            }
-            self.sign[a] = s;
-            self.rang |= self.flips[a] > RINGING_FLIPS;
-        }
-    }
-}
-
 /// The guard's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Guard {
@@ -304,38 +237,5 @@ impl EncoderMotion {
         }
         self.started = true;
         unseen
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Periods until a sine of `amp_n` at `hz` (and a second axis at rest) has rung, within 3 s.
-    fn rings_after(amp_n: f32, hz: f32) -> Option<usize> {
-        let mut r = Ringing::new();
-        let dt = 0.001;
-        (0..3000).position(|k| {
-            let t = k as f32 * dt;
-            r.update(
-                [amp_n * (2.0 * core::f32::consts::PI * hz * t).sin(), 0.0],
-                dt,
-            );
-            r.rang()
-        })
-    }
-
-    /// The arm's mass on a relaxed hand (4–5 Hz) beyond the band rings within about a
-    /// period and a half; within the band, at the operator's pace (2 Hz) or at a firm grip's
-    /// 9 Hz it never does.
-    #[test]
-    fn ringing_is_a_fast_swing_beyond_the_band_at_the_relaxed_hands_frequency() {
-        for hz in [4.0, 4.5, 6.0] {
-            let k = rings_after(1.0, hz).expect("rings");
-            assert!((k as f32) < 2.0 * 1000.0 / hz, "{hz} Hz: {k} periods");
-        }
-        assert_eq!(rings_after(0.7, 4.5), None, "within the band");
-        assert_eq!(rings_after(5.0, 2.0), None, "the operator's pace");
-        assert_eq!(rings_after(5.0, 9.0), None, "a firm grip's ringing");
     }
 }
