@@ -234,13 +234,14 @@ impl ForceLoop {
     }
 
     /// The feedback gains' factor for the compliance seen.
-    pub fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
+    fn compliance_scale(&self, cfg: &ForceLoopConfig) -> f32 {
         let s = cfg.compliant_gain_scale;
         s + (1.0 - s) / (1.0 + self.gains_compliance_m_per_n() / cfg.compliance_ref_m_per_n)
     }
 
     /// The feedback gains' factor for a loop that rang against what holds the handle: the
-    /// square of [`ForceLoop::compliance_scale`] (0.09–0.2 against a hand, 1 at a block).
+    /// square of the factor the force mode sets its gains by for the compliance seen
+    /// ([`ForceLoop::observe_handle`]; 0.09–0.2 against a hand, 1 at a block).
     /// The impedance mode takes it, on its feedback and on the arm's inertia it feeds forward,
     /// once the handle has rung (`crate::impedance::Ringing`): a relaxed hand puts the arm's
     /// mass on it at 4–5 Hz, on the converters' own resonance, where the lagging feedback
