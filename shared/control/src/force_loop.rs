@@ -21,7 +21,9 @@
 //!   B/K), and the feed-forward gives up the gain plane's correction
 //!   ([`ForceLoop::through_plane`]): the plane is a bet on the plant's static gain that only
 //!   a fast feedback can take back, and against a hand the feedback is slow, so the bet
-//!   would go into the patient's hand.
+//!   would go into the patient's hand. The direct loop (impedance mode) keeps the design's
+//!   gains until the handle rings at a relaxed hand's 3.3–7 Hz, then takes the square of
+//!   this factor ([`ForceLoop::held_scale`]): an operator moving the handle is no compliance.
 //! - **The plant's gain** ([`crate::plant_gain`], force mode, at a block): measured at steady
 //!   levels and within a step, the command divided by it as the gain plane divides; and the
 //!   integral waits while the force closes the error by itself in a step not (yet) known to
@@ -36,6 +38,7 @@
 //!
 //! The design, its margins and the measured tables are in docs/closed-loop.md. f32, no heap.
 
+pub use crate::force_loop_config::ForceLoopConfig;
 use crate::guard::Guard;
 pub use crate::guard::{
     GuardTrip, SLOW_OSCILLATION_BAND_N, SLOW_OSCILLATION_FLIPS, SLOW_OSCILLATION_TAU_S,
@@ -44,64 +47,6 @@ use crate::plant_gain::PlantGain;
 use pam_model::kinematics::PoseTrig;
 use pam_model::params::{GainPlane, IpConverter};
 use pam_model::{Real, RobotModel, Vec2};
-#[cfg(feature = "serde")]
-use serde::{Deserialize, Serialize};
-
-/// Gains and limits of the closed force loop. Defaults: [`ForceLoopConfig::designed`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-pub struct ForceLoopConfig {
-    /// Bandwidth of the critically damped reference model, rad/s.
-    pub reference_bandwidth_rad_s: f32,
-    /// Proportional gain, N of command per N of error.
-    pub kp: f32,
-    /// Integral gain, 1/s.
-    pub ki_per_s: f32,
-    /// Derivative gain on the error rate, s (damps the converters' resonance).
-    pub kd_s: f32,
-    /// Bandwidth of the first-order filter of the measured force's rate, rad/s.
-    pub derivative_filter_rad_s: f32,
-    /// Largest rate of the force reference, N/s.
-    pub force_rate_n_per_s: f32,
-    /// Bound of the integral term, N.
-    pub integral_limit_n: f32,
-    /// Error (norm over both axes) that, held for `guard_time_s`, is a fault, N.
-    pub guard_error_n: f32,
-    pub guard_time_s: f32,
-    /// Error (norm) that is a fault at once: a growing oscillation reaches it within a
-    /// period or two of its swing, before the flip count does, N.
-    pub guard_error_max_n: f32,
-    /// Hysteresis band of the oscillation detector, N.
-    pub guard_band_n: f32,
-    /// Leaky count of error sign flips (time constant 1 s) that is a fault.
-    pub guard_flips: f32,
-    /// Handle speed that is a fault in the closed-loop modes, m/s: a force loop that
-    /// cannot find its force (the patient let go of the handle, the block gave way) drives
-    /// the arm away; this stops it within a few centimetres.
-    pub guard_speed_m_s: f32,
-    /// Least muscle force the closed loop's inverse model may ask for, as a fraction of the
-    /// joint's anti-slack force (`pam_model::taut`): a cable cannot push, and a muscle asked
-    /// for less than nothing leaves the loop with half its gain.
-    pub taut_force_fraction: f32,
-    /// Share of the taut-cable torque range a target may ask for in steady state, 0–1: a
-    /// target beyond it is scaled down, its direction kept
-    /// ([`pam_model::RobotModel::reachable_force_scale`]); the rest is the feedback's room
-    /// for what the model misses.
-    pub reach_margin: f32,
-    /// Compliance of what holds the handle (handle travel per newton) at which the loop's
-    /// gains are halfway to [`ForceLoopConfig::compliant_gain_scale`], m/N: 20 000 N/m puts
-    /// the arm's resonance on it (≈ 1.4 kg) at 120 rad/s, three times the loop's crossover; a
-    /// hand (1000–5000 N/m) puts it at 20–60 rad/s, on the crossover.
-    pub compliance_ref_m_per_n: f32,
-    /// The feedback gains' factor (kp, ki, kd) against a very compliant handle: 0.3 keeps the
-    /// loop stable against the twin's hands up to the top of the plant-gain range the loop is
-    /// designed for (g = 1.75, the gain plane on a plant without the 0.57).
-    pub compliant_gain_scale: f32,
-    /// Handle travel since the loop started that is not yet compliance, m: about one encoder
-    /// count at the handle (10 000 counts per revolution, 0.45 m), so that a block's count
-    /// flicker is not mistaken for a hand.
-    pub handle_deadband_m: f32,
-}
 
 /// Least force change over which [`ForceLoop::observe_handle`] divides the handle's travel, N
 /// (the load cell's noise is 0.15 N).
@@ -127,71 +72,6 @@ pub const BLOCK_FORCE_N: f32 = 3.0;
 /// margin (2–3, docs/closed-loop.md), so no accepted scale is far past the edge of
 /// stability; the guard catches a loop driven to it.
 pub const MAX_GAIN_SCALE: f32 = 3.0;
-
-impl ForceLoopConfig {
-    /// The design of docs/closed-loop.md for the thesis's converters (ωn 23 rad/s, ζ 0.42).
-    pub const fn designed() -> Self {
-        ForceLoopConfig {
-            reference_bandwidth_rad_s: 40.0,
-            kp: 1.0,
-            ki_per_s: 20.0,
-            kd_s: 0.06,
-            derivative_filter_rad_s: 60.0,
-            force_rate_n_per_s: 300.0,
-            integral_limit_n: 40.0,
-            guard_error_n: 12.0,
-            guard_time_s: 0.5,
-            guard_error_max_n: 25.0,
-            guard_band_n: 2.0,
-            guard_flips: 6.0,
-            guard_speed_m_s: 0.5,
-            taut_force_fraction: 0.1,
-            reach_margin: 0.95,
-            compliance_ref_m_per_n: 5e-5,
-            compliant_gain_scale: 0.3,
-            handle_deadband_m: 3e-4,
-        }
-    }
-
-    pub fn is_valid(&self) -> bool {
-        let pos = [
-            self.reference_bandwidth_rad_s,
-            self.derivative_filter_rad_s,
-            self.force_rate_n_per_s,
-            self.integral_limit_n,
-            self.guard_error_n,
-            self.guard_time_s,
-            self.guard_error_max_n,
-            self.guard_band_n,
-            self.guard_flips,
-            self.guard_speed_m_s,
-        ];
-        pos.iter().all(|v| v.is_finite() && *v > 0.0)
-            && self.kp.is_finite()
-            && self.kp >= 0.0
-            && self.ki_per_s.is_finite()
-            && self.ki_per_s >= 0.0
-            && self.kd_s.is_finite()
-            && self.kd_s >= 0.0
-            && self.taut_force_fraction >= 0.0
-            && self.taut_force_fraction < 1.0
-            && self.reach_margin > 0.0
-            && self.reach_margin <= 1.0
-            && self.compliance_ref_m_per_n.is_finite()
-            && self.compliance_ref_m_per_n > 0.0
-            && self.compliant_gain_scale.is_finite()
-            && self.compliant_gain_scale > 0.0
-            && self.compliant_gain_scale <= 1.0
-            && self.handle_deadband_m.is_finite()
-            && self.handle_deadband_m >= 0.0
-    }
-}
-
-impl Default for ForceLoopConfig {
-    fn default() -> Self {
-        Self::designed()
-    }
-}
 
 /// The loop's state: reference, reference model, integral, guard.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -359,6 +239,18 @@ impl ForceLoop {
         s + (1.0 - s) / (1.0 + self.gains_compliance_m_per_n() / cfg.compliance_ref_m_per_n)
     }
 
+    /// The feedback gains' factor for a loop that rang against what holds the handle: the
+    /// square of the factor the force mode sets its gains by for the compliance seen
+    /// ([`ForceLoop::observe_handle`]; 0.09–0.2 against a hand, 1 at a block).
+    /// The impedance mode takes it, on its feedback and on the arm's inertia it feeds forward,
+    /// once the handle has rung (`crate::impedance::Ringing`): a relaxed hand puts the arm's
+    /// mass on it at 4–5 Hz, on the converters' own resonance, where the lagging feedback
+    /// and feed-forward take more damping than the hand has (docs/impedance.md).
+    pub fn held_scale(&self, cfg: &ForceLoopConfig) -> f32 {
+        let c = self.compliance_scale(cfg);
+        c * c
+    }
+
     /// How much of the gain plane's correction the feed-forward gets, 0–1: all of it at a
     /// block, (1 + c / `compliance_ref_m_per_n`)⁻² against a compliance c (0.04 at the twin's
     /// firm grip, 0.002 at a relaxed hand). The plane (eq. 5.2) was identified at a blocked
@@ -434,8 +326,9 @@ impl ForceLoop {
 
     /// [`ForceLoop::step`] without the reference model: the target is followed as it comes,
     /// only rate-limited (impedance mode, where the target is itself a function of the
-    /// measured motion and any lag would change the rendered impedance). The designed gains,
-    /// the integral's × `integral_scale`.
+    /// measured motion and any lag would change the rendered impedance). The designed gains
+    /// × `gain_scale` (no compliance factor of its own: [`ForceLoop::held_scale`] is the
+    /// caller's), the integral's also × `integral_scale`.
     #[allow(clippy::too_many_arguments)]
     pub fn step_direct(
         &mut self,
@@ -443,11 +336,11 @@ impl ForceLoop {
         ip: &IpConverter<f32>,
         target_n: Vec2<f32>,
         measured_n: Vec2<f32>,
-        integral_scale: f32,
+        [gain_scale, integral_scale]: [f32; 2],
         saturated: bool,
         dt_s: f32,
     ) -> ForceLoopOutput {
-        let gains = [1.0, integral_scale];
+        let gains = [gain_scale, integral_scale];
         self.run(cfg, ip, target_n, measured_n, gains, saturated, dt_s, false)
     }
 
@@ -476,12 +369,12 @@ impl ForceLoop {
         let wm = cfg.reference_bandwidth_rad_s * c;
         let wn = ip.natural_freq_rad_s;
         let zeta = ip.damping_ratio;
-        let max_df = cfg.force_rate_n_per_s * c * dt_s;
-        let (kp, ki, kd) = (
-            cfg.kp * gain_scale * c,
-            cfg.ki_per_s * gain_scale * integral_scale * c,
-            cfg.kd_s * gain_scale * c,
-        );
+        // direct: the target follows the handle, its rate is not a step's to slow
+        let (max_df, g) = match shaped {
+            true => (cfg.force_rate_n_per_s * c * dt_s, gain_scale * c),
+            false => (cfg.force_rate_n_per_s * dt_s, gain_scale),
+        };
+        let (kp, ki, kd) = (cfg.kp * g, cfg.ki_per_s * g * integral_scale, cfg.kd_s * g);
         let wf_dt = cfg.derivative_filter_rad_s * dt_s;
         let alpha = wf_dt / (1.0 + wf_dt);
         let mut command_n = [0.0; 2];

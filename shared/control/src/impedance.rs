@@ -60,6 +60,69 @@ pub const RELEASE_SPEED_M_S: f32 = 0.05;
 /// nearly nothing while the loop accelerates the arm.
 pub const RELEASE_TIME_S: f32 = 0.015;
 
+/// The ringing detector's band on the handle's filtered speed, per axis, m/s: a 4.5 Hz swing
+/// of 0.7 mm, ±0.7 N on a relaxed hand's spring (the encoders' count, ≈ 0.3 mm at the
+/// handle, differentiated gives spikes of 17 mm/s that die within 17 ms).
+pub const RINGING_SPEED_M_S: f32 = 0.02;
+/// Shortest and longest time between two reversals across the band that count as ringing, s:
+/// half a period at 7 Hz and at 3.3 Hz. The arm's mass on a relaxed hand (1000 N/m) rings at
+/// 4–5 Hz; an operator reverses the handle below 2 Hz (a quarter second or more apart), a
+/// handle that sticks and slips on the table does not reverse, and a firm grip (5000 N/m) puts
+/// the arm's mass at ≈ 9 Hz, which the design's gains damp.
+pub const RINGING_HALF_PERIOD_S: [f32; 2] = [0.07, 0.15];
+/// Reversals in the leaky count (time constant 1 s) beyond which the handle rings: three, a
+/// period and a half of it (the force loop's guard trips at six swings of its error beyond
+/// ±2 N). Two reversals also count the quick turns of an operator's path (the twin's
+/// scripted operator, 0.1–2 Hz, turned the gains down within 8–24 s of its trials).
+pub const RINGING_FLIPS: f32 = 2.5;
+
+/// A handle that rings: its filtered velocity reverses across ±[`RINGING_SPEED_M_S`] within
+/// [`RINGING_HALF_PERIOD_S`] of the previous reversal, per axis, in a leaky count (time
+/// constant 1 s); once the count passes [`RINGING_FLIPS`] the handle has rung, until reset.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Ringing {
+    sign: [i8; 2],
+    since_flip_s: Vec2<f32>,
+    flips: Vec2<f32>,
+    rang: bool,
+}
+
+impl Ringing {
+    const fn new() -> Self {
+        Ringing {
+            sign: [0; 2],
+            since_flip_s: [0.0; 2],
+            flips: [0.0; 2],
+            rang: false,
+        }
+    }
+
+    fn update(&mut self, v_m_s: Vec2<f32>, dt_s: f32) {
+        let [short_s, long_s] = RINGING_HALF_PERIOD_S;
+        for a in 0..2 {
+            self.flips[a] *= 1.0 - dt_s;
+            self.since_flip_s[a] += dt_s;
+            let last = self.sign[a];
+            let s = if v_m_s[a] > RINGING_SPEED_M_S {
+                1
+            } else if v_m_s[a] < -RINGING_SPEED_M_S {
+                -1
+            } else {
+                last
+            };
+            if s != last {
+                let t = self.since_flip_s[a];
+                if last != 0 && t >= short_s && t <= long_s {
+                    self.flips[a] += 1.0;
+                }
+                self.since_flip_s[a] = 0.0;
+            }
+            self.sign[a] = s;
+            self.rang |= self.flips[a] > RINGING_FLIPS;
+        }
+    }
+}
+
 /// The handle's motion estimated from the encoders, and the released-handle detector's timer.
 ///
 /// Two estimates: a first-order filtered difference ([`Impedance::velocity_m_s`], 17 ms of
@@ -77,6 +140,7 @@ pub struct Impedance {
     obs_v_m_s: Vec2<f32>,
     obs_a_m_s2: Vec2<f32>,
     released_s: f32,
+    ringing: Ringing,
 }
 
 impl Default for Impedance {
@@ -95,6 +159,7 @@ impl Impedance {
             obs_v_m_s: [0.0; 2],
             obs_a_m_s2: [0.0; 2],
             released_s: 0.0,
+            ringing: Ringing::new(),
         }
     }
 
@@ -105,6 +170,12 @@ impl Impedance {
     /// Filtered velocity, m/s.
     pub fn velocity_m_s(&self) -> Vec2<f32> {
         self.v_m_s
+    }
+
+    /// Whether the handle has rung at 3.3–7 Hz since the reset ([`RINGING_SPEED_M_S`]): the
+    /// arm's mass on a relaxed hand, which the impedance mode then stops feeding.
+    pub fn rang(&self) -> bool {
+        self.ringing.rang
     }
 
     /// The observer's velocity, m/s.
@@ -163,6 +234,7 @@ impl Impedance {
             self.obs_a_m_s2[a] += k * e;
         }
         self.last_x_m = x_m;
+        self.ringing.update(self.v_m_s, dt_s);
         self.v_m_s
     }
 }
@@ -308,6 +380,33 @@ mod tests {
         assert_eq!(runs(&mut imp, [9.0, 0.0], [0.0, 0.0]), None, "still");
     }
 
+    /// Periods until the handle swinging by `amp_m` at `hz` along X has rung, within 3 s.
+    fn rings_after(amp_m: f32, hz: f32) -> Option<usize> {
+        let mut imp = Impedance::new();
+        let dt = 0.001;
+        (0..3000).position(|k| {
+            let t = k as f32 * dt;
+            imp.track(
+                [amp_m * (2.0 * core::f32::consts::PI * hz * t).sin(), 0.0],
+                dt,
+            );
+            imp.rang()
+        })
+    }
+
+    /// The arm's mass ringing on a relaxed hand (4–6 Hz, 1.5 mm) is seen within two periods;
+    /// a swing below the speed band, the operator's pace (2 Hz) and a firm grip's 9 Hz never.
+    #[test]
+    fn a_handle_rings_at_a_relaxed_hands_frequency_only() {
+        for hz in [4.0, 4.5, 6.0] {
+            let k = rings_after(0.0015, hz).expect("rings");
+            assert!((k as f32) < 2.0 * 1000.0 / hz, "{hz} Hz: after {k} periods");
+        }
+        assert_eq!(rings_after(0.0005, 4.5), None, "below the band");
+        assert_eq!(rings_after(0.01, 2.0), None, "the operator's pace");
+        assert_eq!(rings_after(0.0015, 9.0), None, "a firm grip's ringing");
+    }
+
     /// The observer follows a parabola without lag (velocity and acceleration exact once
     /// settled), where the filtered difference lags by its time constant.
     #[test]
@@ -353,6 +452,7 @@ mod tests {
             obs_v_m_s: [0.2, 0.2],
             obs_a_m_s2: [1.0, 1.0],
             released_s: 0.0,
+            ringing: Ringing::new(),
         };
         let f = impedance_force_n([0.0; 2], &imp, &moving, [0.0; 2]);
         let want_x = -300.0 * IMPEDANCE_LEAD_S * 0.2 - 5.0 * 0.1;

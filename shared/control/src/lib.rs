@@ -28,6 +28,7 @@
 
 pub mod faults;
 pub mod force_loop;
+mod force_loop_config;
 pub mod guard;
 pub mod home_check;
 pub mod impedance;

@@ -115,6 +115,10 @@ impl Controller {
     pub fn force_loop(&self) -> &ForceLoop {
         &self.force_loop
     }
+    /// The handle's motion as the closed-loop modes track it (and whether it has rung).
+    pub fn handle_motion(&self) -> &Impedance {
+        &self.impedance
+    }
 
     /// Replaces the closed force loop's gains and guard. Refused while armed.
     pub fn set_force_loop_config(&mut self, cfg: ForceLoopConfig) -> Result<(), Reject> {

@@ -307,6 +307,13 @@ impl Controller {
         let home = self.model.kinematics.home_world_m;
         let x_m = [w[0] - home[0], w[1] - home[1]];
         let too_fast = handle_too_fast(&mut self.impedance, &self.force_loop_cfg, x_m, dt);
+        // what holds the handle, for the gains once the handle has rung (a relaxed hand)
+        self.force_loop
+            .observe_handle(&self.force_loop_cfg, x_m, pose.force_user_n, dt);
+        let held = match self.impedance.rang() {
+            true => self.force_loop.held_scale(&self.force_loop_cfg),
+            false => 1.0,
+        };
         let imp = VirtualImpedance {
             stiffness_n_per_m,
             damping_n_s_per_m,
@@ -315,6 +322,8 @@ impl Controller {
         let f_ref = impedance_force_n(target_user_m, &imp, &self.impedance, x_m);
         // the muscles also move the arm's own mass, behind the load cell
         let inertia = arm_inertia_force_n(&self.model, trig, self.impedance.acceleration_m_s2());
+        // against a relaxed hand, the feed-forward's lag would undamp the arm on it
+        let inertia = [held * inertia[0], held * inertia[1]];
         // a spring force beyond the muscles is scaled, its direction kept
         let (f_ref, reach) = reachable_impedance_force_n(
             &self.model,
@@ -329,7 +338,7 @@ impl Controller {
             &self.model.params.ip,
             f_ref,
             pose.force_user_n,
-            IMPEDANCE_INTEGRAL_SCALE,
+            [held, IMPEDANCE_INTEGRAL_SCALE],
             self.last_saturated,
             dt,
         );
