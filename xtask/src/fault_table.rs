@@ -73,22 +73,40 @@ pub fn fault_table(args: &[String]) -> i32 {
     }
 }
 
-/// `text` with everything between the markers replaced by `section`.
+/// `text` with everything between the fault table's markers replaced by `section`.
 pub fn replace_section(text: &str, section: &str) -> Result<String, String> {
+    replace_between(text, BEGIN, END, section)
+}
+
+/// `text` with everything between `begin` and the next `end` replaced by `section`.
+pub fn replace_between(
+    text: &str,
+    begin: &str,
+    end: &str,
+    section: &str,
+) -> Result<String, String> {
     let start = text
-        .find(BEGIN)
-        .ok_or_else(|| format!("no `{BEGIN}` marker"))?
-        + BEGIN.len();
-    let end = start
+        .find(begin)
+        .ok_or_else(|| format!("no `{begin}` marker"))?
+        + begin.len();
+    let stop = start
         + text[start..]
-            .find(END)
-            .ok_or_else(|| format!("no `{END}` marker after the first"))?;
+            .find(end)
+            .ok_or_else(|| format!("no `{end}` marker after the first"))?;
     Ok(format!(
         "{}\n\n{}\n{}",
         &text[..start],
         section.trim_end(),
-        &text[end..]
+        &text[stop..]
     ))
+}
+
+/// The date and commit of a measurement, for a stamp.
+pub fn date_and_commit(root: &Path) -> (String, String) {
+    (
+        output(Command::new("date").args(["-u", "+%Y-%m-%d %H:%M UTC"])),
+        commit(root),
+    )
 }
 
 fn output(cmd: &mut Command) -> String {

@@ -23,6 +23,7 @@
 mod eval;
 mod fault_table;
 mod fuzz;
+mod soak;
 mod suite;
 mod target_dir;
 
@@ -43,7 +44,7 @@ fn main() {
         Some("bench") => run_status(cargo_in(&root()).args(["bench", "-p", "pam-model"])),
         Some("eval") => eval::eval(&args[1..]),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
-        Some("soak") => soak(&args[1..]),
+        Some("soak") => soak::soak(&args[1..]),
         Some("fault-table") => fault_table::fault_table(&args[1..]),
         _ => {
             eprintln!("usage: cargo xtask <test | eval | qemu-fault-paths | qemu-bench | bench | firmware | fuzz | soak | fault-table>");
@@ -276,23 +277,6 @@ fn qemu_counts(lines: &[String]) -> Option<(u64, u64)> {
         .filter(|s| !s.is_empty())
         .map(|s| s.parse::<u64>());
     Some((nums.next()?.ok()?, nums.next()?.ok()?))
-}
-
-/// The soak test's example in release, its arguments passed on (it checks them).
-fn soak(args: &[String]) -> i32 {
-    run_status(
-        cargo_in(&root())
-            .args([
-                "run",
-                "--release",
-                "-p",
-                "pam-emulator",
-                "--example",
-                "soak",
-                "--",
-            ])
-            .args(args),
-    )
 }
 
 fn qemu_bench() -> i32 {
