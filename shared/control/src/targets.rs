@@ -310,9 +310,10 @@ impl Controller {
         // what holds the handle, for the gains once the handle has rung (a relaxed hand)
         self.force_loop
             .observe_handle(&self.force_loop_cfg, x_m, pose.force_user_n, dt);
-        let held = match self.impedance.rang() {
-            true => self.force_loop.held_scale(&self.force_loop_cfg),
-            false => 1.0,
+        let held = if self.impedance.rang() {
+            self.force_loop.held_scale(&self.force_loop_cfg)
+        } else {
+            1.0
         };
         let imp = VirtualImpedance {
             stiffness_n_per_m,
