@@ -109,12 +109,19 @@ fn crossgen_runs(quick: bool) -> Vec<Vec<String>> {
 }
 
 fn suite_runs(quick: bool) -> Vec<Vec<String>> {
-    let mut args = words("test --release -p pam-eval --test synth_matrix --test twin_loop");
-    if !quick {
-        args.extend(words("--features suites"));
-    }
-    args.extend(words("-- --test-threads=2"));
-    vec![args]
+    // one command per test binary: cargo names the binary on its standard error, which the
+    // page does not read, so each row is named from its own command
+    ["synth_matrix", "twin_loop"]
+        .iter()
+        .map(|test| {
+            let mut args = words(&format!("test --release -p pam-eval --test {test}"));
+            if !quick {
+                args.extend(words("--features suites"));
+            }
+            args.extend(words("-- --test-threads=2"));
+            args
+        })
+        .collect()
 }
 
 fn friction_pair_runs(quick: bool) -> Vec<Vec<String>> {
@@ -486,7 +493,7 @@ fn section(s: &Section, quick: bool, stamp: &str) -> (String, bool) {
                     first_matrix = Some(table_lines(&lines));
                 }
             }
-            Kind::Suites => rows.extend(suite_rows(&lines, failed_note)),
+            Kind::Suites => rows.extend(suite_rows(args, &lines, failed_note)),
             Kind::Rows(_) => rows.extend(
                 table_lines(&lines)
                     .into_iter()
@@ -609,25 +616,26 @@ fn confusion_row(args: &[String], lines: &[String], wall_s: f64, note: &str) -> 
     )
 }
 
-/// One row per test binary: cargo prints `Running tests/NAME.rs (…)` then its result line.
-fn suite_rows(lines: &[String], note: &str) -> Vec<String> {
-    let mut rows = Vec::new();
-    let mut current = String::from("?");
-    for l in lines {
-        if let Some(rest) = l.trim_start().strip_prefix("Running ") {
-            current = rest.split_whitespace().next().unwrap_or("?").to_string();
-        }
-        if l.starts_with("test result:") {
+/// One row per test binary (named by the command's `--test NAME`): passed, failed, seconds.
+fn suite_rows(args: &[String], lines: &[String], note: &str) -> Vec<String> {
+    let name = args
+        .iter()
+        .position(|a| a == "--test")
+        .and_then(|i| args.get(i + 1))
+        .map_or("?", String::as_str);
+    lines
+        .iter()
+        .filter(|l| l.starts_with("test result:"))
+        .map(|l| {
             let (p, f) = crate::cargo_test_counts(std::slice::from_ref(l));
             let secs = l
                 .rsplit("finished in ")
                 .next()
                 .map(|s| s.trim_end_matches('s').trim().to_string())
                 .unwrap_or_default();
-            rows.push(format!("| `{current}`{note} | {p} | {f} | {secs} |"));
-        }
-    }
-    rows
+            format!("| `{name}`{note} | {p} | {f} | {secs} |")
+        })
+        .collect()
 }
 
 /// Writes the page: the head, then each section in the order of [`SECTIONS`], from this
