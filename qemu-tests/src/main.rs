@@ -65,6 +65,15 @@ fn known_instructions(iterations: u32) {
     }
 }
 
+/// The timing of the `k`-th benchmarked period: 1 ms apart, a short and steady loop.
+fn bench_timing(k: u32) -> StepTiming {
+    StepTiming {
+        time_us: k * 1000,
+        loop_exec_us: 20,
+        loop_jitter_us: 1,
+    }
+}
+
 /// A request of the session the handshake issued.
 fn request(body: RequestBody) -> Request {
     Request {
@@ -129,14 +138,7 @@ fn closed_loop_ramp_step(insn_per_tick: f32) -> (f32, bool) {
                 encoder_counts: [0, 0],
                 loadcell_volts: [(k as f32) * 1.0e-5, -(k as f32) * 0.5e-5],
             };
-            black_box(dev.step(
-                black_box(raw),
-                StepTiming {
-                    time_us: k * 1000,
-                    loop_exec_us: 20,
-                    loop_jitter_us: 1,
-                },
-            ));
+            black_box(dev.step(black_box(raw), bench_timing(k)));
         }
     });
     let heartbeat_ticks = ticks(|| {
@@ -283,14 +285,7 @@ fn main() -> ! {
                     encoder_counts: [(k & 7).wrapping_sub(4) & 0xFFFF, (k & 3) * 2],
                     loadcell_volts: [w.torque_nm[0] * 0.001, w.torque_nm[1] * 0.001],
                 };
-                black_box(dev.step(
-                    black_box(raw),
-                    StepTiming {
-                        time_us: k * 1000,
-                        loop_exec_us: 20,
-                        loop_jitter_us: 1,
-                    },
-                ));
+                black_box(dev.step(black_box(raw), bench_timing(k)));
             }
         }
     });
@@ -326,14 +321,7 @@ fn main() -> ! {
                     encoder_counts: [(k & 7).wrapping_sub(4) & 0xFFFF, (k & 3) * 2],
                     loadcell_volts: [w.torque_nm[0] * 0.001, w.torque_nm[1] * 0.001],
                 };
-                black_box(dev.step(
-                    black_box(raw),
-                    StepTiming {
-                        time_us: k * 1000,
-                        loop_exec_us: 20,
-                        loop_jitter_us: 1,
-                    },
-                ));
+                black_box(dev.step(black_box(raw), bench_timing(k)));
             }
         }
     });
@@ -366,14 +354,7 @@ fn main() -> ! {
                     encoder_counts: [(k >> 6) & 7, (k >> 6) & 3],
                     loadcell_volts: [w.torque_nm[0] * 0.001, w.torque_nm[1] * 0.001],
                 };
-                black_box(dev.step(
-                    black_box(raw),
-                    StepTiming {
-                        time_us: k * 1000,
-                        loop_exec_us: 20,
-                        loop_jitter_us: 1,
-                    },
-                ));
+                black_box(dev.step(black_box(raw), bench_timing(k)));
             }
         }
     });
@@ -412,14 +393,7 @@ fn main() -> ! {
             for w in inputs.iter() {
                 dev.handle(&request(RequestBody::Heartbeat));
                 k += 1;
-                black_box(dev.step(
-                    black_box(wandering(k, w)),
-                    StepTiming {
-                        time_us: k * 1000,
-                        loop_exec_us: 20,
-                        loop_jitter_us: 1,
-                    },
-                ));
+                black_box(dev.step(black_box(wandering(k, w)), bench_timing(k)));
             }
         }
     });
