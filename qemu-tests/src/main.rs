@@ -12,11 +12,12 @@ use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use pam_control::{Mode, SafetyConfig, State};
-use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
+use pam_device::checks::OPTIONS;
+use pam_device::{Device, RawSensors, StepTiming};
 use pam_model::checks::{precision, workload, Check, CHECKS_F32, CHECKS_F64};
 use pam_model::kinematics::Kinematics;
 use pam_model::{RobotModel, RobotParams};
-use pam_protocol::{Request, RequestBody, Version};
+use pam_protocol::{Request, RequestBody};
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
@@ -86,19 +87,7 @@ fn request(body: RequestBody) -> Request {
 /// A device at the thesis's parameters, handshaken, homed at the zero pose, armed and in
 /// `mode`: its tensioning ramp has just begun.
 fn armed_device(mode: Mode) -> Device {
-    let mut dev = Device::new(
-        RobotParams::thesis(),
-        SafetyConfig::default_1khz(),
-        DeviceOptions {
-            firmware_version: Version {
-                major: 0,
-                minor: 1,
-                patch: 0,
-            },
-            encoder_counter_bits: 16,
-            boot_nonce: 0,
-        },
-    );
+    let mut dev = Device::new(RobotParams::thesis(), SafetyConfig::default_1khz(), OPTIONS);
     let home = RawSensors {
         encoder_counts: [0, 0],
         loadcell_volts: [0.0, 0.0],

@@ -56,11 +56,15 @@ pub fn fault_table(args: &[String]) -> i32 {
     if !write {
         return 0;
     }
-    let readme = root.join("hil-tests/README.md");
-    match std::fs::read_to_string(&readme)
+    write_readme_section(&root.join("hil-tests/README.md"), BEGIN, END, &table)
+}
+
+/// Rewrites the part of `readme` between `begin` and `end` with `section`; the exit code.
+pub fn write_readme_section(readme: &Path, begin: &str, end: &str, section: &str) -> i32 {
+    match std::fs::read_to_string(readme)
         .map_err(|e| e.to_string())
-        .and_then(|text| replace_section(&text, &table))
-        .and_then(|text| std::fs::write(&readme, text).map_err(|e| e.to_string()))
+        .and_then(|text| replace_between(&text, begin, end, section))
+        .and_then(|text| std::fs::write(readme, text).map_err(|e| e.to_string()))
     {
         Ok(()) => {
             eprintln!("xtask: {} rewritten", readme.display());
@@ -71,11 +75,6 @@ pub fn fault_table(args: &[String]) -> i32 {
             1
         }
     }
-}
-
-/// `text` with everything between the fault table's markers replaced by `section`.
-pub fn replace_section(text: &str, section: &str) -> Result<String, String> {
-    replace_between(text, BEGIN, END, section)
 }
 
 /// `text` with everything between `begin` and the next `end` replaced by `section`.
@@ -144,11 +143,14 @@ mod tests {
     #[test]
     fn the_section_between_the_markers_is_replaced_and_the_rest_kept() {
         let text = format!("# A\n{BEGIN}\nold table\n{END}\n# B\n");
-        let out = replace_section(&text, "new table\n").unwrap();
+        let out = replace_between(&text, BEGIN, END, "new table\n").unwrap();
         assert_eq!(out, format!("# A\n{BEGIN}\n\nnew table\n{END}\n# B\n"));
         // idempotent
-        assert_eq!(replace_section(&out, "new table\n").unwrap(), out);
-        assert!(replace_section("# A\n", "x").is_err());
-        assert!(replace_section(&format!("{BEGIN} no end"), "x").is_err());
+        assert_eq!(
+            replace_between(&out, BEGIN, END, "new table\n").unwrap(),
+            out
+        );
+        assert!(replace_between("# A\n", BEGIN, END, "x").is_err());
+        assert!(replace_between(&format!("{BEGIN} no end"), BEGIN, END, "x").is_err());
     }
 }

@@ -4,7 +4,7 @@
 
 use std::process::Stdio;
 
-use crate::fault_table::{date_and_commit, replace_between};
+use crate::fault_table::{date_and_commit, write_readme_section};
 use crate::{cargo_in, root};
 
 const BEGIN: &str = "<!-- soak:begin (cargo xtask soak --hours 1 --seed 1 --write) -->";
@@ -49,21 +49,7 @@ pub fn soak(args: &[String]) -> i32 {
         words.join(" "),
         markdown(&text)
     );
-    let readme = root.join("hil-tests/README.md");
-    match std::fs::read_to_string(&readme)
-        .map_err(|e| e.to_string())
-        .and_then(|t| replace_between(&t, BEGIN, END, &section))
-        .and_then(|t| std::fs::write(&readme, t).map_err(|e| e.to_string()))
-    {
-        Ok(()) => {
-            eprintln!("xtask: {} rewritten", readme.display());
-            0
-        }
-        Err(e) => {
-            eprintln!("xtask: {}: {e}", readme.display());
-            1
-        }
-    }
+    write_readme_section(&root.join("hil-tests/README.md"), BEGIN, END, &section)
 }
 
 /// The soak's output as markdown: its tables as they are, the lines between them in text

@@ -370,9 +370,10 @@ impl ForceLoop {
         let wn = ip.natural_freq_rad_s;
         let zeta = ip.damping_ratio;
         // direct: the target follows the handle, its rate is not a step's to slow
-        let (max_df, g) = match shaped {
-            true => (cfg.force_rate_n_per_s * c * dt_s, gain_scale * c),
-            false => (cfg.force_rate_n_per_s * dt_s, gain_scale),
+        let (max_df, g) = if shaped {
+            (cfg.force_rate_n_per_s * c * dt_s, gain_scale * c)
+        } else {
+            (cfg.force_rate_n_per_s * dt_s, gain_scale)
         };
         let (kp, ki, kd) = (cfg.kp * g, cfg.ki_per_s * g * integral_scale, cfg.kd_s * g);
         let wf_dt = cfg.derivative_filter_rad_s * dt_s;

@@ -42,6 +42,18 @@ pub const SLOW_OSCILLATION_TAU_S: f32 = 4.0;
 /// trips after ≈ 5 s; ±20 N at 1 Hz trips in ≈ 2 s.
 pub const SLOW_OSCILLATION_FLIPS: f32 = 3.0;
 
+/// The sign of `v` once beyond ±`band`, `last` within it: a sign with hysteresis, whose
+/// changes are the swings an oscillation detector counts.
+pub(crate) fn sign_beyond(v: f32, band: f32, last: i8) -> i8 {
+    if v > band {
+        1
+    } else if v < -band {
+        -1
+    } else {
+        last
+    }
+}
+
 /// Leaky counts of the error's sign flips per axis, across two bands at once: the fast
 /// count (band `guard_band_n`, time constant 1 s) and the slow one (band
 /// [`SLOW_OSCILLATION_BAND_N`], time constant [`SLOW_OSCILLATION_TAU_S`]).
@@ -69,15 +81,8 @@ impl FlipCount {
         for b in 0..2 {
             for a in 0..2 {
                 self.flips[b][a] *= 1.0 - leaks[b];
-                let e = error_n[a];
                 let last = self.sign[b][a];
-                let s = if e > bands[b] {
-                    1
-                } else if e < -bands[b] {
-                    -1
-                } else {
-                    last
-                };
+                let s = sign_beyond(error_n[a], bands[b], last);
                 if s != last && last != 0 {
                     self.flips[b][a] += 1.0;
                 }

@@ -7,6 +7,7 @@
 //! the loop's residual lag, the arm's inertia fed forward) is in docs/impedance.md.
 
 use crate::force_loop::ForceLoopConfig;
+use crate::guard::sign_beyond;
 use pam_model::kinematics::PoseTrig;
 use pam_model::{Mat2, RobotModel, Vec2};
 
@@ -103,13 +104,7 @@ impl Ringing {
             self.flips[a] *= 1.0 - dt_s;
             self.since_flip_s[a] += dt_s;
             let last = self.sign[a];
-            let s = if v_m_s[a] > RINGING_SPEED_M_S {
-                1
-            } else if v_m_s[a] < -RINGING_SPEED_M_S {
-                -1
-            } else {
-                last
-            };
+            let s = sign_beyond(v_m_s[a], RINGING_SPEED_M_S, last);
             if s != last {
                 let t = self.since_flip_s[a];
                 if last != 0 && t >= short_s && t <= long_s {

@@ -11,23 +11,14 @@
 
 use pam_control::safety::ceiling::TIMEOUT_RAMP_MAX_S;
 use pam_control::{Faults, Mode, SafetyConfig, State, MAX_LOOP_CURRENT_MA, VENT_CURRENT_MA};
-use pam_device::{Device, DeviceOptions, RawSensors, StepTiming};
+use pam_device::checks::OPTIONS;
+use pam_device::{Device, RawSensors, StepTiming};
 use pam_model::RobotParams;
 use pam_protocol::{
-    Calibration, Config, OutputCalibration, ReplyData, Request, RequestBody, SessionId, Version,
-    NO_SESSION, PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
+    Calibration, Config, OutputCalibration, ReplyData, Request, RequestBody, SessionId, NO_SESSION,
+    PROTOCOL_VERSION, SCHEMA_FINGERPRINT,
 };
 use proptest::prelude::*;
-
-const OPTIONS: DeviceOptions = DeviceOptions {
-    firmware_version: Version {
-        major: 0,
-        minor: 1,
-        patch: 0,
-    },
-    encoder_counter_bits: 16,
-    boot_nonce: 0,
-};
 
 /// One thing the host (or time) does.
 #[derive(Clone, Debug)]

@@ -8,7 +8,9 @@ pub use pam_model::checks::{Check, CheckResult, Failure};
 
 use pam_model::checks::{holds_that as holds, near_f32 as near};
 
-pub(crate) const OPTIONS: DeviceOptions = DeviceOptions {
+/// The options of the device every check (and the QEMU bench and the host's property test)
+/// starts from: firmware 0.1.0, 16-bit encoder counters, boot nonce 0.
+pub const OPTIONS: DeviceOptions = DeviceOptions {
     firmware_version: Version {
         major: 0,
         minor: 1,
