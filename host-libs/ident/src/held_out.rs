@@ -35,6 +35,8 @@ pub struct HeldOut {
     n: usize,
     ranges: Vec<Range<usize>>,
     kind: HeldOutKind,
+    /// The reference's steps, fitted and held out, when every fifth is held out.
+    steps: Option<usize>,
 }
 
 impl HeldOut {
@@ -47,6 +49,7 @@ impl HeldOut {
                 .filter(|r| !r.is_empty())
                 .collect(),
             kind: HeldOutKind::LastFifth,
+            steps: None,
         }
     }
 
@@ -56,6 +59,7 @@ impl HeldOut {
             n,
             ranges: Vec::new(),
             kind: HeldOutKind::Nothing,
+            steps: None,
         }
     }
 
@@ -98,11 +102,17 @@ impl HeldOut {
             n,
             ranges,
             kind: HeldOutKind::EveryFifthStep,
+            steps: Some(steps.len()),
         })
     }
 
     pub fn kind(&self) -> HeldOutKind {
         self.kind
+    }
+
+    /// The reference's steps, fitted and held out, when every fifth is held out.
+    pub fn steps(&self) -> Option<usize> {
+        self.steps
     }
 
     /// First row of the held-out tail (the last range, if it runs to the trial's end), else

@@ -105,6 +105,12 @@ pub struct Settings {
     /// short is the converters' own lag, which the base's one second order for all four
     /// does not hold, not a missing effect.
     pub converter_lag_s: f64,
+    /// Step trials: a family is accepted only when its gain is significant across the
+    /// held-out blocks (the fold test of a dynamic trial) or it removes at least this share
+    /// of the held-out error. A gain of a few per cent that some held-out steps show and
+    /// others do not is what a rig's own step-to-step differences give as often as a real
+    /// effect (docs/model-loop.md, "Step trials: too few steps to decide").
+    pub step_decisive_improvement: f64,
 }
 
 impl Default for Settings {
@@ -126,6 +132,7 @@ impl Default for Settings {
             mass_floor_share: 0.35,
             min_family_gain: 0.03,
             converter_lag_s: 0.01,
+            step_decisive_improvement: 0.5,
         }
     }
 }

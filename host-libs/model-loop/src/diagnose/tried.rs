@@ -3,6 +3,7 @@
 use super::cv::FoldScores;
 use super::diagnosis::{EffectReport, ShapeScore};
 use super::ModelFit;
+use super::Warning;
 use crate::effects::ModelEffect;
 
 /// One catalog effect tried alone against the base.
@@ -15,6 +16,9 @@ pub(super) struct Tried<'e> {
     pub(super) fit: Option<ModelFit>,
     /// The family's other shapes (filled by [`best_shape_per_family`]).
     pub(super) alternatives: Vec<&'e dyn ModelEffect>,
+    /// A step family that would be accepted but for the fold test: the log has too few
+    /// steps to decide on it.
+    pub(super) undecided: Option<Warning>,
 }
 
 /// One entry per family: its best shape (an accepted one before any other), the others

@@ -9,6 +9,7 @@ use serde::{Serialize, Serializer};
 
 use super::SpikeReport;
 use crate::effects::Experiment;
+use crate::effects::Family;
 use pam_ident::msd::MassWarning;
 
 /// A warning of the model loop.
@@ -70,6 +71,19 @@ pub enum Warning {
         delay_ms: f64,
         /// The share of the held-out error the rejected delay removes.
         improvement: f64,
+    },
+    /// A step trial: a family removes part of the held-out error, but not consistently
+    /// across the held-out steps; the log has too few steps to decide, and about
+    /// `steps_needed` would (the fold test's t grows as the square root of the steps).
+    TooFewSteps {
+        family: Family,
+        /// The share of the base's held-out error it removes.
+        improvement: f64,
+        t: f64,
+        t_critical: f64,
+        steps: usize,
+        /// `None`: its gain is not positive across the held-out blocks on average.
+        steps_needed: Option<usize>,
     },
     /// An axis's reference does not step in the held-out part (a step trial).
     ReferenceStill { axis: usize },
@@ -185,6 +199,25 @@ impl fmt::Display for Warning {
                  logger's timestamps, or sample faster (≤ 5 ms) with quick reversals",
                 100.0 * improvement
             ),
+            Warning::TooFewSteps {
+                family,
+                improvement,
+                t,
+                t_critical,
+                steps,
+                steps_needed,
+            } => {
+                write!(
+                    f,
+                    "{} removes {:.1} % of the held-out error, but not step by step alike (t = {t:.1} across the held-out blocks, {t_critical:.1} needed): {steps} steps are too few to decide, so it is not named",
+                    family.name(),
+                    100.0 * improvement,
+                )?;
+                match steps_needed {
+                    Some(k) => write!(f, "; about {k} steps would decide"),
+                    None => write!(f, "; more steps of the same levels would decide"),
+                }
+            }
             Warning::ReferenceStill { axis } => write!(
                 f,
                 "{}'s reference does not step in the held-out part: its NRMSE and R² there measure the noise",

@@ -1,29 +1,28 @@
 //! The verdict: every effect against the base, fold by fold; the accepted ones added while
 //! they pay; the families the data cannot tell apart.
 
-use super::colour::coloured_noise;
+mod refusals;
+
 use super::cv::{held_out_blocks, FoldScores, STEP_BLOCKS};
 use super::diagnosis::{BaseReport, Diagnosis, EffectReport, Refinement, StepReport};
 use super::recording::loop_without_spikes;
 use super::recording::sampling_warning;
-use super::resolution::encoder_floor;
 use super::selection::fold_test;
 use super::selection::paired_test;
 use super::selection::t_critical;
-use super::sizes::{change_rms_n, effect_size, effective_samples, effective_samples_of};
+use super::sizes::{effect_size, effective_samples, effective_samples_of};
 use super::tried::{best_shape_per_family, family_key, Tried};
-use super::unexplained::rounding_colours;
 use super::verdict::{lag_warning, verdict_of};
 use super::AxisPair;
 use super::Loop;
 use super::ModelFit;
 use super::Settings;
+use super::Warning;
 use crate::effects::Experiment;
 use crate::effects::ModelEffect;
 use crate::effects::{self, Family};
 use pam_ident::trial::Trial;
 use pam_model::RobotModel;
-use pam_numerics::stats::rms;
 
 /// Diagnoses a trial against the standard catalog.
 pub fn diagnose(
@@ -127,7 +126,7 @@ pub fn diagnose_observed(
     let base_params = base.params.get("base").cloned().unwrap_or_default();
     let mut warnings = base.warnings.clone();
     if let Some(t) = &lp.tare {
-        warnings.push(super::Warning::TareInSensorFrame {
+        warnings.push(Warning::TareInSensorFrame {
             sensor_n: t.sensor_n,
             turning_rms_n: t.turning_rms_n,
             gain: t.gain,
@@ -137,6 +136,8 @@ pub fn diagnose_observed(
         warnings.push(s.warning());
     }
     warnings.extend(sampling_warning(&lp));
+    // the best shape of each family the log has too few steps to decide on
+    warnings.extend(reports.iter().filter_map(|t| t.undecided.clone()));
     warnings.extend(structure.set_aside);
     if dynamic {
         let delay = reports
@@ -253,55 +254,6 @@ impl<'l, 'a> Judge<'l, 'a> {
         }
     }
 
-    /// A slow level change within the encoders' rounding cannot be told from it: (its RMS,
-    /// the rounding's bound) when so (drawn only for a drift that would be accepted: it
-    /// costs a few hundred passes).
-    fn within_rounding(&self, e: &dyn ModelEffect, f: &ModelFit) -> Option<(f64, f64)> {
-        if !self.dynamic || e.family() != Some(Family::Drift) {
-            return None;
-        }
-        let fl = (*self.floor.get_or_init(|| encoder_floor(self.lp, self.base)))?;
-        // the axis where the change stands out most from the rounding
-        let (change, bound) = f
-            .axes
-            .iter()
-            .map(|&a| (change_rms_n(self.base, f, a), fl.bound_n[a]))
-            .filter(|&(_, bound)| bound > 0.0)
-            .max_by(|x, y| (x.0 / x.1).total_cmp(&(y.0 / y.1)))?;
-        (change <= bound).then_some((change, bound))
-    }
-
-    /// A slow level change within what the load cell's coloured noise puts in a record's
-    /// level cannot be told from it: (its RMS over the trial, the noise's bound, the
-    /// noise's exponent) when so. Asked after the rounding; where the encoders' rounding
-    /// fills the slow band, the white null stands (the frozen levels would colour the law).
-    fn within_colour(&self, e: &dyn ModelEffect, f: &ModelFit) -> Option<(f64, f64, f64)> {
-        if !self.dynamic || e.family() != Some(Family::Drift) {
-            return None;
-        }
-        let p = &self.lp.p;
-        let floor = self.floor.get().copied().flatten();
-        let mut worst: Option<(f64, f64, f64)> = None;
-        for &a in &f.axes {
-            let d: Vec<f64> = (0..p.len())
-                .map(|i| f.predicted[a][i] - self.base.predicted[a][i])
-                .collect();
-            let change = rms(&d);
-            if floor.is_some_and(|fl| rounding_colours(fl.expected_n[a], change)) {
-                return None;
-            }
-            let noise = coloured_noise(&self.base.residual(a), &p.t_s, p.dt_s)?;
-            let bound = noise.trend_bound_n(self.level);
-            if !(change <= bound) {
-                return None;
-            }
-            if worst.is_none_or(|w| change / bound > w.0 / w.1) {
-                worst = Some((change, bound, noise.exponent));
-            }
-        }
-        worst
-    }
-
     /// One effect alone against the base: its scores, its evidence, and whether it is
     /// accepted.
     fn tried<'e>(&self, e: &'e dyn ModelEffect, f: ModelFit, folds: FoldScores) -> Tried<'e> {
@@ -366,6 +318,17 @@ impl<'l, 'a> Judge<'l, 'a> {
             None
         };
         let accepted = accepted && colour.is_none();
+        // steps: a gain the held-out blocks do not show alike, and that is not decisive by
+        // its size, is what a rig's step-to-step differences give as often as an effect
+        // (pam-physgen's controls; pam-synth's weakest effects look the same): too few
+        // steps to decide, said as such
+        let undecided = (accepted
+            && !dynamic
+            && !test.significant(t_crit, level)
+            && improvement < settings.step_decisive_improvement)
+            .then(|| self.too_few_steps(e, improvement, test.t))
+            .flatten();
+        let accepted = accepted && undecided.is_none();
         let mut evidence = format!(
             "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the {} error (fold gains {:.1} ± {:.1} %, t = {:.1} against {:.1}), changing the prediction by {:.2} % of the signal ({} parameter{})",
             e.signature(),
@@ -380,6 +343,11 @@ impl<'l, 'a> Judge<'l, 'a> {
             f.added_params,
             if f.added_params == 1 { "" } else { "s" },
         );
+        if undecided.is_some() {
+            evidence.push_str(
+                "; the held-out steps do not show the gain alike and it removes less than half of their error: the log has too few steps to decide (see the warnings)",
+            );
+        }
         if let Some(d) = converter_lag {
             evidence.push_str(&format!(
                 "; a delay of {:.1} ms lies within the converters' own lag (up to {:.0} ms: a dead time and the muscle's fill, each converter its own, which the base's one second order lacks): the log cannot tell it from them",
@@ -427,6 +395,7 @@ impl<'l, 'a> Judge<'l, 'a> {
             folds,
             fit: accepted.then_some(f),
             alternatives: Vec::new(),
+            undecided,
         }
     }
 

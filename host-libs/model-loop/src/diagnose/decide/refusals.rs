@@ -1,0 +1,100 @@
+//! The nulls an effect is refused against when its gain passes the tests: the encoders'
+//! rounding and the load cell's coloured noise (a slow change), and a step trial with too
+//! few steps to decide.
+
+use super::Judge;
+use crate::diagnose::colour::coloured_noise;
+use crate::diagnose::resolution::encoder_floor;
+use crate::diagnose::sizes::change_rms_n;
+use crate::diagnose::unexplained::rounding_colours;
+use crate::diagnose::ModelFit;
+use crate::diagnose::Warning;
+use crate::effects::Family;
+use crate::effects::ModelEffect;
+use pam_ident::step_detection::reference_steps;
+use pam_numerics::stats::rms;
+
+impl Judge<'_, '_> {
+    /// A slow level change within the encoders' rounding cannot be told from it: (its RMS,
+    /// the rounding's bound) when so (drawn only for a drift that would be accepted: it
+    /// costs a few hundred passes).
+    pub(super) fn within_rounding(&self, e: &dyn ModelEffect, f: &ModelFit) -> Option<(f64, f64)> {
+        if !self.dynamic || e.family() != Some(Family::Drift) {
+            return None;
+        }
+        let fl = (*self.floor.get_or_init(|| encoder_floor(self.lp, self.base)))?;
+        // the axis where the change stands out most from the rounding
+        let (change, bound) = f
+            .axes
+            .iter()
+            .map(|&a| (change_rms_n(self.base, f, a), fl.bound_n[a]))
+            .filter(|&(_, bound)| bound > 0.0)
+            .max_by(|x, y| (x.0 / x.1).total_cmp(&(y.0 / y.1)))?;
+        (change <= bound).then_some((change, bound))
+    }
+
+    /// A slow level change within what the load cell's coloured noise puts in a record's
+    /// level cannot be told from it: (its RMS over the trial, the noise's bound, the
+    /// noise's exponent) when so. Asked after the rounding; where the encoders' rounding
+    /// fills the slow band, the white null stands (the frozen levels would colour the law).
+    pub(super) fn within_colour(
+        &self,
+        e: &dyn ModelEffect,
+        f: &ModelFit,
+    ) -> Option<(f64, f64, f64)> {
+        if !self.dynamic || e.family() != Some(Family::Drift) {
+            return None;
+        }
+        let p = &self.lp.p;
+        let floor = self.floor.get().copied().flatten();
+        let mut worst: Option<(f64, f64, f64)> = None;
+        for &a in &f.axes {
+            let d: Vec<f64> = (0..p.len())
+                .map(|i| f.predicted[a][i] - self.base.predicted[a][i])
+                .collect();
+            let change = rms(&d);
+            if floor.is_some_and(|fl| rounding_colours(fl.expected_n[a], change)) {
+                return None;
+            }
+            let noise = coloured_noise(&self.base.residual(a), &p.t_s, p.dt_s)?;
+            let bound = noise.trend_bound_n(self.level);
+            if !(change <= bound) {
+                return None;
+            }
+            if worst.is_none_or(|w| change / bound > w.0 / w.1) {
+                worst = Some((change, bound, noise.exponent));
+            }
+        }
+        worst
+    }
+
+    /// The warning for a step family the log has too few steps to decide on: the steps it
+    /// has and, from the fold test's t (which grows as the square root of the steps), about
+    /// how many would decide. `None` for an effect without a family.
+    pub(super) fn too_few_steps(
+        &self,
+        e: &dyn ModelEffect,
+        improvement: f64,
+        t: f64,
+    ) -> Option<Warning> {
+        let family = e.family()?;
+        // the steps the held-out part was chosen from, else those of the force the
+        // set-points command
+        let p = &self.lp.p;
+        let steps = p.held_out.steps().unwrap_or_else(|| {
+            p.force_ref_n.as_ref().map_or(0, |r| {
+                reference_steps(r, self.settings.step_threshold_n).len()
+            })
+        });
+        let steps_needed = (t > 0.0 && steps > 0)
+            .then(|| (steps as f64 * (self.t_crit / t).powi(2)).ceil() as usize);
+        Some(Warning::TooFewSteps {
+            family,
+            improvement,
+            t,
+            t_critical: self.t_crit,
+            steps,
+            steps_needed,
+        })
+    }
+}
