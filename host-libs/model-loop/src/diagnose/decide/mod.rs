@@ -322,13 +322,16 @@ impl<'l, 'a> Judge<'l, 'a> {
         // its size, is what a rig's step-to-step differences give as often as an effect
         // (pam-physgen's controls; pam-synth's weakest effects look the same): too few
         // steps to decide, said as such
-        let undecided = (accepted
-            && !dynamic
-            && !test.significant(t_crit, level)
-            && improvement < settings.step_decisive_improvement)
+        let decisive = dynamic
+            || test.significant(t_crit, level)
+            || improvement >= settings.step_decisive_improvement;
+        let too_few_steps = accepted && !decisive;
+        // the warning names a family: an effect outside the catalog's families is refused
+        // with its evidence alone
+        let undecided = too_few_steps
             .then(|| self.too_few_steps(e, improvement, test.t))
             .flatten();
-        let accepted = accepted && undecided.is_none();
+        let accepted = accepted && decisive;
         let mut evidence = format!(
             "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the {} error (fold gains {:.1} ± {:.1} %, t = {:.1} against {:.1}), changing the prediction by {:.2} % of the signal ({} parameter{})",
             e.signature(),
@@ -343,10 +346,8 @@ impl<'l, 'a> Judge<'l, 'a> {
             f.added_params,
             if f.added_params == 1 { "" } else { "s" },
         );
-        if undecided.is_some() {
-            evidence.push_str(
-                "; the held-out steps do not show the gain alike and it removes less than half of their error: the log has too few steps to decide (see the warnings)",
-            );
+        if too_few_steps {
+            evidence.push_str(&self.too_few_steps_note(undecided.is_some()));
         }
         if let Some(d) = converter_lag {
             evidence.push_str(&format!(

@@ -68,6 +68,20 @@ impl Judge<'_, '_> {
         worst
     }
 
+    /// What a step effect's evidence adds when the log has too few steps to decide on it;
+    /// `warned`: a warning says about how many would.
+    pub(super) fn too_few_steps_note(&self, warned: bool) -> String {
+        format!(
+            "; the held-out steps do not show the gain alike and it removes less than {:.0} % of their error: the log has too few steps to decide{}",
+            100.0 * self.settings.step_decisive_improvement,
+            if warned {
+                " (a warning says about how many would)"
+            } else {
+                ""
+            }
+        )
+    }
+
     /// The warning for a step family the log has too few steps to decide on: the steps it
     /// has and, from the fold test's t (which grows as the square root of the steps), about
     /// how many would decide. `None` for an effect without a family.
