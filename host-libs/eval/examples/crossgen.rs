@@ -348,6 +348,7 @@ fn run(
                 let mark = match strict::judge(&case.family, mid) {
                     Strict::Right => "ok ",
                     Strict::Stacked => "stk",
+                    Strict::Undecided => "und",
                     Strict::Wrong => "BAD",
                 };
                 eprintln!(
@@ -479,17 +480,18 @@ fn main() {
             if i == def { " (default)" } else { "" }
         )
     };
-    println!("| generator | min_family_gain / converter_lag | strictly right | first family right | stacked | false alarms | alarms said | strictly right per family |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("| generator | min_family_gain / converter_lag | strictly right | first family right | stacked | undecided | false alarms | alarms said | strictly right per family |");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for (gen, judged) in &runs {
         for i in 0..points.len() {
             let t = tally(judged, i);
             println!(
-                "| {gen} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {gen} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 name(i),
                 Tally::ratio(t.right, t.cases),
                 Tally::ratio(t.first_right, t.cases),
                 t.stacked,
+                t.undecided,
                 Tally::ratio(t.false_alarms, t.controls),
                 t.alarms_said(),
                 t.per_family_said()

@@ -20,6 +20,9 @@ pub struct FinalModel {
     /// The families of the effects in the last step of the sequence (the final model), in
     /// the order they entered.
     pub families: Vec<String>,
+    /// The families the log cannot tell apart (the first is `first`), when the diagnosis
+    /// names the experiment that would.
+    pub undecided: Vec<String>,
 }
 
 /// Reads the final model from `serde_json::to_value(&diagnosis)`.
@@ -50,10 +53,24 @@ pub fn read(v: &Value) -> FinalModel {
         .then(|| effects.first().and_then(|e| e["family"].as_str()))
         .flatten()
         .map(str::to_string);
+    let undecided = if v["separating_experiment"].is_string() {
+        v["ambiguous"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(Value::as_str)
+                    .map(str::to_string)
+                    .collect()
+            })
+            .unwrap_or_default()
+    } else {
+        Vec::new()
+    };
     FinalModel {
         verdict,
         first,
         families,
+        undecided,
     }
 }
 
@@ -65,6 +82,11 @@ pub enum Strict {
     Right,
     /// The right first family, with a family in the final model that is not in the log.
     Stacked,
+    /// The right verdict, and the log's family among the ones the diagnosis says it cannot
+    /// tell apart (with the experiment that would), nothing outside them in the final
+    /// model: the honest answer where one log cannot decide (a joint's friction against
+    /// the muscles' hysteresis at one stiffness level). Not counted as right.
+    Undecided,
     /// The wrong verdict or the wrong first family.
     Wrong,
 }
@@ -81,7 +103,14 @@ pub fn judge(truth_family: &str, says: &FinalModel) -> Strict {
             }
         }
         t => {
-            if says.verdict != "effect" || says.first.as_deref() != Some(t) {
+            let among = |f: &String| says.undecided.iter().any(|u| u == f);
+            if says.verdict == "effect"
+                && says.first.as_deref() != Some(t)
+                && says.undecided.iter().any(|u| u == t)
+                && says.families.iter().all(among)
+            {
+                Strict::Undecided
+            } else if says.verdict != "effect" || says.first.as_deref() != Some(t) {
                 Strict::Wrong
             } else if says.families.iter().any(|f| f != t) {
                 Strict::Stacked
@@ -100,6 +129,9 @@ pub struct Tally {
     /// Right first family (or right verdict for a control / unexplained).
     pub first_right: usize,
     pub stacked: usize,
+    /// Not right, but the log's family among those the diagnosis says it cannot tell
+    /// apart, with the experiment that would ([`Strict::Undecided`]).
+    pub undecided: usize,
     pub controls: usize,
     /// Controls whose verdict is not `none`.
     pub false_alarms: usize,
@@ -114,7 +146,8 @@ impl Tally {
         let s = judge(truth_family, says);
         self.cases += 1;
         self.right += usize::from(s == Strict::Right);
-        self.first_right += usize::from(s != Strict::Wrong);
+        self.first_right += usize::from(matches!(s, Strict::Right | Strict::Stacked));
+        self.undecided += usize::from(s == Strict::Undecided);
         self.stacked += usize::from(s == Strict::Stacked);
         if truth_family == "none" {
             self.controls += 1;
@@ -194,6 +227,27 @@ mod tests {
         assert_eq!(stacked.families, ["friction", "hysteresis"]);
         assert_eq!(judge("friction", &stacked), Strict::Stacked);
         assert_eq!(judge("hysteresis", &stacked), Strict::Wrong);
+    }
+
+    #[test]
+    fn a_log_that_cannot_decide_is_undecided_only_with_the_experiment_named() {
+        let mut v = diagnosis("effect", "hysteresis", &["a_shape"]);
+        v["ambiguous"] = json!(["hysteresis", "friction"]);
+        assert_eq!(judge("friction", &read(&v)), Strict::Wrong);
+        v["separating_experiment"] = json!("the other stiffness level");
+        let says = read(&v);
+        assert_eq!(judge("friction", &says), Strict::Undecided);
+        assert_eq!(judge("hysteresis", &says), Strict::Right);
+        assert_eq!(judge("drift", &says), Strict::Wrong);
+        // a family outside the undecided ones in the final model
+        let mut v = diagnosis("effect", "hysteresis", &["a_shape", "maxwell_slip"]);
+        v["effects"][1]["family"] = json!("backlash");
+        v["ambiguous"] = json!(["hysteresis", "friction"]);
+        v["separating_experiment"] = json!("the other stiffness level");
+        assert_eq!(judge("friction", &read(&v)), Strict::Wrong);
+        let mut t = Tally::default();
+        t.add("friction", &says);
+        assert_eq!((t.right, t.first_right, t.undecided), (0, 0, 1));
     }
 
     #[test]

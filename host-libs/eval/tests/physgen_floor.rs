@@ -128,3 +128,53 @@ fn step_controls_with_too_few_steps_to_decide_are_not_named() {
         "a step control was named, or no family was left undecided:\n{report}"
     );
 }
+
+/// Friction in the joints' bearings, in one dynamic log: at one stiffness level the
+/// catalog's joint friction and the muscles' hysteresis remove nearly the same share of the
+/// error (a torque that turns over a small angle after each reversal), and which comes first
+/// is up to which catalog shape fits the rig's form a little better. A log should be named
+/// friction, or be undecided between the two with the two-stiffness experiment named.
+///
+/// Measured 3 of these 4; 2 of 4 while only the fold-by-fold spread made two families
+/// ambiguous (812 was named hysteresis alone). Seed 813 is named hysteresis by more than the
+/// margin: its LuGre has a stiction 1.2–2 × its Coulomb torque, a Stribeck peak that none of
+/// the catalog's joint-friction shapes has, probably why (docs/model-loop.md, Known limits).
+#[test]
+fn joint_friction_in_one_log_is_friction_or_undecided_with_the_deciding_experiment() {
+    let specs = [
+        (Effect::JointLugre, 811, 0.5),
+        (Effect::JointMaxwellSlip, 812, 0.7),
+        (Effect::JointLugre, 813, 0.9),
+        (Effect::JointMaxwellSlip, 814, 0.3),
+    ];
+    let mut lines = Vec::new();
+    let mut told = 0;
+    for (effect, seed, severity) in specs {
+        let spec = CaseSpec {
+            experiment: pam_physgen::Experiment::Dynamic,
+            effect,
+            seed,
+            severity,
+        };
+        let (family, says, _) = judged(&spec);
+        let j = strict::judge(&family, &says);
+        told += usize::from(matches!(
+            j,
+            strict::Strict::Right | strict::Strict::Undecided
+        ));
+        lines.push(format!(
+            "{} {seed}: {} {:?}, undecided {:?}, final {:?}: {j:?}",
+            effect.name(),
+            says.verdict,
+            says.first,
+            says.undecided,
+            says.families
+        ));
+    }
+    let report = lines.join("\n");
+    eprintln!("{report}");
+    assert!(
+        told >= 3,
+        "{told} of 4 named friction or left undecided with the experiment:\n{report}"
+    );
+}

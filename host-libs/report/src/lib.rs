@@ -218,9 +218,13 @@ fn summary(page: &mut Page, d: &Diagnosis, p: &Prepared) {
     let ambiguous = optional_field(&dj, "ambiguous");
     if !ambiguous.is_empty() {
         let mut text = format!(
-            "Ambiguous: this log cannot tell {} apart (their fold-by-fold difference is within the spread).",
+            "Ambiguous: this log cannot tell {} apart.",
             ambiguous.replace(", ", " and ")
         );
+        let why = optional_field(&dj, "ambiguity_evidence");
+        if !why.is_empty() {
+            let _ = write!(text, " {why}.");
+        }
         let sep = optional_field(&dj, "separating_experiment");
         if !sep.is_empty() {
             let _ = write!(text, " To separate them: {sep}");

@@ -223,9 +223,12 @@ fn diagnose_one(a: &LoopArgs, out: &mut impl Write) -> anyhow::Result<()> {
         let names: Vec<&str> = d.ambiguous.iter().map(|f| f.name()).collect();
         writeln!(
             out,
-            "ambiguous: the log cannot tell {} apart (their fold-by-fold difference is within the spread)",
+            "ambiguous: the log cannot tell {} apart",
             names.join(" and ")
         )?;
+        if let Some(why) = &d.ambiguity_evidence {
+            writeln!(out, "  {why}")?;
+        }
         if let Some(x) = &d.separating_experiment {
             writeln!(out, "  to separate them: {x}")?;
         }

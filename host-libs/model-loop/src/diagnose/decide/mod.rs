@@ -52,6 +52,14 @@ pub fn diagnose_with(
     diagnose_observed(trial, model, experiment, settings, catalog, &|_| {})
 }
 
+/// The families a log cannot tell apart, and why.
+#[derive(Default)]
+struct Ambiguity {
+    families: Vec<Family>,
+    separating_experiment: Option<String>,
+    evidence: Option<String>,
+}
+
 /// Where a diagnosis is, for a progress display (effects are fitted on several threads, so
 /// `EffectDone` comes in any order).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -105,7 +113,7 @@ pub fn diagnose_observed(
         .map(|(e, (f, folds))| judge.tried(e, f, folds))
         .collect();
     let reports = best_shape_per_family(tried);
-    let (ambiguous, separating_experiment) = judge.ambiguity(&reports);
+    let ambiguity = judge.ambiguity(&reports);
     let (fits, current, current_fit, refinements) = judge.combine(&reports);
     let structure = super::unexplained::structure(&lp, &current_fit, &settings);
     let unexplained = structure.found;
@@ -162,8 +170,9 @@ pub fn diagnose_observed(
             },
             verdict,
             effects: reports.into_iter().map(|r| r.report).collect(),
-            ambiguous,
-            separating_experiment,
+            ambiguous: ambiguity.families,
+            separating_experiment: ambiguity.separating_experiment,
+            ambiguity_evidence: ambiguity.evidence,
             unexplained,
             steps,
             refinements,
@@ -400,28 +409,61 @@ impl<'l, 'a> Judge<'l, 'a> {
         }
     }
 
-    /// Accepted families whose gain over the first is within the spread (honest doubt), and
-    /// the experiment that would separate the first two.
-    fn ambiguity(&self, reports: &[Tried]) -> (Vec<Family>, Option<String>) {
-        let mut ambiguous = Vec::new();
-        let mut separating_experiment = None;
-        if let Some(top) = reports.first().filter(|t| t.report.accepted) {
-            for other in reports[1..].iter().filter(|t| t.report.accepted) {
-                let (Some(fa), Some(fb)) = (top.report.family, other.report.family) else {
-                    continue;
-                };
-                let d = paired_test(&self.base_folds, &top.folds, &other.folds, self.dynamic);
-                if d.t < self.settings.ambiguity_t {
-                    if ambiguous.is_empty() {
-                        ambiguous.push(fa);
-                        separating_experiment =
-                            Some(effects::separating_experiment(fa, fb).to_string());
-                    }
-                    ambiguous.push(fb);
-                }
+    /// Accepted families the log cannot tell from the first: their fold-by-fold difference
+    /// is within the spread, or they remove within `min_family_gain` of the base model's
+    /// error of each other (`improvement`: cross-validated, or held out in a step trial). A gap that small is what a shape outside the catalog
+    /// of either family could close (the same margin that keeps a second family out of the
+    /// final model), so it does not say which family the log holds: at one stiffness level
+    /// a joint's friction and the muscles' hysteresis give the same torque, and whichever
+    /// catalog shape fits a rig's form a little better comes first. Returns the families,
+    /// the experiment that would separate the first two, and why, in words.
+    fn ambiguity(&self, reports: &[Tried]) -> Ambiguity {
+        let mut out = Ambiguity::default();
+        let Some(top) = reports.first().filter(|t| t.report.accepted) else {
+            return out;
+        };
+        let margin = self.settings.min_family_gain;
+        let mut why = Vec::new();
+        for other in reports[1..].iter().filter(|t| t.report.accepted) {
+            let (Some(fa), Some(fb)) = (top.report.family, other.report.family) else {
+                continue;
+            };
+            let d = paired_test(&self.base_folds, &top.folds, &other.folds, self.dynamic);
+            let gap = top.report.improvement - other.report.improvement;
+            let within_spread = d.t < self.settings.ambiguity_t;
+            if !within_spread && gap >= margin {
+                continue;
             }
+            if out.families.is_empty() {
+                out.families.push(fa);
+                out.separating_experiment =
+                    Some(effects::separating_experiment(fa, fb).to_string());
+            }
+            out.families.push(fb);
+            let reason = if within_spread {
+                format!(
+                    "their fold-by-fold difference is within the spread, t = {:.1} against {:.1}",
+                    d.t, self.settings.ambiguity_t
+                )
+            } else {
+                format!(
+                    "less than the {:.0} % a shape outside the catalog can account for",
+                    100.0 * margin
+                )
+            };
+            why.push(format!(
+                "{} removes {:.1} % of the base model's error and {} {:.1} %: {:.1} % apart, {reason}",
+                fa.name(),
+                100.0 * top.report.improvement,
+                fb.name(),
+                100.0 * other.report.improvement,
+                100.0 * gap.max(0.0),
+            ));
         }
-        (ambiguous, separating_experiment)
+        if !why.is_empty() {
+            out.evidence = Some(why.join("; "));
+        }
+        out
     }
 
     /// Greedy: add accepted effects best first while each still pays for itself, and a
