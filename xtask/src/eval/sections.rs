@@ -290,7 +290,9 @@ LuGre or Maxwell-slip in the joints, LuGre at the handle; the twin: the carrier 
 muscles' hysteresis (pam-physgen: Bouc–Wen growing with pressure; the twin: a share of the \
 muscles' force), decided by `pam_model_loop::stiffness_pair` (`pamctl model diagnose A.csv \
 B.csv`): friction keeps its torque, hysteresis grows with the pressure. One log cannot tell the \
-two apart. \"Cannot tell\" counts as wrong.",
+two apart. \"Cannot tell\" counts as wrong; in brackets, the pairs of which neither log shows a \
+direction-dependent torque at all (the generator's effect too small, or a Bouc–Wen loop so far \
+from saturation that the base's spring takes it up). The last column leaves those out.",
         kind: Kind::Tables,
         runs: friction_pair_runs,
     },
