@@ -256,7 +256,8 @@ struct Point {
 /// The final model at every gain of the grid, for one converter lag. The greedy sequence
 /// is deterministic: when the smallest and the largest gain give the same final model,
 /// every family after the first was let in (or left out) with a margin outside the grid, so
-/// every gain between gives it too, and only those two diagnoses are run.
+/// every gain between gives it too, and only those two diagnoses are run. The families left
+/// undecided only grow with the gain, so the same holds for them.
 fn final_models_at(
     trial: &Trial,
     experiment: Experiment,
@@ -279,7 +280,7 @@ fn final_models_at(
         return Ok(vec![lo]);
     }
     let hi = at(gains[gains.len() - 1])?;
-    if lo.families == hi.families && lo.verdict == hi.verdict {
+    if lo.families == hi.families && lo.verdict == hi.verdict && lo.undecided == hi.undecided {
         return Ok(vec![lo; gains.len()]);
     }
     let mut out = vec![lo];
