@@ -8,7 +8,7 @@
 //!
 //! Each generator's N logs (about a quarter controls, carrying the generator's sensor
 //! behaviour) are diagnosed at every point of the grid (the refinement gate
-//! `min_family_gain` × the step delay's floor `converter_lag_s`; the loop's defaults when
+//! `min_family_gain` × the delay's floor `converter_lag_s`; the loop's defaults when
 //! not given); the tables show, per generator and point, the strict accuracy and the false
 //! alarms, then the cross-generator table: the point that is best on X (most logs strictly
 //! right, then fewest false alarms) scored on Y.
@@ -245,7 +245,7 @@ fn cases(generator: &str, n: usize, seed0: u64, k: usize, only: Option<Experimen
     }
 }
 
-/// The decision's two calibrated thresholds: the refinement gate and the step delay's
+/// The decision's two calibrated thresholds: the refinement gate and the delay's
 /// floor (the converters' own lag).
 #[derive(Clone, Copy)]
 struct Point {
@@ -291,20 +291,13 @@ fn final_models_at(
     Ok(out)
 }
 
-/// The final model at every point of the grid (lags outer, gains inner); the converter lag
-/// acts on step trials only, so a dynamic trial is diagnosed at the first lag alone.
+/// The final model at every point of the grid (lags outer, gains inner).
 fn final_models(case: &Case, gains: &[f64], lags: &[f64]) -> Result<Vec<FinalModel>, String> {
     let log = case.log.as_ref().map_err(Clone::clone)?;
     let trial = Trial::from_log(log).map_err(|e| e.to_string())?;
     let mut out = Vec::new();
-    let mut first: Option<Vec<FinalModel>> = None;
     for &lag in lags {
-        let row = match (&first, case.experiment) {
-            (Some(f), Experiment::Dynamic) => f.clone(),
-            _ => final_models_at(&trial, case.experiment, gains, lag)?,
-        };
-        first.get_or_insert_with(|| row.clone());
-        out.extend(row);
+        out.extend(final_models_at(&trial, case.experiment, gains, lag)?);
     }
     Ok(out)
 }

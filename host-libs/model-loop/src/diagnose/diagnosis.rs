@@ -135,8 +135,9 @@ pub struct Diagnosis {
     /// One entry per family (its best shape): the accepted ones first, best first.
     pub effects: Vec<EffectReport>,
     /// Families the log cannot tell apart (the first is `effects[0]`'s): their fold-by-fold
-    /// difference is within the spread, or their held-out gains are closer than
-    /// `Settings::min_family_gain`. Empty when the first is clearly best.
+    /// difference is within the spread, or the shares of the error they remove
+    /// (`improvement`) are closer than `Settings::min_family_gain`. Empty when the first is
+    /// clearly best.
     pub ambiguous: Vec<Family>,
     /// The experiment that would separate the ambiguous families.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -306,13 +306,13 @@ impl<'l, 'a> Judge<'l, 'a> {
                 && test.fold_mean > 0.0
                 && size >= settings.min_effect_size
         };
-        // a step delay within the converters' own lag is not told from it
-        let params = f.params.get(e.id()).cloned().unwrap_or_default();
-        let converter_lag = (accepted && !dynamic && e.family() == Some(Family::Delay))
-            .then(|| params.get("delay_s").copied())
-            .flatten()
-            .filter(|d| *d < settings.converter_lag_s);
-        let accepted = accepted && converter_lag.is_none();
+        // a delay within the rig's own lag is not told from it
+        let lag = if accepted {
+            self.within_lag(e, &f)
+        } else {
+            None
+        };
+        let accepted = accepted && lag.is_none();
         // a slow change within the encoders' rounding is not told from it
         let rounding = if accepted {
             self.within_rounding(e, &f)
@@ -358,12 +358,8 @@ impl<'l, 'a> Judge<'l, 'a> {
         if too_few_steps {
             evidence.push_str(&self.too_few_steps_note(undecided.is_some()));
         }
-        if let Some(d) = converter_lag {
-            evidence.push_str(&format!(
-                "; a delay of {:.1} ms lies within the converters' own lag (up to {:.0} ms: a dead time and the muscle's fill, each converter its own, which the base's one second order lacks): the log cannot tell it from them",
-                1000.0 * d,
-                1000.0 * settings.converter_lag_s
-            ));
+        if let Some(note) = lag {
+            evidence.push_str(&note);
         }
         if let Some((change, bound, exponent)) = colour {
             evidence.push_str(&format!(
@@ -387,7 +383,7 @@ impl<'l, 'a> Judge<'l, 'a> {
                 shape: e.shape_name().to_string(),
                 effect: e.id().to_string(),
                 nrmse: AxisPair::of(f.nrmse),
-                params,
+                params: f.params.get(e.id()).cloned().unwrap_or_default(),
                 evidence,
                 signature: e.signature().to_string(),
                 signature_strength: f.train_gain,
@@ -411,12 +407,13 @@ impl<'l, 'a> Judge<'l, 'a> {
 
     /// Accepted families the log cannot tell from the first: their fold-by-fold difference
     /// is within the spread, or they remove within `min_family_gain` of the base model's
-    /// error of each other (`improvement`: cross-validated, or held out in a step trial). A gap that small is what a shape outside the catalog
-    /// of either family could close (the same margin that keeps a second family out of the
-    /// final model), so it does not say which family the log holds: at one stiffness level
-    /// a joint's friction and the muscles' hysteresis give the same torque, and whichever
-    /// catalog shape fits a rig's form a little better comes first. Returns the families,
-    /// the experiment that would separate the first two, and why, in words.
+    /// error of each other (`improvement`: cross-validated, or held out in a step trial).
+    /// A gap that small is what a shape outside the catalog of either family could close
+    /// (the same margin that keeps a second family out of the final model), so it does not
+    /// say which family the log holds: at one stiffness level a joint's friction and the
+    /// muscles' hysteresis give the same torque, and whichever catalog shape fits a rig's
+    /// form a little better comes first. Returns the families, the experiment that would
+    /// separate the first two, and why, in words.
     fn ambiguity(&self, reports: &[Tried]) -> Ambiguity {
         let mut out = Ambiguity::default();
         let Some(top) = reports.first().filter(|t| t.report.accepted) else {
