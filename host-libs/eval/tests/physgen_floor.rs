@@ -8,7 +8,7 @@
 use pam_eval::strict::{self, Tally};
 use pam_ident::Trial;
 use pam_model::RobotModel;
-use pam_model_loop::diagnose::{diagnose, Settings, Verdict, Warning};
+use pam_model_loop::diagnose::{diagnose, Diagnosis, Settings, Verdict, Warning};
 use pam_model_loop::effects::Experiment;
 use pam_physgen::{generate, CaseSpec, Effect};
 
@@ -86,46 +86,68 @@ fn the_physics_generators_logs_hold_the_floor() {
 /// wander). The floor is one log under the measure, and no control may raise an alarm.
 const FLOOR_RIGHT: usize = 3;
 
-/// Step controls of the physics generator: four converters and muscles that each differ
-/// give held-out gains of a few per cent that the held-out steps do not show alike. Each of
-/// these five was named an effect (rate limits or a delay) while one split's held-out gain
-/// decided a step trial; now each is `none`, and a warning says which family the log has too
-/// few steps to decide on.
+/// A step control of the physics generator, diagnosed with the default settings.
+fn step_control(seed: u64) -> Diagnosis {
+    let g = generate(&CaseSpec::control(1, seed), None).expect("generating");
+    let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
+    let trial = Trial::from_log(&log).expect("a trial");
+    diagnose(
+        &trial,
+        &RobotModel::thesis(),
+        Experiment::Step,
+        Settings::default(),
+    )
+    .expect("diagnosing")
+    .0
+}
+
+/// The warnings of `d` that say a family had too few steps to decide.
+fn too_few_steps(d: &Diagnosis) -> Vec<String> {
+    d.warnings
+        .iter()
+        .filter(|w| matches!(w, Warning::TooFewSteps { .. }))
+        .map(ToString::to_string)
+        .collect()
+}
+
+/// Step controls of the physics generator: four converters and muscles that each differ,
+/// each converter with a dead time of 1–4 ms and the fill of its muscle. Each of these five
+/// was named an effect (rate limits or a delay, 10–12 ms) while the base had no dead time
+/// and one split's held-out gain decided a step trial. With the held-out steps' spread
+/// weighed and the converters' own lag in the base, each is `none`.
 #[test]
-fn step_controls_with_too_few_steps_to_decide_are_not_named() {
+fn step_controls_of_a_rig_whose_converters_lag_are_not_named() {
     let mut lines = Vec::new();
     let mut named = 0;
     for seed in [900_005, 900_007, 900_011, 900_017, 900_019] {
-        let g = generate(&CaseSpec::control(1, seed), None).expect("generating");
-        let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
-        let trial = Trial::from_log(&log).expect("a trial");
-        let (d, _) = diagnose(
-            &trial,
-            &RobotModel::thesis(),
-            Experiment::Step,
-            Settings::default(),
-        )
-        .expect("diagnosing");
-        let undecided: Vec<String> = d
-            .warnings
-            .iter()
-            .filter(|w| matches!(w, Warning::TooFewSteps { .. }))
-            .map(ToString::to_string)
-            .collect();
-        if d.verdict != Verdict::None || undecided.is_empty() {
+        let d = step_control(seed);
+        if d.verdict != Verdict::None {
             named += 1;
         }
         lines.push(format!(
             "{seed}: {:?}; {}",
             d.verdict,
-            undecided.join(" | ")
+            too_few_steps(&d).join(" | ")
         ));
     }
     let report = lines.join("\n");
     eprintln!("{report}");
-    assert_eq!(
-        named, 0,
-        "a step control was named, or no family was left undecided:\n{report}"
+    assert_eq!(named, 0, "a step control was named:\n{report}");
+}
+
+/// A gain of a few per cent that some held-out steps show and others do not is not named:
+/// a warning says which family the log has too few steps to decide on, and how many would.
+/// Seed 900017's rate limits remove 2.6 % of the held-out error at t = 1.8 across the
+/// held-out blocks.
+#[test]
+fn a_gain_the_held_out_steps_do_not_show_alike_is_too_few_steps_to_decide() {
+    let d = step_control(900_017);
+    let warned = too_few_steps(&d);
+    assert_eq!(d.verdict, Verdict::None, "{warned:?}");
+    assert!(
+        warned.iter().any(|w| w.contains("steps would decide")),
+        "no family was left undecided: {:?}",
+        d.warnings
     );
 }
 

@@ -40,7 +40,7 @@ pub use unexplained::unexplained_structure;
 pub use warning::Warning;
 
 use crate::effects::{Experiment, ModelEffect, Shape};
-use crate::response::{self, Drive, Response};
+use crate::response::{Drive, Response};
 use pam_ident::held_out::HeldOut;
 use pam_ident::msd::{self};
 use pam_ident::step::{self, StepParams};
@@ -241,28 +241,17 @@ fn choose_drive(
     p: &Prepared,
     model: &RobotModel<f64>,
     init: Response,
+    own_lag_s: f64,
 ) -> Option<(Drive, Response, [Vec<f64>; 2])> {
-    let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
     // every candidate fitted on both cores, then chosen in order
     let fitted: Vec<(f64, Drive, Response, [Vec<f64>; 2])> = Drive::candidates(p, model)
         .into_par_iter()
-        .map(|d| {
+        .map(|mut d| {
+            d.own_lag_s = own_lag_s;
             // the axes the drive commands to move (as `Loop::stepping_axes` will see them)
             let commanded = [d.commanded(0), d.commanded(1)];
             let axes: Vec<usize> = (0..2).filter(|&a| std_dev(&commanded[a]) > 1e-9).collect();
-            let fitted = response::fit(p, &d, &init, &[], &axes, &p.held_out);
-            let end = p.held_out.train_end();
-            let mut pred = [vec![0.0; end], vec![0.0; end]];
-            response::simulate(&fitted, &d, &p.t_s, alpha, end, &mut pred);
-            let cost: f64 = axes
-                .iter()
-                .map(|&a| {
-                    p.held_out
-                        .train_rows()
-                        .map(|i| (p.force_n[a][i] - pred[a][i]).powi(2))
-                        .sum::<f64>()
-                })
-                .sum();
+            let (cost, fitted) = step_fit::fit_base(p, &d, &init, &axes);
             (cost, d, fitted, commanded)
         })
         .collect();
@@ -379,8 +368,13 @@ impl<'a> Loop<'a> {
             ));
             // the steps are found at the log's rate, the model fitted on the analysis grid
             p = on_analysis_grid(p, experiment, &settings);
-            let (d, base, commanded) = choose_drive(&p, model, step_init.expect("set above"))
-                .ok_or(pam_ident::IdentError::NoForceReference)?;
+            let (d, base, commanded) = choose_drive(
+                &p,
+                model,
+                step_init.expect("set above"),
+                settings.converter_lag_s,
+            )
+            .ok_or(pam_ident::IdentError::NoForceReference)?;
             *base_step.lock().expect("base cache") = Some(base);
             // the other views of a step trial (residual spectra, error over the command)
             // use the force the set-points command

@@ -51,11 +51,11 @@ pub struct Settings {
     /// already in it removes: a first effect whose true shape is not the catalog's leaves
     /// a residual of 0.5–3 % that other families fit too (a refinement, reported as such).
     pub min_family_gain: f64,
-    /// A transport delay is a family only when it is longer than this. The step base's
-    /// second order (Table 5.2) has no dead time, and every converter has one of a few
-    /// milliseconds plus the fill of its muscle, each converter its own: a delay that short
-    /// is the converters' own lag, which the base's one second order for all four does not
-    /// hold, not a missing effect. In a dynamic trial the same converters lag the muscles'
+    /// A transport delay is a family only when it is longer than this, and the step base
+    /// may carry this much dead time. The step base's second order (Table 5.2) was
+    /// identified without a dead time, and every converter has one of a few milliseconds
+    /// plus the fill of its muscle, each converter its own: a delay that short is the
+    /// converters' own lag, not a missing effect. In a dynamic trial the same converters lag the muscles'
     /// pressure behind their volume, and the sensors are read at different instants of a
     /// sample.
     pub converter_lag_s: f64,

@@ -7,10 +7,61 @@ use super::ModelFit;
 use crate::effects::Experiment;
 use crate::effects::ModelEffect;
 use crate::response;
+use crate::response::Drive;
 use crate::response::Response;
 use crate::response::StepExtra;
+use pam_ident::trial::Prepared;
 use pam_numerics::stats::std_dev;
+use rayon::prelude::*;
 use std::collections::BTreeMap;
+
+/// The step trial's base on `d`, and its training residual (sum of squares over `axes`).
+/// The converters' second order (Table 5.2) was identified end to end, without a dead time;
+/// a rig's converter and tube add one of a few milliseconds and the fill of the muscle,
+/// which no second order follows. The base is fitted twice, without a dead time and with
+/// the converters' own lag (`Drive::own_lag_s`), and keeps the one its training steps
+/// prefer: a rig whose converters lag is then not a missing delay, and every effect is
+/// fitted over that lag instead of standing in for it.
+pub(super) fn fit_base(
+    p: &Prepared,
+    d: &Drive,
+    init: &Response,
+    axes: &[usize],
+) -> (f64, Response) {
+    let mut delays = vec![0.0];
+    if d.own_lag_s > 0.0 {
+        delays.push(d.own_lag_s);
+    }
+    let fitted: Vec<(f64, Response)> = delays
+        .par_iter()
+        .map(|&delay_s| {
+            let start = Response { delay_s, ..*init };
+            let r = response::fit(p, d, &start, &[], axes, &p.held_out);
+            (training_cost(p, d, &r, axes), r)
+        })
+        .collect();
+    // in the candidates' order: the base without a dead time unless the lag fits better
+    fitted
+        .into_iter()
+        .reduce(|best, c| if c.0 < best.0 { c } else { best })
+        .expect("one candidate at least")
+}
+
+/// Sum of squares of the training residual of `r` over `axes`.
+fn training_cost(p: &Prepared, d: &Drive, r: &Response, axes: &[usize]) -> f64 {
+    let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
+    let end = p.held_out.train_end();
+    let mut pred = [vec![0.0; end], vec![0.0; end]];
+    response::simulate(r, d, &p.t_s, alpha, end, &mut pred);
+    axes.iter()
+        .map(|&a| {
+            p.held_out
+                .train_rows()
+                .map(|i| (p.force_n[a][i] - pred[a][i]).powi(2))
+                .sum::<f64>()
+        })
+        .sum()
+}
 
 impl<'a> Loop<'a> {
     /// Axes with any step (fitted).
@@ -73,6 +124,9 @@ impl<'a> Loop<'a> {
         let mut b = BTreeMap::new();
         b.insert("zeta".to_string(), base.zeta);
         b.insert("omega_n_rad_s".to_string(), base.omega_n_rad_s);
+        if base.delay_s > 0.0 {
+            b.insert("own_lag_s".to_string(), base.delay_s);
+        }
         for &a in &axes {
             b.insert(format!("gain_{}", axis_name[a]), base.gain[a]);
             b.insert(format!("offset_n_{}", axis_name[a]), base.offset_n[a]);

@@ -344,9 +344,10 @@ impl Fit<'_> {
         let start = self.start;
         let extras = self.extras;
         let mut starts = starts;
-        if extras.contains(&StepExtra::Delay) && start.delay_s == 0.0 {
+        if extras.contains(&StepExtra::Delay) && start.delay_s <= d.own_lag_s {
             // a dead time hides in a base whose dynamics slowed down to absorb it: start at
-            // several delays, with the base's dynamics and with the converters' own
+            // several delays, with the base's dynamics and with the converters' own (a start
+            // with a longer delay is a fitted one, refined from where it is)
             let (zeta0, omega0) = d.prior_zeta_omega;
             let mut v = Vec::new();
             for delay in [0.0, 0.01, 0.025, 0.045, 0.07, 0.1, 0.14] {

@@ -84,6 +84,9 @@ pub struct Drive {
     pub intervals_s: Option<Vec<f64>>,
     /// The converters' ζ and ωn of the robot's parameters (Table 5.2): a starting point.
     pub prior_zeta_omega: (f64, f64),
+    /// The converters' own lag, a dead time the base may carry (s): a fit of a delay
+    /// explores from there. 0 until the model loop sets it.
+    pub own_lag_s: f64,
 }
 
 impl Drive {
@@ -149,6 +152,7 @@ impl Drive {
             dt_s: p.dt_s,
             intervals_s: uneven_intervals(&p.t_s, p.dt_s),
             prior_zeta_omega: prior(model),
+            own_lag_s: 0.0,
         })
     }
 
@@ -214,6 +218,7 @@ impl Drive {
             dt_s: p.dt_s,
             intervals_s: uneven_intervals(&p.t_s, p.dt_s),
             prior_zeta_omega: prior(model),
+            own_lag_s: 0.0,
         })
     }
 

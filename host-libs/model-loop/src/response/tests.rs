@@ -22,6 +22,7 @@ fn force_drive(set: Vec<f64>, dt: f64) -> (Drive, Vec<f64>) {
             dt_s: dt,
             intervals_s: None,
             prior_zeta_omega: (0.42, 23.04),
+            own_lag_s: 0.0,
         },
         t,
     )

@@ -16,9 +16,9 @@ use pam_numerics::stats::rms;
 
 impl Judge<'_, '_> {
     /// A delay within the rig's own lag cannot be told from it; the evidence's note when
-    /// so. A step trial's base has one second order for the four converters and no dead
-    /// time, while each converter has a dead time of a few milliseconds and the fill of its
-    /// muscle. In a dynamic trial the muscles' pressure follows their volume through the
+    /// so. A step trial's base has one second order for the four converters and at most
+    /// their own lag as a dead time, while each converter has a dead time of a few
+    /// milliseconds and the fill of its muscle. In a dynamic trial the muscles' pressure follows their volume through the
     /// same converters, which the base's pneumatic term holds to first order only, and the
     /// load cell and the encoders are read at different instants of a sample: the twin's
     /// dynamic controls show a delay of 5–6 ms that removes a few tenths of a per cent of
@@ -33,7 +33,7 @@ impl Judge<'_, '_> {
         let what = if self.dynamic {
             "the muscles' pressure following their volume through the converters, which the base's pneumatic term holds to first order only, and the load cell and the encoders read at different instants of a sample"
         } else {
-            "a dead time and the muscle's fill, each converter its own, which the base's one second order lacks"
+            "a dead time and the muscle's fill, each converter its own, which the base's one second order and one dead time hold only in part"
         };
         (d < floor_s).then(|| {
             format!(
