@@ -216,3 +216,33 @@ impl ModelEffect for MaxwellSlip {
         }
     }
 }
+
+/// A muscle's hysteresis that grows with its pressure, in a step trial: each converter's
+/// muscle loses force in proportion to its pressure in the direction its pressure last
+/// moved (the braid's friction, pressed by the pressure, opposes the change). Where steps on
+/// one axis move all four pressures, each muscle keeps its own direction, which a handle
+/// offset that follows each axis's reference (the `dahl` shape's step form) cannot hold.
+pub struct PressureHysteresis;
+impl ModelEffect for PressureHysteresis {
+    fn id(&self) -> &'static str {
+        "pressure_hysteresis"
+    }
+    fn family(&self) -> Option<Family> {
+        Some(Family::Hysteresis)
+    }
+    fn shape_name(&self) -> &'static str {
+        "pressure_proportional"
+    }
+    fn summary(&self) -> &'static str {
+        "each muscle's force loses a share of its pressure in the direction the pressure last moved (hysteresis growing with pressure)"
+    }
+    fn signature(&self) -> &'static str {
+        "steps settle short in the direction they came from, by more at higher pressures"
+    }
+    fn applies(&self, e: Experiment) -> bool {
+        e == Experiment::Step
+    }
+    fn step_extras(&self) -> &'static [StepExtra] {
+        &[StepExtra::ChannelHysteresis]
+    }
+}

@@ -354,7 +354,7 @@ mod stiffness;
 pub use friction::{
     CarrierBallFriction, JointFriction, PreslidingFriction, StribeckFriction, VelocitySquared,
 };
-pub use hysteresis::{ElasticLoop, MaxwellSlip, MuscleHysteresis};
+pub use hysteresis::{ElasticLoop, MaxwellSlip, MuscleHysteresis, PressureHysteresis};
 pub use pose::PoseDependence;
 pub use slip::{CableSlip, JointPlay};
 pub use step_effects::{
@@ -389,6 +389,7 @@ pub fn catalog() -> Vec<&'static dyn ModelEffect> {
         &CubicAboutEquilibrium,
         &ForceSaturation,
         &MusclePressureCap,
+        &PressureHysteresis,
     ]
 }
 

@@ -4,7 +4,7 @@
 
 use super::grid::{knee_grid, Quantiles, Sims};
 use super::params::Response;
-use super::params::{lower_bounds, pack, unpack};
+use super::params::{lower_bounds, pack, unpack, MIN_TURN_OVER_SHARE};
 use super::simulate::{peak_rate, simulate};
 use super::Drive;
 use super::StepExtra;
@@ -132,6 +132,7 @@ impl Fit<'_> {
         let starts = self.channel_cap_starts(starts);
         let starts = self.force_saturation_starts(starts);
         let starts = self.force_slew_starts(starts);
+        let starts = self.channel_hysteresis_starts(starts);
         self.delay_starts(starts)
     }
 
@@ -336,6 +337,37 @@ impl Fit<'_> {
         }
 
         starts
+    }
+
+    /// Starts for a hysteresis of each channel: the change over which it turns over, from
+    /// a converter's repeatability to more than the largest step's overshoot.
+    fn channel_hysteresis_starts(&self, starts: Vec<Response>) -> Vec<Response> {
+        if !self.extras.contains(&StepExtra::ChannelHysteresis)
+            || self.start.channel_hysteresis != 0.0
+        {
+            return starts;
+        }
+        // the force per unit of level: the force law's slope (N/bar), or 1 for force channels
+        let per_level = match &self.d.force_law {
+            Some(law) => {
+                let k = law.len().max(1) as f64 * 4.0;
+                law.iter().flatten().map(|l| l[0].abs()).sum::<f64>() / k
+            }
+            None => 1.0,
+        };
+        let mut v = Vec::new();
+        for share in [MIN_TURN_OVER_SHARE, 0.03, 0.1, 0.3] {
+            for loss in [0.01, 0.04] {
+                for s in &starts {
+                    v.push(Response {
+                        channel_hysteresis: loss * per_level,
+                        channel_turn_share: share,
+                        ..*s
+                    });
+                }
+            }
+        }
+        v
     }
 
     /// Starts for a dead time.

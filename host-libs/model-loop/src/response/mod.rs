@@ -48,6 +48,9 @@ pub enum StepExtra {
     ForceSlew,
     PoseGain,
     Hysteresis,
+    /// Each channel's force loses a share of its level in the direction its level last
+    /// moved: a muscle's hysteresis grows with its pressure (the braid's friction).
+    ChannelHysteresis,
     Drift,
 }
 

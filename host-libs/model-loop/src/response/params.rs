@@ -40,6 +40,13 @@ pub struct Response {
     pub gain_slope_per_rad: [[f64; 2]; 2],
     /// Force offset that follows the direction of the last reference change (hysteresis).
     pub hysteresis_n: [f64; 2],
+    /// Each channel's force less this times its level and its direction state (N per bar
+    /// for converters, a share for force channels): the direction state turns over a small
+    /// share of the channel's span after its level reverses.
+    pub channel_hysteresis: f64,
+    /// The change of level over which the direction state turns over, as a share of each
+    /// channel's span of set-points.
+    pub channel_turn_share: f64,
     /// Force offset (in the base: the load cell's tare and the pose's bias) and drift.
     pub offset_n: [f64; 2],
     pub drift_n_per_s: [f64; 2],
@@ -66,6 +73,8 @@ impl Response {
             gain,
             gain_slope_per_rad: [[0.0; 2]; 2],
             hysteresis_n: [0.0; 2],
+            channel_hysteresis: 0.0,
+            channel_turn_share: 0.02,
             offset_n: [0.0; 2],
             drift_n_per_s: [0.0; 2],
         }
@@ -133,6 +142,14 @@ impl Response {
                     v.push((format!("hysteresis_n_{}", axis[a]), self.hysteresis_n[a]));
                 }
             }
+            (StepExtra::ChannelHysteresis, Units::Pressure) => {
+                v.push(("hysteresis_n_per_bar".into(), self.channel_hysteresis));
+                v.push(("turn_over_share".into(), self.channel_turn_share));
+            }
+            (StepExtra::ChannelHysteresis, Units::Force) => {
+                v.push(("hysteresis_share".into(), self.channel_hysteresis));
+                v.push(("turn_over_share".into(), self.channel_turn_share));
+            }
             (StepExtra::Drift, _) => {
                 for &a in axes {
                     v.push((format!("offset_n_{}", axis[a]), self.offset_n[a]));
@@ -155,7 +172,8 @@ pub fn extra_param_count(extras: &[StepExtra], axes: &[usize]) -> usize {
             | StepExtra::Saturation
             | StepExtra::ForceSaturation
             | StepExtra::ChannelCap
-            | StepExtra::ForceSlew => 2,
+            | StepExtra::ForceSlew
+            | StepExtra::ChannelHysteresis => 2,
             StepExtra::PoseGain => 2 * axes.len(),
             StepExtra::Hysteresis => axes.len(),
             StepExtra::Drift => axes.len(),
@@ -185,6 +203,7 @@ pub(super) fn pack(r: &Response, extras: &[StepExtra], axes: &[usize]) -> Vec<f6
                 }
             }
             StepExtra::Hysteresis => v.extend(axes.iter().map(|&a| r.hysteresis_n[a])),
+            StepExtra::ChannelHysteresis => v.extend([r.channel_hysteresis, r.channel_turn_share]),
             StepExtra::Drift => v.extend(axes.iter().map(|&a| r.drift_n_per_s[a])),
         }
     }
@@ -241,6 +260,10 @@ pub(super) fn unpack(
                     r.hysteresis_n[a] = next();
                 }
             }
+            StepExtra::ChannelHysteresis => {
+                r.channel_hysteresis = next();
+                r.channel_turn_share = next();
+            }
             StepExtra::Drift => {
                 for &a in axes {
                     r.drift_n_per_s[a] = next();
@@ -250,6 +273,10 @@ pub(super) fn unpack(
     }
     r
 }
+
+/// The smallest change of a channel's level, as a share of its span, over which a channel's
+/// hysteresis may turn over.
+pub const MIN_TURN_OVER_SHARE: f64 = 0.01;
 
 /// Lower bounds of the packed parameters (ζ, ωn, delay, rates and the saturation's span
 /// stay physical).
@@ -263,6 +290,11 @@ pub(super) fn lower_bounds(
     for x in extras {
         match x {
             StepExtra::Delay => v.push((i, 0.0)),
+            // the braid's friction opposes the level's motion, and turns over a change of
+            // the level larger than a converter's repeatability (about 1 % of its span): a
+            // state that turns within it follows the converters' ringing, a term in the
+            // pressure's velocity that stands in for their dynamics
+            StepExtra::ChannelHysteresis => v.extend([(i, 0.0), (i + 1, MIN_TURN_OVER_SHARE)]),
             StepExtra::SlewRate | StepExtra::CommandSlew => {
                 v.extend([(i, rate_floor), (i + 1, rate_floor)])
             }

@@ -52,7 +52,12 @@ fn simulate_channels<const K: usize>(
     let mut state = State::<K>::at_rest(&plan, r, d);
     let t0 = t_s[0];
     for i in 0..n {
-        let forces = d.channel_forces(i, &state.x);
+        let mut forces = d.channel_forces(i, &state.x);
+        if plan.channel_hysteresis {
+            for k in 0..K {
+                forces[k] -= r.channel_hysteresis * state.x[k] * state.z[k];
+            }
+        }
         for a in 0..2 {
             let force = plan.handle_force(r, d, alpha, i, a, &forces, &mut state.slewed[a]);
             out[a][i] = force + state.hx[a] + r.offset_n[a] + r.drift_n_per_s[a] * (t_s[i] - t0);
@@ -82,6 +87,10 @@ struct Plan<const K: usize> {
     /// 1/sub): samples i + ⌊offset_m⌋ and the next, the first with a weight of m alone.
     taps: Vec<(isize, f64)>,
     hysteresis: bool,
+    /// A hysteresis of each channel's force in proportion to its level, and the change of
+    /// level over which each channel's direction state turns over.
+    channel_hysteresis: bool,
+    turn_over: [f64; K],
     force_limited: bool,
     force_span: f64,
     /// A slew limit on the handle force: its largest rise and fall per second.
@@ -101,6 +110,8 @@ struct State<const K: usize> {
     /// The hysteresis offset of each axis and its rate: it goes through the same regulation.
     hx: [f64; 2],
     hv: [f64; 2],
+    /// Each channel's direction state (−1 after a fall, 1 after a rise, Dahl's law between).
+    z: [f64; K],
     /// The last slew-limited handle force of each axis.
     slewed: [Option<f64>; 2],
     /// An uneven log's delayed set-points are looked up by time, from this row on.
@@ -117,6 +128,7 @@ impl<const K: usize> State<K> {
             driven: x,
             hx: [0, 1].map(|a| r.hysteresis_n[a] * d.direction[a][0]),
             hv: [0.0; 2],
+            z: [0.0; K],
             slewed: [None; 2],
             delayed_from: 0,
         }
@@ -165,6 +177,11 @@ impl<const K: usize> Plan<K> {
                 (fl as isize, ((fl + 1.0 - offset) / frac).min(1.0))
             })
             .collect();
+        let widths = if r.channel_hysteresis != 0.0 {
+            turn_over(&shaped, r.channel_turn_share)
+        } else {
+            [1.0; K]
+        };
         Plan {
             n,
             rise,
@@ -180,6 +197,8 @@ impl<const K: usize> Plan<K> {
             slew_the_command: force_channels || r.slew_command,
             taps,
             hysteresis: r.hysteresis_n != [0.0; 2],
+            channel_hysteresis: r.channel_hysteresis != 0.0,
+            turn_over: widths,
             force_limited: r.force_knee_n.is_finite(),
             force_span: r.force_span_n.abs().max(1e-6),
             force_slewed: r.force_rise_n_per_s.is_finite() || r.force_fall_n_per_s.is_finite(),
@@ -282,7 +301,7 @@ impl<const K: usize> Plan<K> {
         // and `self`, every sub-step loads and stores them again (measured: 7 % more
         // instructions per simulation, and the simulation is most of a step fit)
         let (mut x, mut v, mut driven) = (st.x, st.v, st.driven);
-        let (mut hx, mut hv) = (st.hx, st.hv);
+        let (mut hx, mut hv, mut z) = (st.hx, st.hv, st.z);
         let (limited, slew_the_command, hysteresis) =
             (self.limited, self.slew_the_command, self.hysteresis);
         let (rise, fall) = (self.rise, self.fall);
@@ -320,7 +339,11 @@ impl<const K: usize> Plan<K> {
                 } else {
                     vc
                 };
+                let before = x[c];
                 x[c] = if v[c] == vc { s + e } else { x[c] + h * v[c] };
+                if self.channel_hysteresis {
+                    z[c] = dahl(z[c], x[c] - before, self.turn_over[c]);
+                }
             }
             if hysteresis {
                 for a in 0..2 {
@@ -332,8 +355,29 @@ impl<const K: usize> Plan<K> {
             }
         }
         (st.x, st.v, st.driven) = (x, v, driven);
-        (st.hx, st.hv) = (hx, hv);
+        (st.hx, st.hv, st.z) = (hx, hv, z);
     }
+}
+
+/// Dahl's direction state after a change `dx` of the level: it moves toward the sign of
+/// the change, turning over a change of `width`.
+#[inline]
+fn dahl(z: f64, dx: f64, width: f64) -> f64 {
+    let s = if dx > 0.0 { 1.0 } else { -1.0 };
+    (z + dx / width * (1.0 - z * s)).clamp(-1.0, 1.0)
+}
+
+/// The change of level over which each channel's direction state turns over: `share` of the
+/// span of its set-points.
+fn turn_over<const K: usize>(shaped: &[[f64; K]], share: f64) -> [f64; K] {
+    std::array::from_fn(|c| {
+        let (lo, hi) = shaped
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
+                (lo.min(s[c]), hi.max(s[c]))
+            });
+        (share.abs() * (hi - lo)).max(1e-6)
+    })
 }
 
 /// The sample whose held set-point covers the start of the interval [from, from + h) of an

@@ -269,6 +269,46 @@ fn fit_recovers_the_extras() {
     }
 }
 
+/// A hysteresis of each channel in proportion to its level: a step settles short by that
+/// share of the level it reaches, in the direction it came from; the fit recovers the share.
+#[test]
+fn fit_recovers_a_hysteresis_in_proportion_to_the_level() {
+    let dt = 0.002;
+    let mut set = Vec::new();
+    for k in 0..16 {
+        let level = [4.0, 12.0, 8.0, 20.0, 14.0, 6.0, 18.0, 10.0][k % 8];
+        set.extend(std::iter::repeat_n(level, 750));
+    }
+    let (d, t) = force_drive(set, dt);
+    let n = t.len();
+    // a converter without overshoot: the direction state ends where the step went
+    let truth = Response {
+        channel_hysteresis: 0.05,
+        ..Response::base(0.95, 23.04, [0.9, 1.0])
+    };
+    // a step settles 5 % of its level short after a rise (12, row 1499) and over after a
+    // fall (8, row 2249)
+    let y = simulate_x(&truth, &d, &t);
+    assert!(y[1499] < 0.9 * 12.0 * 0.97, "{}", y[1499]);
+    assert!(y[2249] > 0.9 * 8.0 * 1.03, "{}", y[2249]);
+    let p = x_axis_trial(&truth, &d, &t);
+    let start = Response::base(0.6, 18.0, [1.0, 1.0]);
+    let f = fit(
+        &p,
+        &d,
+        &start,
+        &[StepExtra::ChannelHysteresis],
+        &[0],
+        &HeldOut::nothing(n),
+    );
+    assert!(
+        (f.channel_hysteresis - 0.05).abs() < 0.005
+            && (f.channel_turn_share - 0.02).abs() < 0.004
+            && (f.gain[0] - 0.9).abs() < 0.01,
+        "{f:?}"
+    );
+}
+
 /// A cap on one channel: only that channel's large set-points fall short; the fit finds
 /// which channel and where the cap sits, and leaves the other channel alone.
 #[test]
