@@ -20,6 +20,7 @@ mod fit;
 mod grid;
 mod params;
 mod simulate;
+mod starts;
 #[cfg(test)]
 mod tests;
 
