@@ -86,19 +86,25 @@ fn the_physics_generators_logs_hold_the_floor() {
 /// wander). The floor is one log under the measure, and no control may raise an alarm.
 const FLOOR_RIGHT: usize = 3;
 
-/// A step control of the physics generator, diagnosed with the default settings.
-fn step_control(seed: u64) -> Diagnosis {
-    let g = generate(&CaseSpec::control(1, seed), None).expect("generating");
+/// A step log of the physics generator at its full length, diagnosed with the default
+/// settings, and its truth's family.
+fn step_log(spec: &CaseSpec) -> (Diagnosis, String) {
+    let g = generate(spec, None).expect("generating");
     let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
     let trial = Trial::from_log(&log).expect("a trial");
-    diagnose(
+    let (d, _) = diagnose(
         &trial,
         &RobotModel::thesis(),
         Experiment::Step,
         Settings::default(),
     )
-    .expect("diagnosing")
-    .0
+    .expect("diagnosing");
+    (d, g.truth.family)
+}
+
+/// A step control of the physics generator, diagnosed.
+fn step_control(seed: u64) -> Diagnosis {
+    step_log(&CaseSpec::control(1, seed)).0
 }
 
 /// The warnings of `d` that say a family had too few steps to decide.
@@ -224,18 +230,9 @@ fn the_muscles_hysteresis_in_step_trials_is_hysteresis() {
             seed,
             severity,
         };
-        let g = generate(&spec, None).expect("generating");
-        let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
-        let trial = Trial::from_log(&log).expect("a trial");
-        let (d, _) = diagnose(
-            &trial,
-            &RobotModel::thesis(),
-            Experiment::Step,
-            Settings::default(),
-        )
-        .expect("diagnosing");
+        let (d, family) = step_log(&spec);
         let says = strict::read(&serde_json::to_value(&d).expect("json"));
-        let j = strict::judge(&g.truth.family, &says);
+        let j = strict::judge(&family, &says);
         right += usize::from(j == strict::Strict::Right);
         lines.push(format!(
             "{seed} ({severity}): {} {:?}, final {:?}: {j:?}",
