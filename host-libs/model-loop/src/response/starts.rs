@@ -236,19 +236,31 @@ impl Fit<'_> {
             }
             None => 1.0,
         };
-        let mut v = Vec::new();
-        for share in [MIN_TURN_OVER_SHARE, 0.03, 0.1, 0.3] {
-            for loss in [0.01, 0.04] {
-                for s in &starts {
-                    v.push(Response {
-                        channel_hysteresis: loss * per_level,
-                        channel_turn_share: share,
-                        ..*s
-                    });
-                }
-            }
+        // a loss of 2 % of the force law's slope; the output is linear in it, so the
+        // refinement finds its size from any start, and only the turn-over needs a grid
+        let loss = 0.02 * per_level;
+        if starts.len() > 1 {
+            // beside another extra's grid, one middle start each: a grid on a grid made a
+            // combined fit screen hundreds of starts (minutes for one log)
+            return starts
+                .into_iter()
+                .map(|s| Response {
+                    channel_hysteresis: loss,
+                    channel_turn_share: 0.03,
+                    ..s
+                })
+                .collect();
         }
-        v
+        [MIN_TURN_OVER_SHARE, 0.03, 0.1, 0.3]
+            .iter()
+            .flat_map(|&share| {
+                starts.iter().map(move |s| Response {
+                    channel_hysteresis: loss,
+                    channel_turn_share: share,
+                    ..*s
+                })
+            })
+            .collect()
     }
 
     /// Starts for a dead time.
