@@ -142,7 +142,12 @@ impl<const K: usize> Plan<K> {
         // the linear second order is stepped exactly (its transition matrix over a
         // sub-step), so only a rate limit, which clamps within the step, and a delay, which
         // moves the set-point's change into the sample, need short sub-steps
-        let sub = if limited || r.delay_s > 0.0 {
+        // a delay of whole samples (the converters' own lag on a 1–5 ms grid) keeps the
+        // changes at the samples: no sub-steps (measured: the step fits' time doubled when
+        // the base carried that lag with sub-steps)
+        let samples = r.delay_s / d.dt_s;
+        let whole = (samples - samples.round()).abs() < 1e-9;
+        let sub = if limited || (r.delay_s > 0.0 && !whole) {
             ((d.dt_s / MAX_SUBSTEP_S).ceil() as usize).max(1)
         } else {
             1
