@@ -140,19 +140,19 @@ impl<'a> Loop<'a> {
                 .collect();
             params.insert(e.id().to_string(), m);
         }
-        let train = |pr: &[Vec<f64>; 2], a: usize| {
-            p.held_out
-                .train_rows()
-                .map(|i| (y[a][i] - pr[a][i]).powi(2))
-                .sum::<f64>()
-        };
         let train_gain = if chosen.is_empty() {
             0.0
         } else {
-            let mut bp = [vec![0.0; p.len()], vec![0.0; p.len()]];
-            response::simulate(&base, d, &p.t_s, alpha, p.len(), &mut bp);
-            let rb: f64 = axes.iter().map(|&a| train(&bp, a)).sum();
-            let re: f64 = axes.iter().map(|&a| train(&pred, a)).sum();
+            let rb = training_cost(p, d, &base, &axes);
+            let re: f64 = axes
+                .iter()
+                .map(|&a| {
+                    p.held_out
+                        .train_rows()
+                        .map(|i| (y[a][i] - pred[a][i]).powi(2))
+                        .sum::<f64>()
+                })
+                .sum();
             1.0 - re / rb.max(1e-300)
         };
         let added = response::extra_param_count(&extras, &axes);
