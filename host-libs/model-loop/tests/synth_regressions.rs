@@ -172,12 +172,14 @@ fn a_delay_is_not_judged_on_rows_past_the_end_of_the_log() {
         gains.last().unwrap().as_f64().unwrap() > 0.0,
         "the last fold: {gains:?}"
     );
-    near(
-        &top["params"]["delay_s"],
-        &truth["delay_s"],
-        0.15,
-        "the delay",
-    );
+    // at motion well below its corner a load cell's low-pass is a lag of its group delay:
+    // a dead time between two 5 ms samples and a filter of that group delay fit alike, and
+    // the family's first shape is either; the lag is the one asked for
+    let lag = top["params"]
+        .get("delay_s")
+        .or_else(|| top["params"].get("group_delay_s"))
+        .unwrap_or(&Value::Null);
+    near(lag, &truth["delay_s"], 0.15, "the delay");
 }
 
 /// The case at `index` of `confusion --logs 320 --seed0 70000`, diagnosed as a dynamic trial.

@@ -238,7 +238,7 @@ impl<'a> Loop<'a> {
 }
 
 /// Shapes of a free effect each fold chooses among: the best few on the training part.
-const FREE_SHAPES: usize = 3;
+pub(super) const FREE_SHAPES: usize = 3;
 
 impl<'a> Loop<'a> {
     /// Cross-validated scores of the base plus `fixed` plus `e`, whose shape each fold

@@ -2,6 +2,7 @@
 //! choice, and the delay (a shift of the measured force, see [`Loop::target`]).
 
 use super::base::Stiffness;
+use super::cv::FREE_SHAPES;
 use super::held_out_scores;
 use super::BaseRanking;
 use super::DynColumns;
@@ -16,6 +17,7 @@ use crate::effects::DynTerm;
 use crate::effects::Experiment;
 use crate::effects::ModelEffect;
 use crate::effects::Shape;
+use crate::effects::ShapeParam;
 use pam_ident::msd;
 use pam_numerics::lsq;
 use pam_numerics::lsq::Column;
@@ -54,6 +56,7 @@ impl<'a> Loop<'a> {
         let base_cols = &bv.cols[..nb];
         let mut positive: Vec<usize> = self.base_variants[variant].positive();
         let mut delay = 0.0f64;
+        let mut lowpass_hz = 0.0f64;
         let mut extra = Vec::new();
         if tare_out && !constant {
             // the offsets, after the tare left out
@@ -66,6 +69,9 @@ impl<'a> Loop<'a> {
                 return None;
             }
             delay = delay.max(term.base_delay_s);
+            if term.force_lowpass_hz > 0.0 {
+                lowpass_hz = term.force_lowpass_hz;
+            }
             let start = nb + extra.len();
             positive.extend(term.positive.iter().map(|i| start + i));
             extra.extend(term.columns);
@@ -74,6 +80,24 @@ impl<'a> Loop<'a> {
         let mut cols = base_cols.to_vec();
         cols.extend(extra);
         let (shift, fraction) = self.delay_split(delay);
+        if lowpass_hz > 0.0 {
+            // the measured force is the model's through the sensor's filter, so is every
+            // regressor (a new Gram block: nb = 0); each column is filtered once for all
+            // the variants, shapes and folds that use it
+            let mut lowpassed = self.lowpassed.lock().expect("filtered columns");
+            let cols: Option<Vec<Column>> = cols
+                .iter()
+                .map(|c| {
+                    let c = if fraction > 0.0 {
+                        later_by(c, fraction)
+                    } else {
+                        c.clone()
+                    };
+                    lowpassed.column(&c, lowpass_hz, self.p.dt_s)
+                })
+                .collect();
+            return Some((cols?, ranges, positive, shift, 0));
+        }
         if fraction > 0.0 {
             // the regressors at a fraction of a sample later: their Gram block differs from
             // the cached base's, so none is reused (nb = 0)
@@ -182,10 +206,9 @@ impl<'a> Loop<'a> {
                 shapes
             }
         } else {
-            let mut scored: Vec<(f64, Shape)> = Vec::new();
             // one shape's columns against every shortlisted variant's: products shared
             let mut memo = lsq::GramMemo::default();
-            for s in shapes {
+            let mut score = |s: Shape| -> (f64, Shape) {
                 let term = [e.dynamic_term(ctx, &s)];
                 let mut best = f64::INFINITY;
                 for &v in self.shortlist() {
@@ -198,9 +221,32 @@ impl<'a> Loop<'a> {
                     let r = self.criterion(lsq::rss(&ne, yty, &th), cols.len(), v);
                     best = best.min(r);
                 }
-                scored.push((best, s));
-            }
+                (best, s)
+            };
+            let mut scored: Vec<(f64, Shape)> = shapes.into_iter().map(&mut score).collect();
             scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+            // the grid's best, refined between its neighbours where the effect says how
+            let finer = scored
+                .first()
+                .map(|b| e.finer_shapes(ctx, &b.1))
+                .unwrap_or_default();
+            if !finer.is_empty() {
+                scored.extend(finer.into_iter().map(&mut score));
+                scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+            }
+            // a sensor filter's columns: the cross-validation's shapes are the best few,
+            // the other corners' are not asked for again
+            let corners: Vec<f64> = scored
+                .iter()
+                .take(FREE_SHAPES)
+                .filter_map(|b| b.1.get(ShapeParam::CornerHz))
+                .collect();
+            if !corners.is_empty() {
+                self.lowpassed
+                    .lock()
+                    .expect("filtered columns")
+                    .retain_corners(&corners);
+            }
             scored.into_iter().map(|x| x.1).collect()
         };
         self.shapes

@@ -154,6 +154,9 @@ pub struct Loop<'a> {
     base_ranking: std::sync::OnceLock<BaseRanking>,
     /// The dynamic fit's target per shift in samples (cached, see [`Loop::target`]).
     targets: std::sync::Mutex<BTreeMap<usize, std::sync::Arc<Target>>>,
+    /// The columns a sensor filter's shape filtered (see [`Loop::assemble`]); after its
+    /// shapes are ranked, the best shape's corner only.
+    lowpassed: std::sync::Mutex<crate::effects::LowpassMemo>,
     /// Lower bounds of the dynamic fits' mass diagonals (kg), see
     /// [`Loop::solve_dynamic`].
     mass_floor_kg: [f64; 2],
@@ -441,6 +444,7 @@ impl<'a> Loop<'a> {
             n_eff,
             base_ranking: Default::default(),
             targets: Default::default(),
+            lowpassed: Default::default(),
             mass_floor_kg: if experiment == Experiment::Dynamic {
                 model
                     .cartesian_mass(p.alpha0_rad)

@@ -147,6 +147,7 @@ pub enum ShapeParam {
     SmoothingRadS,
     PreslidingRad,
     DelayS,
+    CornerHz,
     TimeConstantS,
     JointSpace,
     BacklashRad,
@@ -169,6 +170,7 @@ impl ShapeParam {
             ShapeParam::SmoothingRadS => "smoothing_rad_s",
             ShapeParam::PreslidingRad => "presliding_rad",
             ShapeParam::DelayS => "delay_s",
+            ShapeParam::CornerHz => "corner_hz",
             ShapeParam::TimeConstantS => "time_constant_s",
             ShapeParam::JointSpace => "joint_space",
             ShapeParam::BacklashRad => "backlash_rad",
@@ -205,6 +207,9 @@ pub struct DynTerm {
     /// The force is sampled this much later than the motion (a sensor-sync delay), seconds:
     /// the fit's target is shifted by it in whole samples.
     pub base_delay_s: f64,
+    /// The force is measured through a low-pass of this corner (Hz; 0: none), as a load
+    /// cell's amplifier filters it: every column of the fit passes through the same filter.
+    pub force_lowpass_hz: f64,
     /// Indices (into `columns`) of parameters that are physically ≥ 0 (dissipation, a
     /// friction force): a sign-flipped fit of one effect must not pass for another.
     pub positive: Vec<usize>,
@@ -228,6 +233,11 @@ pub trait ModelEffect: Sync {
     /// effect is linear in its parameters).
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
         vec![Shape::default()]
+    }
+    /// Shapes between the grid's neighbours of `best`, the grid's best on the training
+    /// part, tried after the grid (none by default).
+    fn finer_shapes(&self, _ctx: &DynCtx, _best: &Shape) -> Vec<Shape> {
+        Vec::new()
     }
     /// Extra regressors (and base transform) for a dynamic trial.
     fn dynamic_term(&self, _ctx: &DynCtx, _shape: &Shape) -> DynTerm {
@@ -348,6 +358,7 @@ pub(crate) fn from_neutral(s: &Shape) -> bool {
 mod friction;
 mod hysteresis;
 mod pose;
+mod sensor_filter;
 mod slip;
 mod step_effects;
 mod stiffness;
@@ -356,6 +367,7 @@ pub use friction::{
 };
 pub use hysteresis::{ElasticLoop, MaxwellSlip, MuscleHysteresis, PressureHysteresis};
 pub use pose::PoseDependence;
+pub use sensor_filter::{group_delay_s, LoadCellFilter, LowpassMemo};
 pub use slip::{CableSlip, JointPlay};
 pub use step_effects::{
     AsymmetricIpRates, CommandSlew, ForceSaturation, ForceSlew, LoadcellDrift, MusclePressureCap,
@@ -390,6 +402,7 @@ pub fn catalog() -> Vec<&'static dyn ModelEffect> {
         &ForceSaturation,
         &MusclePressureCap,
         &PressureHysteresis,
+        &LoadCellFilter,
     ]
 }
 
@@ -464,6 +477,7 @@ mod shape_tests {
             ShapeParam::StribeckMS,
             ShapeParam::PreslidingM,
             ShapeParam::DelayS,
+            ShapeParam::CornerHz,
             ShapeParam::TimeConstantS,
             ShapeParam::JointSpace,
             ShapeParam::BacklashRad,

@@ -40,20 +40,31 @@ impl ModelEffect for TransportDelay {
         true
     }
     fn shapes(&self, ctx: &DynCtx) -> Vec<Shape> {
-        // up to 150 ms: whole samples every 2 ms, or every sample when sampling is slower;
-        // from 10 ms sampling on (the thesis's 50 ms, a rig's 40 ms), fifths of a sample
-        // as well — a 30 ms lag sampled every 50 ms is neither 0 nor 50 ms, and the
-        // regressors are smooth enough to interpolate (`Loop::delay_split`)
-        let dt = ctx.p.dt_s;
-        let step = if dt >= 0.01 - 1e-9 {
-            dt / 5.0
-        } else {
-            (0.002 / dt).round().max(1.0) * dt
-        };
+        let step = delay_grid_step_s(ctx.p.dt_s);
         (1..)
             .map(|k| k as f64 * step)
             .take_while(|d| *d <= MAX_DYNAMIC_DELAY_S + 1e-9)
             .map(|d| Shape(vec![(ShapeParam::DelayS, d)]))
+            .collect()
+    }
+    /// Between a coarse grid's neighbours (a 5 ms log's whole samples), every millisecond:
+    /// the load cell's filter is continuous in its group delay, and a dead time between two
+    /// samples would otherwise lose to it on resolution alone.
+    fn finer_shapes(&self, ctx: &DynCtx, best: &Shape) -> Vec<Shape> {
+        let step = delay_grid_step_s(ctx.p.dt_s);
+        let Some(d) = best.get(ShapeParam::DelayS) else {
+            return Vec::new();
+        };
+        if step <= 0.002 + 1e-9 {
+            return Vec::new();
+        }
+        let fine = step / (step / 0.001).round();
+        (1..)
+            .map(|k| k as f64 * fine)
+            .take_while(|&x| x < step - 1e-9)
+            .flat_map(|x| [d - x, d + x])
+            .filter(|&x| x > 0.0 && x <= MAX_DYNAMIC_DELAY_S + 1e-9)
+            .map(|x| Shape(vec![(ShapeParam::DelayS, x)]))
             .collect()
     }
     fn dynamic_term(&self, _ctx: &DynCtx, shape: &Shape) -> DynTerm {
@@ -65,6 +76,18 @@ impl ModelEffect for TransportDelay {
     }
     fn step_extras(&self) -> &'static [StepExtra] {
         &[StepExtra::Delay]
+    }
+}
+
+/// The dynamic delay grid's step: up to 150 ms, whole samples every 2 ms, or every sample
+/// when sampling is slower; from 10 ms sampling on (the thesis's 50 ms, a rig's 40 ms),
+/// fifths of a sample as well — a 30 ms lag sampled every 50 ms is neither 0 nor 50 ms, and
+/// the regressors are smooth enough to interpolate (`Loop::delay_split`).
+fn delay_grid_step_s(dt_s: f64) -> f64 {
+    if dt_s >= 0.01 - 1e-9 {
+        dt_s / 5.0
+    } else {
+        (0.002 / dt_s).round().max(1.0) * dt_s
     }
 }
 

@@ -28,7 +28,9 @@ impl Judge<'_, '_> {
         if e.family() != Some(Family::Delay) {
             return None;
         }
-        let d = *f.params.get(e.id())?.get("delay_s")?;
+        // a dead time's length, or a sensor filter's group delay
+        let own = f.params.get(e.id())?;
+        let d = *own.get("delay_s").or_else(|| own.get("group_delay_s"))?;
         let floor_s = self.settings.converter_lag_s;
         let what = if self.dynamic {
             "the muscles' pressure following their volume through the converters, which the base's pneumatic term holds to first order only, and the load cell and the encoders read at different instants of a sample"
