@@ -218,3 +218,24 @@ fn a_slow_wander_below_a_fifth_of_the_residual_is_unexplained() {
         "{u:?}"
     );
 }
+
+/// A 45 s step log whose x axis steps once, in the held-out last fifth, and whose y axis
+/// steps in the training part only: x has no gain the training part could fit. Fitted and
+/// scored anyway, its held-out error rewarded a one-muscle cap that "removed" 78 % of it.
+/// The loop fits and scores the axes that step in the training part; the log's dead time
+/// (9.8 ms) lies within the rig's own lag, so nothing is named.
+#[test]
+fn an_axis_that_steps_only_in_the_held_out_part_is_not_scored() {
+    let mut spec = plan(80, 20_000, None)
+        .into_iter()
+        .find(|c| c.seed == 20_012)
+        .expect("in the plan");
+    spec.duration_s = spec.duration_s.min(45.0).min(25_000.0 * spec.dt_s).round();
+    assert_eq!(
+        (spec.family, spec.shape),
+        (Family::Delay, Shape::DeadTime),
+        "the plan changed"
+    );
+    let (d, _) = diagnosis_of_spec(&spec, LoopExperiment::Step);
+    assert_eq!(d["verdict"], "none", "{d:#}");
+}

@@ -47,7 +47,6 @@ use pam_ident::step::{self, StepParams};
 use pam_ident::trial::{Prepared, Trial};
 use pam_model::RobotModel;
 use pam_numerics::lsq::{self, Column};
-use pam_numerics::stats::std_dev;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -251,9 +250,13 @@ fn choose_drive(
         .into_par_iter()
         .map(|mut d| {
             d.own_lag_s = own_lag_s;
-            // the axes the drive commands to move (as `Loop::stepping_axes` will see them)
+            // the axes the drive commands to move in the training part (as
+            // `Loop::stepping_axes` will see them)
             let commanded = [d.commanded(0), d.commanded(1)];
-            let axes: Vec<usize> = (0..2).filter(|&a| std_dev(&commanded[a]) > 1e-9).collect();
+            let rows: Vec<usize> = p.held_out.train_rows().collect();
+            let axes: Vec<usize> = (0..2)
+                .filter(|&a| step_fit::steps_within(&commanded[a], &rows))
+                .collect();
             let (cost, fitted) = step_fit::fit_base(p, &d, &init, &axes);
             (cost, d, fitted, commanded)
         })

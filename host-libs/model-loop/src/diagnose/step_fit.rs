@@ -47,6 +47,15 @@ pub(super) fn fit_base(
         .expect("one candidate at least")
 }
 
+/// Whether the reference `r` moves over `rows`: an axis whose steps all fall in the
+/// held-out part (a short log whose last fifth is held out, its axes stepped one after the
+/// other) has no gain the training part could fit, and its held-out error would reward any
+/// effect that moves its prediction.
+pub(super) fn steps_within(r: &[f64], rows: &[usize]) -> bool {
+    let values: Vec<f64> = rows.iter().map(|&i| r[i]).collect();
+    std_dev(&values) > 1e-9
+}
+
 /// Sum of squares of the training residual of `r` over `axes`.
 fn training_cost(p: &Prepared, d: &Drive, r: &Response, axes: &[usize]) -> f64 {
     let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
@@ -64,10 +73,11 @@ fn training_cost(p: &Prepared, d: &Drive, r: &Response, axes: &[usize]) -> f64 {
 }
 
 impl<'a> Loop<'a> {
-    /// Axes with any step (fitted).
+    /// Axes with a step in the training part (fitted and scored).
     pub(super) fn stepping_axes(&self) -> Vec<usize> {
         let r = self.p.force_ref_n.as_ref().expect("checked in new");
-        (0..2).filter(|&a| std_dev(&r[a]) > 1e-9).collect()
+        let rows: Vec<usize> = self.p.held_out.train_rows().collect();
+        (0..2).filter(|&a| steps_within(&r[a], &rows)).collect()
     }
 
     pub(super) fn base_step_params(&self) -> Response {
