@@ -138,7 +138,7 @@ pub struct Loop<'a> {
     shapes: std::sync::Mutex<BTreeMap<&'static str, Vec<Shape>>>,
     /// Blocks and base normals of the cross-validation (dynamic trials).
     cv: std::sync::OnceLock<cv::CvCache>,
-    base_step: std::sync::Mutex<Option<Response>>,
+    base_step: std::sync::Mutex<Option<(Response, f64)>>,
     /// What drives a step trial's model (the converters' set-points, or the reference).
     drive: Option<Drive>,
     /// The variants of the dynamic base model (Cartesian, joint-space or force-law
@@ -233,6 +233,10 @@ fn check_long_enough(trial: &Trial) -> Result<(), pam_ident::IdentError> {
     Ok(())
 }
 
+/// A step trial's drive, its base with that base's training residual, and the force the
+/// drive commands on each axis.
+type ChosenDrive = (Drive, (Response, f64), [Vec<f64>; 2]);
+
 /// The step trial's drive the data prefers, with its fitted base and the force it commands. The converters'
 /// set-points (from the currents) are the physical view and the default; the reference
 /// drives two force channels instead when that base leaves clearly less training residual
@@ -244,7 +248,7 @@ fn choose_drive(
     model: &RobotModel<f64>,
     init: Response,
     own_lag_s: f64,
-) -> Option<(Drive, Response, [Vec<f64>; 2])> {
+) -> Option<ChosenDrive> {
     // every candidate fitted on both cores, then chosen in order
     let fitted: Vec<(f64, Drive, Response, [Vec<f64>; 2])> = Drive::candidates(p, model)
         .into_par_iter()
@@ -272,7 +276,7 @@ fn choose_drive(
             best = Some(candidate);
         }
     }
-    best.map(|(_, d, r, commanded)| (d, r, commanded))
+    best.map(|(cost, d, r, commanded)| (d, (r, cost), commanded))
 }
 
 /// The trial as the model loop analyses it ([`Loop::p`]): prepared (for a dynamic trial

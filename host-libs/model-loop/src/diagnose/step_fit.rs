@@ -80,7 +80,9 @@ impl<'a> Loop<'a> {
         (0..2).filter(|&a| steps_within(&r[a], &rows)).collect()
     }
 
-    pub(super) fn base_step_params(&self) -> Response {
+    /// The step trial's base and its training residual over the stepping axes (fitted
+    /// once, with the drive).
+    pub(super) fn base_step_params(&self) -> (Response, f64) {
         let mut cached = self.base_step.lock().expect("base cache");
         if let Some(b) = *cached {
             return b;
@@ -89,14 +91,9 @@ impl<'a> Loop<'a> {
             .step_init
             .unwrap_or(Response::base(0.7, 20.0, [1.0, 1.0]));
         let d = self.drive.as_ref().expect("step trials have a drive");
-        let fitted = response::fit(
-            &self.p,
-            d,
-            &init,
-            &[],
-            &self.stepping_axes(),
-            &self.p.held_out,
-        );
+        let axes = self.stepping_axes();
+        let r = response::fit(&self.p, d, &init, &[], &axes, &self.p.held_out);
+        let fitted = (r, training_cost(&self.p, d, &r, &axes));
         *cached = Some(fitted);
         fitted
     }
@@ -104,7 +101,7 @@ impl<'a> Loop<'a> {
     pub(super) fn fit_step(&self, effects: &[&dyn ModelEffect]) -> ModelFit {
         let p = &self.p;
         let d = self.drive.as_ref().expect("step trials have a drive");
-        let base = self.base_step_params();
+        let (base, base_cost) = self.base_step_params();
         let chosen: Vec<&dyn ModelEffect> = effects
             .iter()
             .copied()
@@ -153,7 +150,8 @@ impl<'a> Loop<'a> {
         let train_gain = if chosen.is_empty() {
             0.0
         } else {
-            let rb = training_cost(p, d, &base, &axes);
+            // the base's own, from the fit that chose it
+            let rb = base_cost;
             let re: f64 = axes
                 .iter()
                 .map(|&a| {

@@ -251,9 +251,7 @@ pub trait ModelEffect: Sync {
         fitted: &[(String, f64)],
         shape: &Shape,
     ) -> Vec<(String, f64)> {
-        let mut v: Vec<(String, f64)> = fitted.to_vec();
-        v.extend(shape.named());
-        v
+        fitted_and_shape(fitted, shape)
     }
     /// Extra parameters of the second-order step response, for step trials.
     fn step_extras(&self) -> &'static [StepExtra] {
@@ -268,6 +266,14 @@ pub trait ModelEffect: Sync {
     fn shape_name(&self) -> &'static str {
         self.id()
     }
+}
+
+/// The fitted coefficients as they are, then the shape's parameters: what
+/// [`ModelEffect::report_params`] reports unless an effect adds its own.
+pub fn fitted_and_shape(fitted: &[(String, f64)], shape: &Shape) -> Vec<(String, f64)> {
+    let mut v: Vec<(String, f64)> = fitted.to_vec();
+    v.extend(shape.named());
+    v
 }
 
 /// Joint pressures [[P1, P2], [P1, P2]] (bar) at each sample, from the logged I/P currents

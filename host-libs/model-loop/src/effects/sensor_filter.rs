@@ -3,6 +3,7 @@
 //! fast part of it. A dead time shifts every frequency alike and damps none, so a rig with
 //! an anti-alias filter of a few hertz is not a dead time of any length.
 
+use super::fitted_and_shape;
 use super::DynCtx;
 use super::DynTerm;
 use super::Experiment;
@@ -71,8 +72,7 @@ impl ModelEffect for LoadCellFilter {
         fitted: &[(String, f64)],
         shape: &Shape,
     ) -> Vec<(String, f64)> {
-        let mut v: Vec<(String, f64)> = fitted.to_vec();
-        v.extend(shape.named());
+        let mut v = fitted_and_shape(fitted, shape);
         if let Some(hz) = shape.get(ShapeParam::CornerHz) {
             v.push(("group_delay_s".to_string(), group_delay_s(hz)));
         }
