@@ -106,6 +106,43 @@ impl HeldOut {
         })
     }
 
+    /// The folds of a cross-validation over `steps`: fold j holds out steps j, j + k,
+    /// j + 2k, … of `k` = `folds`, each one whose level the steps the fold fits span (as in
+    /// [`HeldOut::every_fifth_step`]; one outside them stays fitted, in every fold). Every
+    /// step is held out once at most, so the folds together score nearly every step on a
+    /// fit that never saw it. Empty with fewer steps than folds.
+    pub fn step_folds(
+        steps: &[ReferenceStep],
+        levels: &[[f64; 2]],
+        n: usize,
+        folds: usize,
+    ) -> Vec<Self> {
+        if folds < 2 || steps.len() < folds || levels.len() != steps.len() {
+            return Vec::new();
+        }
+        (0..folds)
+            .filter_map(|j| {
+                let fold: Vec<usize> = (j..steps.len()).step_by(folds).collect();
+                // the fold's other steps are held out too: a level is spanned by the rest
+                let ranges: Vec<Range<usize>> = fold
+                    .iter()
+                    .filter(|&&c| {
+                        let others: Vec<usize> = fold.iter().copied().filter(|&o| o != c).collect();
+                        spanned(levels, &others, c)
+                    })
+                    .map(|&k| steps[k].start.min(n)..steps[k].end.min(n))
+                    .filter(|r| !r.is_empty())
+                    .collect();
+                (!ranges.is_empty()).then_some(HeldOut {
+                    n,
+                    ranges,
+                    kind: HeldOutKind::EveryFifthStep,
+                    steps: Some(steps.len()),
+                })
+            })
+            .collect()
+    }
+
     pub fn kind(&self) -> HeldOutKind {
         self.kind
     }
@@ -281,6 +318,26 @@ mod tests {
         assert!((0..24)
             .filter(|&k| tail.contains(s[k].start))
             .all(|k| s[k].axis == 1));
+    }
+
+    #[test]
+    fn the_step_folds_hold_out_every_step_once() {
+        let n = 2450;
+        let s = steps(24, n);
+        let folds = HeldOut::step_folds(&s, &levels_x_then_y(), n, 5);
+        assert_eq!(folds.len(), 5);
+        let held_in = |k: usize| folds.iter().filter(|f| f.contains(s[k].start)).count();
+        // steps 2, 8, 14 and 20 are each axis's only step to ±27 N: fitted in every fold;
+        // every other step is held out once
+        let extremes = [2, 8, 14, 20];
+        for k in 0..24 {
+            assert_eq!(held_in(k), usize::from(!extremes.contains(&k)), "step {k}");
+        }
+        // fold j holds out steps j, j + 5, …
+        assert!(folds[1].contains(s[1].start) && folds[1].contains(s[16].start));
+        assert!(!folds[1].contains(s[2].start) && !folds[1].contains(0));
+        // too few steps for the folds: none
+        assert!(HeldOut::step_folds(&s[..4], &levels_x_then_y()[..4], n, 5).is_empty());
     }
 
     #[test]

@@ -92,11 +92,29 @@ pub fn minimize(
     max_iter: usize,
     residuals: impl Fn(&[f64], &mut [f64]) + Sync,
 ) -> LmReport {
+    minimize_within(theta0, lower, &[], n_res, max_iter, residuals)
+}
+
+/// [`minimize`] with upper bounds as well: parameters listed in `upper` are kept at or
+/// below the given bound (each step is projected onto the box).
+pub fn minimize_within(
+    theta0: &[f64],
+    lower: &[(usize, f64)],
+    upper: &[(usize, f64)],
+    n_res: usize,
+    max_iter: usize,
+    residuals: impl Fn(&[f64], &mut [f64]) + Sync,
+) -> LmReport {
     let p = theta0.len();
     let clamp = |t: &mut Vec<f64>| {
         for &(i, lo) in lower {
             if !(t[i] >= lo) {
                 t[i] = lo;
+            }
+        }
+        for &(i, hi) in upper {
+            if t[i] > hi {
+                t[i] = hi;
             }
         }
     };
@@ -195,7 +213,7 @@ pub fn minimize(
 
 #[cfg(test)]
 mod tests {
-    use super::{minimize, Termination};
+    use super::{minimize, minimize_within, Termination};
 
     fn exponential() -> (Vec<f64>, Vec<f64>) {
         let t: Vec<f64> = (0..50).map(|i| i as f64 * 0.1).collect();
@@ -215,6 +233,19 @@ mod tests {
         assert!(rep.cost < 1e-12 && (th[0] - 2.0).abs() < 1e-5 && (th[1] - 0.7).abs() < 1e-5);
         assert!(rep.reached_a_minimum(), "{rep:?}");
         assert!(rep.iterations >= 1 && rep.iterations < 100);
+    }
+
+    #[test]
+    fn an_upper_bound_holds_the_parameter_at_it() {
+        let (t, y) = exponential();
+        // the rate's least-squares value is 0.7; held at or below 0.5
+        let rep = minimize_within(&[1.0, 0.1], &[], &[(1, 0.5)], t.len(), 100, |p, r| {
+            for i in 0..t.len() {
+                r[i] = p[0] * (-p[1] * t[i]).exp() - y[i];
+            }
+        });
+        assert!(rep.theta[1] <= 0.5 && rep.theta[1] > 0.49, "{rep:?}");
+        assert!(rep.cost > 1e-3, "{rep:?}");
     }
 
     #[test]

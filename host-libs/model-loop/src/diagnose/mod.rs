@@ -139,6 +139,12 @@ pub struct Loop<'a> {
     /// Blocks and base normals of the cross-validation (dynamic trials).
     cv: std::sync::OnceLock<cv::CvCache>,
     base_step: std::sync::Mutex<Option<(Response, f64)>>,
+    /// Step trials: the folds of the cross-validation over steps that decides an effect
+    /// the held-out steps alone cannot (see [`Loop::step_cv`]).
+    step_folds: Vec<HeldOut>,
+    /// The base's scores over those folds, each held-out step apart (computed when first
+    /// asked).
+    step_cv_base: std::sync::OnceLock<(Vec<Response>, cv::FoldScores)>,
     /// What drives a step trial's model (the converters' set-points, or the reference).
     drive: Option<Drive>,
     /// The variants of the dynamic base model (Cartesian, joint-space or force-law
@@ -323,17 +329,25 @@ fn on_analysis_grid(p: Prepared, experiment: Experiment, settings: &Settings) ->
         Experiment::Step => p.every_with_mean_commands(stride),
     };
     if let (Experiment::Step, Some(r)) = (experiment, &p.force_ref_n) {
-        let steps = pam_ident::step_detection::reference_steps(r, settings.step_threshold_n);
-        // each step's level, halfway through it (past a ramp's samples)
-        let levels: Vec<[f64; 2]> = steps
-            .iter()
-            .map(|s| [r[0][(s.start + s.end) / 2], r[1][(s.start + s.end) / 2]])
-            .collect();
+        let (steps, levels) = steps_and_levels(r, settings);
         if let Some(h) = HeldOut::every_fifth_step(&steps, &levels, p.len()) {
             p.held_out = h;
         }
     }
     p
+}
+
+/// The reference's steps and each one's level, halfway through it (past a ramp's samples).
+fn steps_and_levels(
+    r: &[Vec<f64>; 2],
+    settings: &Settings,
+) -> (Vec<pam_ident::step_detection::ReferenceStep>, Vec<[f64; 2]>) {
+    let steps = pam_ident::step_detection::reference_steps(r, settings.step_threshold_n);
+    let levels = steps
+        .iter()
+        .map(|s| [r[0][(s.start + s.end) / 2], r[1][(s.start + s.end) / 2]])
+        .collect();
+    (steps, levels)
 }
 
 impl<'a> Loop<'a> {
@@ -356,6 +370,7 @@ impl<'a> Loop<'a> {
         let mut step_init = None;
         let mut drive = None;
         let base_step = std::sync::Mutex::new(None);
+        let mut step_folds = Vec::new();
         if experiment == Experiment::Step {
             let steps = step::analyse_steps(&p, settings.step_threshold_n);
             let init = [0, 1].map(|a| step::initial_params(&steps, a));
@@ -378,6 +393,10 @@ impl<'a> Loop<'a> {
             ));
             // the steps are found at the log's rate, the model fitted on the analysis grid
             p = on_analysis_grid(p, experiment, &settings);
+            if let Some(r) = &p.force_ref_n {
+                let (steps, levels) = steps_and_levels(r, &settings);
+                step_folds = HeldOut::step_folds(&steps, &levels, p.len(), step_fit::STEP_FOLDS);
+            }
             let (d, base, commanded) = choose_drive(
                 &p,
                 model,
@@ -469,6 +488,8 @@ impl<'a> Loop<'a> {
             shapes: Default::default(),
             cv: Default::default(),
             base_step,
+            step_folds,
+            step_cv_base: Default::default(),
         })
     }
 

@@ -1,6 +1,7 @@
 //! Fits of step trials: the second-order response of the converters (§5.3) with the
 //! effects' extra parameters, on the training part, scored on the held-out part.
 
+use super::cv::FoldScores;
 use super::held_out_scores;
 use super::Loop;
 use super::ModelFit;
@@ -10,6 +11,7 @@ use crate::response;
 use crate::response::Drive;
 use crate::response::Response;
 use crate::response::StepExtra;
+use pam_ident::held_out::HeldOut;
 use pam_ident::trial::Prepared;
 use pam_numerics::stats::std_dev;
 use rayon::prelude::*;
@@ -72,6 +74,26 @@ fn training_cost(p: &Prepared, d: &Drive, r: &Response, axes: &[usize]) -> f64 {
         .sum()
 }
 
+/// The effects of `effects` a step trial fits, and their extra parameters (each once).
+fn step_extras_of<'e>(
+    effects: &[&'e dyn ModelEffect],
+) -> (Vec<&'e dyn ModelEffect>, Vec<StepExtra>) {
+    let chosen: Vec<&dyn ModelEffect> = effects
+        .iter()
+        .copied()
+        .filter(|e| e.applies(Experiment::Step) && !e.step_extras().is_empty())
+        .collect();
+    let mut extras: Vec<StepExtra> = Vec::new();
+    for e in &chosen {
+        for x in e.step_extras() {
+            if !extras.contains(x) {
+                extras.push(*x);
+            }
+        }
+    }
+    (chosen, extras)
+}
+
 impl<'a> Loop<'a> {
     /// Axes with a step in the training part (fitted and scored).
     pub(super) fn stepping_axes(&self) -> Vec<usize> {
@@ -102,19 +124,7 @@ impl<'a> Loop<'a> {
         let p = &self.p;
         let d = self.drive.as_ref().expect("step trials have a drive");
         let (base, base_cost) = self.base_step_params();
-        let chosen: Vec<&dyn ModelEffect> = effects
-            .iter()
-            .copied()
-            .filter(|e| e.applies(Experiment::Step) && !e.step_extras().is_empty())
-            .collect();
-        let mut extras: Vec<StepExtra> = Vec::new();
-        for e in &chosen {
-            for x in e.step_extras() {
-                if !extras.contains(x) {
-                    extras.push(*x);
-                }
-            }
-        }
+        let (chosen, extras) = step_extras_of(effects);
         let axes = self.stepping_axes();
         let fitted = if extras.is_empty() {
             base
@@ -178,5 +188,97 @@ impl<'a> Loop<'a> {
             held_out: p.held_out.clone(),
             warnings: Vec::new(),
         }
+    }
+}
+
+/// Folds of the cross-validation over steps: each fold fits four steps of every five, as
+/// the held-out design does, and all five together score every step.
+pub(super) const STEP_FOLDS: usize = 5;
+
+/// A held-out step's first row, Σ residual² and Σ (measured − its mean)² over the axes.
+type StepScore = (usize, f64, f64);
+
+/// Σ residual² and Σ (measured − mean)² over `axes` on each range of `held_out`, of
+/// `r` simulated over the whole trial.
+fn per_step_scores(
+    p: &Prepared,
+    d: &Drive,
+    r: &Response,
+    axes: &[usize],
+    held_out: &HeldOut,
+) -> Vec<StepScore> {
+    let alpha = [p.alpha_rad[0].as_slice(), p.alpha_rad[1].as_slice()];
+    let end = held_out.ranges().last().map_or(0, |x| x.end);
+    let mut pred = [vec![0.0; end], vec![0.0; end]];
+    response::simulate(r, d, &p.t_s, alpha, end, &mut pred);
+    held_out
+        .ranges()
+        .iter()
+        .map(|range| {
+            let (mut sse, mut sst) = (0.0, 0.0);
+            for &a in axes {
+                let m = &p.force_n[a][range.clone()];
+                let mean = m.iter().sum::<f64>() / m.len().max(1) as f64;
+                sse += m
+                    .iter()
+                    .zip(&pred[a][range.clone()])
+                    .map(|(y, q)| (y - q).powi(2))
+                    .sum::<f64>();
+                sst += m.iter().map(|y| (y - mean).powi(2)).sum::<f64>();
+            }
+            (range.start, sse, sst)
+        })
+        .collect()
+}
+
+/// Per-step scores of every fold, in the steps' time order.
+fn in_time_order(mut scored: Vec<StepScore>) -> FoldScores {
+    scored.sort_by_key(|s| s.0);
+    FoldScores {
+        sse: scored.iter().map(|s| s.1).collect(),
+        sst: scored.iter().map(|s| s.2).collect(),
+    }
+}
+
+impl<'a> Loop<'a> {
+    /// The cross-validation over steps: the scores of the base and of base + `effects`,
+    /// each refitted on every fold's training steps, one entry per held-out step in time
+    /// order. `None` when the trial has too few steps for the folds. The held-out design
+    /// scores a fifth of the steps; a short log's two or three held-out steps cannot show
+    /// a gain alike, where all of its steps, each scored by a fit that never saw it, can.
+    pub(super) fn step_cv(&self, effects: &[&dyn ModelEffect]) -> Option<(FoldScores, FoldScores)> {
+        if self.step_folds.is_empty() {
+            return None;
+        }
+        let p = &self.p;
+        let d = self.drive.as_ref().expect("step trials have a drive");
+        let axes = self.stepping_axes();
+        let (bases, base_scores) = self.step_cv_base.get_or_init(|| {
+            let (base, _) = self.base_step_params();
+            let fitted: Vec<(Response, Vec<StepScore>)> = self
+                .step_folds
+                .par_iter()
+                .map(|fold| {
+                    let r = response::fit(p, d, &base, &[], &axes, fold);
+                    (r, per_step_scores(p, d, &r, &axes, fold))
+                })
+                .collect();
+            let scored = fitted.iter().flat_map(|f| f.1.iter().copied()).collect();
+            (
+                fitted.into_iter().map(|f| f.0).collect(),
+                in_time_order(scored),
+            )
+        });
+        let (_, extras) = step_extras_of(effects);
+        let scored: Vec<StepScore> = self
+            .step_folds
+            .par_iter()
+            .zip(bases)
+            .flat_map(|(fold, base)| {
+                let r = response::fit(p, d, base, &extras, &axes, fold);
+                per_step_scores(p, d, &r, &axes, fold)
+            })
+            .collect();
+        Some((base_scores.clone(), in_time_order(scored)))
     }
 }

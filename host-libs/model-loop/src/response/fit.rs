@@ -4,7 +4,7 @@
 
 use super::grid::Sims;
 use super::params::Response;
-use super::params::{lower_bounds, pack, unpack};
+use super::params::{lower_bounds, pack, unpack, upper_bounds};
 use super::simulate::{peak_rate, simulate};
 use super::Drive;
 use super::StepExtra;
@@ -89,6 +89,7 @@ pub fn fit(
     };
     let starts = c.grid_starts(peak, rates_inactive, knee_inactive);
     let lower = lower_bounds(extras, axes, 1e-3 * peak);
+    let upper = upper_bounds(extras, axes);
     // every start gets its least-squares gains and offsets (the output is linear in them),
     // then the
     // starts are screened by their cost and the best few refined
@@ -102,7 +103,7 @@ pub fn fit(
             [1.0; 2]
         };
     let starts = c.screened(starts, unit);
-    c.refined(starts, &lower)
+    c.refined(starts, &lower, &upper)
 }
 
 /// One fit of the step model: the trial, the model it starts from, what it adds, and the
@@ -263,7 +264,12 @@ impl Fit<'_> {
     }
 
     /// The kept starts refined by Levenberg–Marquardt; the best of them.
-    fn refined(&self, starts: Vec<Response>, lower: &[(usize, f64)]) -> Response {
+    fn refined(
+        &self,
+        starts: Vec<Response>,
+        lower: &[(usize, f64)],
+        upper: &[(usize, f64)],
+    ) -> Response {
         let d = self.d;
         let start = self.start;
         let extras = self.extras;
@@ -306,11 +312,14 @@ impl Fit<'_> {
             2 + na..2 + 2 * na
         };
         let unit_gain = linear_gains.then_some([1.0; 2]);
-        let lower_nl: Vec<(usize, f64)> = lower
-            .iter()
-            .filter(|(i, _)| !linear.contains(i))
-            .map(|&(i, lo)| (if i >= linear.end { i - linear.len() } else { i }, lo))
-            .collect();
+        let nonlinear = |bounds: &[(usize, f64)]| -> Vec<(usize, f64)> {
+            bounds
+                .iter()
+                .filter(|(i, _)| !linear.contains(i))
+                .map(|&(i, b)| (if i >= linear.end { i - linear.len() } else { i }, b))
+                .collect()
+        };
+        let (lower_nl, upper_nl) = (nonlinear(lower), nonlinear(upper));
         // each start is its own template: a grid start carries the capped channel, a choice
         // that is not among the packed parameters
         // the kept starts refined side by side (their Jacobians are parallel too); the best
@@ -331,10 +340,11 @@ impl Fit<'_> {
                     f.extend_from_slice(&v[linear.start..]);
                     unpack(&f, extras, axes, &s0)
                 };
-                let report = lm::minimize(&init, &lower_nl, n_res, 30, |v, res| {
-                    // each evaluation its own buffers: the Jacobian's columns run in parallel
-                    self.project(&expand(v), unit_gain, &s0, &mut Sims::new(n), Some(res));
-                });
+                let report =
+                    lm::minimize_within(&init, &lower_nl, &upper_nl, n_res, 30, |v, res| {
+                        // each evaluation its own buffers: the Jacobian's columns run in parallel
+                        self.project(&expand(v), unit_gain, &s0, &mut Sims::new(n), Some(res));
+                    });
                 // a start whose simulation is not finite drops out; one that ran out of its
                 // 30 iterations stays a candidate: the starts compete on their cost, and the
                 // loop's decisions rest on the scores of the one kept

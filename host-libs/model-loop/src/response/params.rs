@@ -278,6 +278,27 @@ pub(super) fn unpack(
 /// hysteresis may turn over.
 pub const MIN_TURN_OVER_SHARE: f64 = 0.01;
 
+/// The largest change of a channel's level, as a share of its span, over which a
+/// channel's hysteresis may turn over. A loop that turns over more slowly does not close
+/// within the channel's own levels: its term is then a curvature of the force in the
+/// level's travel (a muscle's force–length law a second order does not hold), not a loss in
+/// the direction the level moved.
+pub const MAX_TURN_OVER_SHARE: f64 = 0.5;
+
+/// Upper bounds of the packed parameters: a channel's hysteresis turns over within its
+/// levels.
+pub(super) fn upper_bounds(extras: &[StepExtra], axes: &[usize]) -> Vec<(usize, f64)> {
+    let mut v = Vec::new();
+    let mut i = 2 + 2 * axes.len();
+    for x in extras {
+        if *x == StepExtra::ChannelHysteresis {
+            v.push((i + 1, MAX_TURN_OVER_SHARE));
+        }
+        i += extra_param_count(&[*x], axes);
+    }
+    v
+}
+
 /// Lower bounds of the packed parameters (ζ, ωn, delay, rates and the saturation's span
 /// stay physical).
 pub(super) fn lower_bounds(

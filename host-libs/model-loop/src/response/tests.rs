@@ -421,3 +421,36 @@ fn fit_recovers_limits_of_the_measured_force() {
         }
     }
 }
+
+/// A term that never turns over within the channel's levels is a curvature of the force in
+/// the level's travel, not a hysteresis: the fit holds the turn-over within half the span.
+#[test]
+fn a_hysteresis_turns_over_within_half_the_channels_span() {
+    let dt = 0.002;
+    let mut set = Vec::new();
+    for k in 0..16 {
+        let level = [4.0, 12.0, 8.0, 20.0, 14.0, 6.0, 18.0, 10.0][k % 8];
+        set.extend(std::iter::repeat_n(level, 750));
+    }
+    let (d, t) = force_drive(set, dt);
+    let n = t.len();
+    // a state that turns over five spans: within the levels, a smooth function of the travel
+    let truth = Response {
+        channel_hysteresis: 0.5,
+        channel_turn_share: 5.0,
+        ..Response::base(0.95, 23.04, [0.9, 1.0])
+    };
+    let p = x_axis_trial(&truth, &d, &t);
+    let f = fit(
+        &p,
+        &d,
+        &Response::base(0.6, 18.0, [1.0, 1.0]),
+        &[StepExtra::ChannelHysteresis],
+        &[0],
+        &HeldOut::nothing(n),
+    );
+    assert!(
+        f.channel_turn_share <= super::params::MAX_TURN_OVER_SHARE + 1e-12,
+        "{f:?}"
+    );
+}

@@ -331,9 +331,28 @@ impl<'l, 'a> Judge<'l, 'a> {
         // its size, is what a rig's step-to-step differences give as often as an effect
         // (pam-physgen's controls; pam-synth's weakest effects look the same): too few
         // steps to decide, said as such
-        let decisive = dynamic
+        let held_decisive = dynamic
             || test.significant(t_crit, level)
             || improvement >= settings.step_decisive_improvement;
+        // what the held-out steps leave open, all of the log's steps decide, each scored
+        // by a fit of the folds that never saw it. The steps of one fold share that fit and
+        // every two folds share most of their training steps, so the gains are not
+        // independent: the t-test takes `fold_test`'s correction for cross-validated folds
+        // (about twice the variance of independent gains), and the signed-rank test, which
+        // would count the steps independent, does not decide here
+        let cv = if accepted && !held_decisive {
+            self.lp.step_cv(&[e]).map(|(b, w)| fold_test(&b, &w, true))
+        } else {
+            None
+        };
+        // (and its gain over every step material by the held-out score's own rule)
+        let cv_t_crit = cv.as_ref().map(|t| t_critical(t.folds, level / 2.0, 1));
+        let decisive = held_decisive
+            || cv.as_ref().zip(cv_t_crit).is_some_and(|(t, crit)| {
+                t.improvement - settings.penalty_per_param * f.added_params as f64
+                    > settings.min_improvement
+                    && t.t >= crit
+            });
         let too_few_steps = accepted && !decisive;
         // the warning names a family: an effect outside the catalog's families is refused
         // with its evidence alone
@@ -355,6 +374,14 @@ impl<'l, 'a> Judge<'l, 'a> {
             f.added_params,
             if f.added_params == 1 { "" } else { "s" },
         );
+        if let (Some(t), Some(crit)) = (&cv, cv_t_crit) {
+            evidence.push_str(&format!(
+                "; cross-validated over its {} steps (each scored by a fit that never saw it): removes {:.1} %, t = {:.1} against {crit:.1}",
+                t.folds,
+                100.0 * t.improvement,
+                t.t
+            ));
+        }
         if too_few_steps {
             evidence.push_str(&self.too_few_steps_note(undecided.is_some()));
         }
