@@ -195,6 +195,11 @@ impl<'a> Loop<'a> {
 /// the held-out design does, and all five together score every step.
 pub(super) const STEP_FOLDS: usize = 5;
 
+/// The cross-validation over steps is asked only of logs with fewer held-out steps than
+/// this: with more, the held-out blocks carry the fold test themselves, and the folds would
+/// multiply a long log's fits (the nine-pose step log's) for little.
+const STEP_CV_HELD_OUT_BELOW: usize = 10;
+
 /// A held-out step's first row, Σ residual² and Σ (measured − its mean)² over the axes.
 type StepScore = (usize, f64, f64);
 
@@ -247,7 +252,7 @@ impl<'a> Loop<'a> {
     /// scores a fifth of the steps; a short log's two or three held-out steps cannot show
     /// a gain alike, where all of its steps, each scored by a fit that never saw it, can.
     pub(super) fn step_cv(&self, effects: &[&dyn ModelEffect]) -> Option<(FoldScores, FoldScores)> {
-        if self.step_folds.is_empty() {
+        if self.step_folds.is_empty() || self.p.held_out.ranges().len() >= STEP_CV_HELD_OUT_BELOW {
             return None;
         }
         let p = &self.p;
