@@ -219,6 +219,22 @@ fn a_slow_wander_below_a_fifth_of_the_residual_is_unexplained() {
     );
 }
 
+/// The step case `seed` of `synth_matrix`'s first plan, cut to the suite's short logs
+/// (45 s, at most 25 000 samples), checked to be the case it was, and diagnosed.
+fn short_matrix_step_case(seed: u64, family: Family, shape: Shape) -> Value {
+    let mut spec = plan(80, 20_000, None)
+        .into_iter()
+        .find(|c| c.seed == seed)
+        .expect("in the plan");
+    spec.duration_s = spec.duration_s.min(45.0).min(25_000.0 * spec.dt_s).round();
+    assert_eq!(
+        (spec.family, spec.shape),
+        (family, shape),
+        "the plan changed"
+    );
+    diagnosis_of_spec(&spec, LoopExperiment::Step).0
+}
+
 /// A 45 s step log whose x axis steps once, in the held-out last fifth, and whose y axis
 /// steps in the training part only: x has no gain the training part could fit. Fitted and
 /// scored anyway, its held-out error rewarded a one-muscle cap that "removed" 78 % of it.
@@ -226,17 +242,7 @@ fn a_slow_wander_below_a_fifth_of_the_residual_is_unexplained() {
 /// (9.8 ms) lies within the rig's own lag, so nothing is named.
 #[test]
 fn an_axis_that_steps_only_in_the_held_out_part_is_not_scored() {
-    let mut spec = plan(80, 20_000, None)
-        .into_iter()
-        .find(|c| c.seed == 20_012)
-        .expect("in the plan");
-    spec.duration_s = spec.duration_s.min(45.0).min(25_000.0 * spec.dt_s).round();
-    assert_eq!(
-        (spec.family, spec.shape),
-        (Family::Delay, Shape::DeadTime),
-        "the plan changed"
-    );
-    let (d, _) = diagnosis_of_spec(&spec, LoopExperiment::Step);
+    let d = short_matrix_step_case(20_012, Family::Delay, Shape::DeadTime);
     assert_eq!(d["verdict"], "none", "{d:#}");
 }
 
@@ -247,17 +253,7 @@ fn an_axis_that_steps_only_in_the_held_out_part_is_not_scored() {
 /// drift is named.
 #[test]
 fn a_gain_few_held_out_steps_leave_open_is_decided_over_every_step() {
-    let mut spec = plan(80, 20_000, None)
-        .into_iter()
-        .find(|c| c.seed == 20_006)
-        .expect("in the plan");
-    spec.duration_s = spec.duration_s.min(45.0).min(25_000.0 * spec.dt_s).round();
-    assert_eq!(
-        (spec.family, spec.shape),
-        (Family::Drift, Shape::OffsetLinear),
-        "the plan changed"
-    );
-    let (d, _) = diagnosis_of_spec(&spec, LoopExperiment::Step);
+    let d = short_matrix_step_case(20_006, Family::Drift, Shape::OffsetLinear);
     assert_eq!(d["verdict"], "effect", "{d:#}");
     assert_eq!(d["effects"][0]["family"], "drift", "{d:#}");
     let evidence = d["effects"][0]["evidence"].as_str().unwrap_or_default();

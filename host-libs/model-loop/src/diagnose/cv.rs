@@ -262,15 +262,27 @@ pub(super) fn held_out_blocks(f: &ModelFit, blocks: usize) -> FoldScores {
     let mut out = FoldScores::default();
     for b in 0..blocks {
         let r = &rows[b * len / blocks..(b + 1) * len / blocks];
-        let (mut sse, mut sst) = (0.0, 0.0);
-        for &a in &f.axes {
-            let (m, p) = (&f.measured[a], &f.predicted[a]);
-            let mean = r.iter().map(|&i| m[i]).sum::<f64>() / r.len().max(1) as f64;
-            sse += r.iter().map(|&i| (m[i] - p[i]).powi(2)).sum::<f64>();
-            sst += r.iter().map(|&i| (m[i] - mean).powi(2)).sum::<f64>();
-        }
+        let (sse, sst) = scores_on(&f.measured, &f.predicted, &f.axes, r.iter().copied());
         out.sse.push(sse);
         out.sst.push(sst);
     }
     out
+}
+
+/// Σ (measured − predicted)² and Σ (measured − its mean)² over `axes` on `rows`.
+pub(super) fn scores_on(
+    measured: &[Vec<f64>; 2],
+    predicted: &[Vec<f64>; 2],
+    axes: &[usize],
+    rows: impl Iterator<Item = usize> + Clone,
+) -> (f64, f64) {
+    let (mut sse, mut sst) = (0.0, 0.0);
+    let count = rows.clone().count().max(1) as f64;
+    for &a in axes {
+        let (m, p) = (&measured[a], &predicted[a]);
+        let mean = rows.clone().map(|i| m[i]).sum::<f64>() / count;
+        sse += rows.clone().map(|i| (m[i] - p[i]).powi(2)).sum::<f64>();
+        sst += rows.clone().map(|i| (m[i] - mean).powi(2)).sum::<f64>();
+    }
+    (sse, sst)
 }

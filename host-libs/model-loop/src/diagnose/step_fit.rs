@@ -1,7 +1,7 @@
 //! Fits of step trials: the second-order response of the converters (§5.3) with the
 //! effects' extra parameters, on the training part, scored on the held-out part.
 
-use super::cv::FoldScores;
+use super::cv::{scores_on, FoldScores};
 use super::held_out_scores;
 use super::Loop;
 use super::ModelFit;
@@ -220,17 +220,7 @@ fn per_step_scores(
         .ranges()
         .iter()
         .map(|range| {
-            let (mut sse, mut sst) = (0.0, 0.0);
-            for &a in axes {
-                let m = &p.force_n[a][range.clone()];
-                let mean = m.iter().sum::<f64>() / m.len().max(1) as f64;
-                sse += m
-                    .iter()
-                    .zip(&pred[a][range.clone()])
-                    .map(|(y, q)| (y - q).powi(2))
-                    .sum::<f64>();
-                sst += m.iter().map(|y| (y - mean).powi(2)).sum::<f64>();
-            }
+            let (sse, sst) = scores_on(&p.force_n, &pred, axes, range.clone());
             (range.start, sse, sst)
         })
         .collect()

@@ -269,17 +269,22 @@ fn fit_recovers_the_extras() {
     }
 }
 
-/// A hysteresis of each channel in proportion to its level: a step settles short by that
-/// share of the level it reaches, in the direction it came from; the fit recovers the share.
-#[test]
-fn fit_recovers_a_hysteresis_in_proportion_to_the_level() {
-    let dt = 0.002;
+/// A force drive at 2 ms through eight levels twice, 1.5 s each: rises and falls of every
+/// size, each level reached from above and from below.
+fn eight_levels_twice() -> (Drive, Vec<f64>) {
     let mut set = Vec::new();
     for k in 0..16 {
         let level = [4.0, 12.0, 8.0, 20.0, 14.0, 6.0, 18.0, 10.0][k % 8];
         set.extend(std::iter::repeat_n(level, 750));
     }
-    let (d, t) = force_drive(set, dt);
+    force_drive(set, 0.002)
+}
+
+/// A hysteresis of each channel in proportion to its level: a step settles short by that
+/// share of the level it reaches, in the direction it came from; the fit recovers the share.
+#[test]
+fn fit_recovers_a_hysteresis_in_proportion_to_the_level() {
+    let (d, t) = eight_levels_twice();
     let n = t.len();
     // a converter without overshoot: the direction state ends where the step went
     let truth = Response {
@@ -426,13 +431,7 @@ fn fit_recovers_limits_of_the_measured_force() {
 /// the level's travel, not a hysteresis: the fit holds the turn-over within half the span.
 #[test]
 fn a_hysteresis_turns_over_within_half_the_channels_span() {
-    let dt = 0.002;
-    let mut set = Vec::new();
-    for k in 0..16 {
-        let level = [4.0, 12.0, 8.0, 20.0, 14.0, 6.0, 18.0, 10.0][k % 8];
-        set.extend(std::iter::repeat_n(level, 750));
-    }
-    let (d, t) = force_drive(set, dt);
+    let (d, t) = eight_levels_twice();
     let n = t.len();
     // a state that turns over five spans: within the levels, a smooth function of the travel
     let truth = Response {
