@@ -4,7 +4,10 @@
 //!
 //! `cargo run -p pam-eval --release --example crossgen -- [--generators physgen,synth,twin]
 //!  [--logs N] [--seed0 S] [--gains 0.01,0.03,0.08] [--lags 0,0.01,0.02] [--jobs 2]
-//!  [--experiment dynamic|step]`
+//!  [--experiment dynamic|step] [--dump DIR]`
+//!
+//! `--dump DIR` writes every log not judged strictly right to `DIR/<generator>-<seed>.csv`,
+//! for `pamctl model diagnose` to take apart.
 //!
 //! Each generator's N logs (about a quarter controls, carrying the generator's sensor
 //! behaviour) are diagnosed at every point of the grid (the refinement gate
@@ -315,6 +318,7 @@ fn run(
     grid: &Grid,
     jobs: usize,
     only: Option<Experiment>,
+    dump: Option<&std::path::Path>,
 ) -> Vec<Judged> {
     let next = AtomicUsize::new(0);
     let points = grid.points().len();
@@ -339,12 +343,22 @@ fn run(
                     ]
                 });
                 let mid = &says[show];
-                let mark = match strict::judge(&case.family, mid) {
+                let judged = strict::judge(&case.family, mid);
+                let mark = match judged {
                     Strict::Right => "ok ",
                     Strict::Stacked => "stk",
                     Strict::Undecided => "und",
                     Strict::Wrong => "BAD",
                 };
+                if let (Some(dir), Ok(log), false) =
+                    (dump, &case.log, matches!(judged, Strict::Right))
+                {
+                    let seed = case.label.split_whitespace().nth(1).unwrap_or("case");
+                    let path = dir.join(format!("{generator}-{seed}.csv"));
+                    if let Err(e) = log.write_path(&path) {
+                        eprintln!("cannot write {}: {e}", path.display());
+                    }
+                }
                 eprintln!(
                     "{mark} {:<60} truth {:<12} -> {:<11} {:<22} final [{}] {:.1} s",
                     case.label,
@@ -445,6 +459,13 @@ fn main() {
             std::process::exit(2);
         }
     };
+    let dump = get("--dump").map(std::path::PathBuf::from);
+    if let Some(dir) = &dump {
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            eprintln!("cannot create {}: {e}", dir.display());
+            std::process::exit(2);
+        }
+    }
     let d = Settings::default();
     let grid = Grid {
         gains: list(get("--gains").unwrap_or(d.min_family_gain.to_string())),
@@ -456,13 +477,16 @@ fn main() {
             .iter()
             .any(|g| !["physgen", "synth", "twin"].contains(&g.as_str()))
     {
-        eprintln!("usage: crossgen [--generators physgen,synth,twin] [--logs N] [--seed0 S] [--gains G,G] [--lags S,S] [--jobs J] [--experiment dynamic|step]");
+        eprintln!("usage: crossgen [--generators physgen,synth,twin] [--logs N] [--seed0 S] [--gains G,G] [--lags S,S] [--jobs J] [--experiment dynamic|step] [--dump DIR]");
         std::process::exit(2);
     }
     let wall = Instant::now();
     let runs: Vec<(String, Vec<Judged>)> = generators
         .iter()
-        .map(|g| (g.clone(), run(g, n, seed0, &grid, jobs, only)))
+        .map(|g| {
+            let judged = run(g, n, seed0, &grid, jobs, only, dump.as_deref());
+            (g.clone(), judged)
+        })
         .collect();
     let points = grid.points();
     let def = grid.default_index();

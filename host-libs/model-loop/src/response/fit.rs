@@ -319,7 +319,20 @@ impl Fit<'_> {
                 .map(|&(i, b)| (if i >= linear.end { i - linear.len() } else { i }, b))
                 .collect()
         };
-        let (lower_nl, upper_nl) = (nonlinear(lower), nonlinear(upper));
+        // a capped channel's bounds depend on which channel the start caps
+        let bounds_of = |s0: &Response| -> (Vec<(usize, f64)>, Vec<(usize, f64)>) {
+            let Some([cap, span]) = self.channel_cap_bounds(s0) else {
+                return (nonlinear(lower), nonlinear(upper));
+            };
+            let lo: Vec<(usize, f64)> = lower
+                .iter()
+                .copied()
+                .filter(|&(i, _)| i != cap.0)
+                .chain([cap])
+                .collect();
+            let hi: Vec<(usize, f64)> = upper.iter().copied().chain([span]).collect();
+            (nonlinear(&lo), nonlinear(&hi))
+        };
         // each start is its own template: a grid start carries the capped channel, a choice
         // that is not among the packed parameters
         // the kept starts refined side by side (their Jacobians are parallel too); the best
@@ -340,6 +353,7 @@ impl Fit<'_> {
                     f.extend_from_slice(&v[linear.start..]);
                     unpack(&f, extras, axes, &s0)
                 };
+                let (lower_nl, upper_nl) = bounds_of(&s0);
                 let report =
                     lm::minimize_within(&init, &lower_nl, &upper_nl, n_res, 30, |v, res| {
                         // each evaluation its own buffers: the Jacobian's columns run in parallel

@@ -299,6 +299,12 @@ pub(super) fn upper_bounds(extras: &[StepExtra], axes: &[usize]) -> Vec<(usize, 
     v
 }
 
+/// Where `extra`'s parameters start in the packed vector, when it is fitted.
+pub(super) fn extra_index(extras: &[StepExtra], axes: &[usize], extra: StepExtra) -> Option<usize> {
+    let at = extras.iter().position(|&x| x == extra)?;
+    Some(2 + 2 * axes.len() + extra_param_count(&extras[..at], axes))
+}
+
 /// Lower bounds of the packed parameters (ζ, ωn, delay, rates and the saturation's span
 /// stay physical).
 pub(super) fn lower_bounds(

@@ -3,7 +3,7 @@
 
 use super::fit::Fit;
 use super::grid::{knee_grid, Quantiles, Sims};
-use super::params::{Response, MIN_TURN_OVER_SHARE};
+use super::params::{extra_index, Response, MIN_TURN_OVER_SHARE};
 use super::simulate::{peak_rate, simulate};
 use super::StepExtra;
 
@@ -137,6 +137,24 @@ impl Fit<'_> {
         }
 
         starts
+    }
+
+    /// The bounds of one channel's cap, packed: at or above the lowest level the channel is
+    /// driven to, leveling off within its levels. A cap below every level compresses all
+    /// of them alike: that is the channel's own gain (the converters differ by a few per cent),
+    /// and a span wider than the levels bends them all: a curvature of the muscle's force in
+    /// its pressure, not a supply that runs out.
+    pub(super) fn channel_cap_bounds(&self, s: &Response) -> Option<[(usize, f64); 2]> {
+        let c = s.cap_channel?;
+        let i = extra_index(self.extras, self.axes, StepExtra::ChannelCap)?;
+        let scale = self.d.channel_scale(s, c);
+        let (lo, hi) = self.d.set[..self.n]
+            .iter()
+            .map(|v| (scale * v[c]).abs())
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+        (hi > lo).then(|| [(i, lo), (i + 1, hi - lo)])
     }
 
     /// Starts for a saturation of the measured force.

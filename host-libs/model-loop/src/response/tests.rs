@@ -453,3 +453,30 @@ fn a_hysteresis_turns_over_within_half_the_channels_span() {
         "{f:?}"
     );
 }
+
+/// A compression of every level of a channel is its gain and a curvature, not a cap: the
+/// fit holds one channel's cap at or above its lowest level and its span within its levels.
+#[test]
+fn a_cap_sits_within_the_channels_levels() {
+    let (d, t) = eight_levels_twice();
+    let n = t.len();
+    // every level compressed alike, from zero: no level is reached without it
+    let truth = Response {
+        cap_channel: Some(0),
+        cap: 0.0,
+        cap_span: 30.0,
+        ..Response::base(0.95, 23.04, [1.0, 1.0])
+    };
+    let p = x_axis_trial(&truth, &d, &t);
+    let f = fit(
+        &p,
+        &d,
+        &Response::base(0.6, 18.0, [1.0, 1.0]),
+        &[StepExtra::ChannelCap],
+        &[0],
+        &HeldOut::nothing(n),
+    );
+    // the levels run from 4 to 20 (at the fitted gain, as the start's scale)
+    assert_eq!(f.cap_channel, Some(0), "{f:?}");
+    assert!(f.cap >= 4.0 - 1e-9 && f.cap_span <= 16.0 + 1e-9, "{f:?}");
+}
