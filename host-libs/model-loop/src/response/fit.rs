@@ -319,19 +319,20 @@ impl Fit<'_> {
                 .map(|&(i, b)| (if i >= linear.end { i - linear.len() } else { i }, b))
                 .collect()
         };
-        // a capped channel's bounds depend on which channel the start caps
+        // the bounds that follow the levels depend on the start (its capped channel, and the
+        // gain that scales force channels); they replace the fixed ones at their indices
         let bounds_of = |s0: &Response| -> (Vec<(usize, f64)>, Vec<(usize, f64)>) {
-            let Some([cap, span]) = self.channel_cap_bounds(s0) else {
-                return (nonlinear(lower), nonlinear(upper));
+            let (lo_s, hi_s) = self.level_bounds(s0);
+            let merged = |fixed: &[(usize, f64)], own: Vec<(usize, f64)>| {
+                let mut v: Vec<(usize, f64)> = fixed
+                    .iter()
+                    .copied()
+                    .filter(|&(i, _)| own.iter().all(|&(j, _)| j != i))
+                    .collect();
+                v.extend(own);
+                nonlinear(&v)
             };
-            let lo: Vec<(usize, f64)> = lower
-                .iter()
-                .copied()
-                .filter(|&(i, _)| i != cap.0)
-                .chain([cap])
-                .collect();
-            let hi: Vec<(usize, f64)> = upper.iter().copied().chain([span]).collect();
-            (nonlinear(&lo), nonlinear(&hi))
+            (merged(lower, lo_s), merged(upper, hi_s))
         };
         // each start is its own template: a grid start carries the capped channel, a choice
         // that is not among the packed parameters

@@ -139,22 +139,44 @@ impl Fit<'_> {
         starts
     }
 
-    /// The bounds of one channel's cap, packed: at or above the lowest level the channel is
-    /// driven to, leveling off within its levels. A cap below every level compresses all
-    /// of them alike: that is the channel's own gain (the converters differ by a few per cent),
-    /// and a span wider than the levels bends them all: a curvature of the muscle's force in
-    /// its pressure, not a supply that runs out.
-    pub(super) fn channel_cap_bounds(&self, s: &Response) -> Option<[(usize, f64); 2]> {
-        let c = s.cap_channel?;
-        let i = extra_index(self.extras, self.axes, StepExtra::ChannelCap)?;
-        let scale = self.d.channel_scale(s, c);
-        let (lo, hi) = self.d.set[..self.n]
-            .iter()
-            .map(|v| (scale * v[c]).abs())
-            .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            });
-        (hi > lo).then(|| [(i, lo), (i + 1, hi - lo)])
+    /// The bounds of the saturations that follow the levels of the log, packed (lower,
+    /// upper). A saturation levels off within the levels it acts on: a span wider than them
+    /// bends every level alike, a curvature of the muscles' force in their pressure, not a
+    /// supply that runs out. One channel's cap sits at or above the lowest level that channel
+    /// is driven to: below every level it compresses all of them alike, which is that
+    /// channel's own gain (the converters differ by a few per cent).
+    pub(super) fn level_bounds(&self, s: &Response) -> (Vec<(usize, f64)>, Vec<(usize, f64)>) {
+        let (mut lower, mut upper) = (Vec::new(), Vec::new());
+        let range = |c: usize| -> (f64, f64) {
+            let scale = self.d.channel_scale(s, c);
+            self.d.set[..self.n]
+                .iter()
+                .map(|v| (scale * v[c]).abs())
+                .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+                    (lo.min(v), hi.max(v))
+                })
+        };
+        if let Some(i) = extra_index(self.extras, self.axes, StepExtra::Saturation) {
+            // the levels of the channels driven (a force log's second channel may be idle)
+            let (lo, hi) = (0..self.d.channels())
+                .map(range)
+                .filter(|&(_, hi)| hi > 0.0)
+                .fold((f64::INFINITY, 0.0f64), |(a, b), (lo, hi)| {
+                    (a.min(lo), b.max(hi))
+                });
+            if hi > lo {
+                upper.push((i + 1, hi - lo));
+            }
+        }
+        let cap = extra_index(self.extras, self.axes, StepExtra::ChannelCap);
+        if let (Some(i), Some(c)) = (cap, s.cap_channel) {
+            let (lo, hi) = range(c);
+            if hi > lo {
+                lower.push((i, lo));
+                upper.push((i + 1, hi - lo));
+            }
+        }
+        (lower, upper)
     }
 
     /// Starts for a saturation of the measured force.

@@ -454,29 +454,40 @@ fn a_hysteresis_turns_over_within_half_the_channels_span() {
     );
 }
 
-/// A compression of every level of a channel is its gain and a curvature, not a cap: the
-/// fit holds one channel's cap at or above its lowest level and its span within its levels.
+/// A compression of every level is a gain and a curvature, not a supply that runs out: the
+/// fit holds a saturation's span within the levels, and one channel's cap at or above that
+/// channel's lowest level.
 #[test]
-fn a_cap_sits_within_the_channels_levels() {
+fn a_saturation_levels_off_within_the_levels() {
     let (d, t) = eight_levels_twice();
     let n = t.len();
     // every level compressed alike, from zero: no level is reached without it
-    let truth = Response {
+    let all = Response {
+        knee: 0.0,
+        knee_span: 30.0,
+        ..Response::base(0.95, 23.04, [1.0, 1.0])
+    };
+    let one = Response {
         cap_channel: Some(0),
         cap: 0.0,
         cap_span: 30.0,
         ..Response::base(0.95, 23.04, [1.0, 1.0])
     };
-    let p = x_axis_trial(&truth, &d, &t);
-    let f = fit(
-        &p,
-        &d,
-        &Response::base(0.6, 18.0, [1.0, 1.0]),
-        &[StepExtra::ChannelCap],
-        &[0],
-        &HeldOut::nothing(n),
-    );
-    // the levels run from 4 to 20 (at the fitted gain, as the start's scale)
-    assert_eq!(f.cap_channel, Some(0), "{f:?}");
-    assert!(f.cap >= 4.0 - 1e-9 && f.cap_span <= 16.0 + 1e-9, "{f:?}");
+    for (extra, truth) in [(StepExtra::Saturation, all), (StepExtra::ChannelCap, one)] {
+        let p = x_axis_trial(&truth, &d, &t);
+        let f = fit(
+            &p,
+            &d,
+            &Response::base(0.6, 18.0, [1.0, 1.0]),
+            &[extra],
+            &[0],
+            &HeldOut::nothing(n),
+        );
+        // the levels run from 4 to 20 (at the start's gain, which scales force channels)
+        let within = match extra {
+            StepExtra::Saturation => f.knee_span <= 16.0 + 1e-9,
+            _ => f.cap_channel == Some(0) && f.cap >= 4.0 - 1e-9 && f.cap_span <= 16.0 + 1e-9,
+        };
+        assert!(within, "{extra:?}: {f:?}");
+    }
 }

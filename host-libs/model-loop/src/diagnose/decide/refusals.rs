@@ -50,7 +50,7 @@ impl Judge<'_, '_> {
     /// the rounding's bound) when so (drawn only for a drift that would be accepted: it
     /// costs a few hundred passes).
     pub(super) fn within_rounding(&self, e: &dyn ModelEffect, f: &ModelFit) -> Option<(f64, f64)> {
-        if !self.dynamic || e.family() != Some(Family::Drift) {
+        if e.family() != Some(Family::Drift) {
             return None;
         }
         let fl = (*self.floor.get_or_init(|| encoder_floor(self.lp, self.base)))?;
@@ -73,7 +73,7 @@ impl Judge<'_, '_> {
         e: &dyn ModelEffect,
         f: &ModelFit,
     ) -> Option<(f64, f64, f64)> {
-        if !self.dynamic || e.family() != Some(Family::Drift) {
+        if e.family() != Some(Family::Drift) {
             return None;
         }
         let p = &self.lp.p;
