@@ -4,7 +4,7 @@
 
 use super::grid::Sims;
 use super::params::Response;
-use super::params::{lower_bounds, pack, unpack, upper_bounds};
+use super::params::{lower_bounds, pack, unpack, upper_bounds, Bounds};
 use super::simulate::{peak_rate, simulate};
 use super::Drive;
 use super::StepExtra;
@@ -321,7 +321,7 @@ impl Fit<'_> {
         };
         // the bounds that follow the levels depend on the start (its capped channel, and the
         // gain that scales force channels); they replace the fixed ones at their indices
-        let bounds_of = |s0: &Response| -> (Vec<(usize, f64)>, Vec<(usize, f64)>) {
+        let bounds_of = |s0: &Response| -> (Bounds, Bounds) {
             let (lo_s, hi_s) = self.level_bounds(s0);
             let merged = |fixed: &[(usize, f64)], own: Vec<(usize, f64)>| {
                 let mut v: Vec<(usize, f64)> = fixed

@@ -299,6 +299,9 @@ pub(super) fn upper_bounds(extras: &[StepExtra], axes: &[usize]) -> Vec<(usize, 
     v
 }
 
+/// Bounds on packed parameters: (index, bound).
+pub(super) type Bounds = Vec<(usize, f64)>;
+
 /// Where `extra`'s parameters start in the packed vector, when it is fitted.
 pub(super) fn extra_index(extras: &[StepExtra], axes: &[usize], extra: StepExtra) -> Option<usize> {
     let at = extras.iter().position(|&x| x == extra)?;

@@ -3,7 +3,7 @@
 
 use super::fit::Fit;
 use super::grid::{knee_grid, Quantiles, Sims};
-use super::params::{extra_index, Response, MIN_TURN_OVER_SHARE};
+use super::params::{extra_index, Bounds, Response, MIN_TURN_OVER_SHARE};
 use super::simulate::{peak_rate, simulate};
 use super::StepExtra;
 
@@ -145,7 +145,7 @@ impl Fit<'_> {
     /// supply that runs out. One channel's cap sits at or above the lowest level that channel
     /// is driven to: below every level it compresses all of them alike, which is that
     /// channel's own gain (the converters differ by a few per cent).
-    pub(super) fn level_bounds(&self, s: &Response) -> (Vec<(usize, f64)>, Vec<(usize, f64)>) {
+    pub(super) fn level_bounds(&self, s: &Response) -> (Bounds, Bounds) {
         let (mut lower, mut upper) = (Vec::new(), Vec::new());
         let range = |c: usize| -> (f64, f64) {
             let scale = self.d.channel_scale(s, c);
