@@ -312,7 +312,7 @@ impl Fit<'_> {
             2 + na..2 + 2 * na
         };
         let unit_gain = linear_gains.then_some([1.0; 2]);
-        let nonlinear = |bounds: &[(usize, f64)]| -> Vec<(usize, f64)> {
+        let nonlinear = |bounds: &[(usize, f64)]| -> Bounds {
             bounds
                 .iter()
                 .filter(|(i, _)| !linear.contains(i))
@@ -323,8 +323,8 @@ impl Fit<'_> {
         // gain that scales force channels); they replace the fixed ones at their indices
         let bounds_of = |s0: &Response| -> (Bounds, Bounds) {
             let (lo_s, hi_s) = self.level_bounds(s0);
-            let merged = |fixed: &[(usize, f64)], own: Vec<(usize, f64)>| {
-                let mut v: Vec<(usize, f64)> = fixed
+            let merged = |fixed: &[(usize, f64)], own: Bounds| {
+                let mut v: Bounds = fixed
                     .iter()
                     .copied()
                     .filter(|&(i, _)| own.iter().all(|&(j, _)| j != i))

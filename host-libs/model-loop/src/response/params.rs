@@ -285,22 +285,17 @@ pub const MIN_TURN_OVER_SHARE: f64 = 0.01;
 /// the direction the level moved.
 pub const MAX_TURN_OVER_SHARE: f64 = 0.5;
 
-/// Upper bounds of the packed parameters: a channel's hysteresis turns over within its
-/// levels.
-pub(super) fn upper_bounds(extras: &[StepExtra], axes: &[usize]) -> Vec<(usize, f64)> {
-    let mut v = Vec::new();
-    let mut i = 2 + 2 * axes.len();
-    for x in extras {
-        if *x == StepExtra::ChannelHysteresis {
-            v.push((i + 1, MAX_TURN_OVER_SHARE));
-        }
-        i += extra_param_count(&[*x], axes);
-    }
-    v
-}
-
 /// Bounds on packed parameters: (index, bound).
 pub(super) type Bounds = Vec<(usize, f64)>;
+
+/// Upper bounds of the packed parameters: a channel's hysteresis turns over within its
+/// levels.
+pub(super) fn upper_bounds(extras: &[StepExtra], axes: &[usize]) -> Bounds {
+    extra_index(extras, axes, StepExtra::ChannelHysteresis)
+        .map(|i| (i + 1, MAX_TURN_OVER_SHARE))
+        .into_iter()
+        .collect()
+}
 
 /// Where `extra`'s parameters start in the packed vector, when it is fitted.
 pub(super) fn extra_index(extras: &[StepExtra], axes: &[usize], extra: StepExtra) -> Option<usize> {
@@ -310,11 +305,7 @@ pub(super) fn extra_index(extras: &[StepExtra], axes: &[usize], extra: StepExtra
 
 /// Lower bounds of the packed parameters (ζ, ωn, delay, rates and the saturation's span
 /// stay physical).
-pub(super) fn lower_bounds(
-    extras: &[StepExtra],
-    axes: &[usize],
-    rate_floor: f64,
-) -> Vec<(usize, f64)> {
+pub(super) fn lower_bounds(extras: &[StepExtra], axes: &[usize], rate_floor: f64) -> Bounds {
     let mut v = vec![(0, 0.02), (1, 0.1)];
     let mut i = 2 + 2 * axes.len();
     for x in extras {

@@ -280,6 +280,21 @@ fn eight_levels_twice() -> (Drive, Vec<f64>) {
     force_drive(set, 0.002)
 }
 
+/// `extra` fitted to `truth`'s x-axis response to [`eight_levels_twice`] (noiseless, every
+/// row fitted), from a base away from the truth's.
+fn fit_eight_levels(truth: &Response, extra: StepExtra) -> Response {
+    let (d, t) = eight_levels_twice();
+    let p = x_axis_trial(truth, &d, &t);
+    fit(
+        &p,
+        &d,
+        &Response::base(0.6, 18.0, [1.0, 1.0]),
+        &[extra],
+        &[0],
+        &HeldOut::nothing(t.len()),
+    )
+}
+
 /// A hysteresis of each channel in proportion to its level: a step settles short by that
 /// share of the level it reaches, in the direction it came from; the fit recovers the share.
 #[test]
@@ -431,23 +446,13 @@ fn fit_recovers_limits_of_the_measured_force() {
 /// the level's travel, not a hysteresis: the fit holds the turn-over within half the span.
 #[test]
 fn a_hysteresis_turns_over_within_half_the_channels_span() {
-    let (d, t) = eight_levels_twice();
-    let n = t.len();
     // a state that turns over five spans: within the levels, a smooth function of the travel
     let truth = Response {
         channel_hysteresis: 0.5,
         channel_turn_share: 5.0,
         ..Response::base(0.95, 23.04, [0.9, 1.0])
     };
-    let p = x_axis_trial(&truth, &d, &t);
-    let f = fit(
-        &p,
-        &d,
-        &Response::base(0.6, 18.0, [1.0, 1.0]),
-        &[StepExtra::ChannelHysteresis],
-        &[0],
-        &HeldOut::nothing(n),
-    );
+    let f = fit_eight_levels(&truth, StepExtra::ChannelHysteresis);
     assert!(
         f.channel_turn_share <= super::params::MAX_TURN_OVER_SHARE + 1e-12,
         "{f:?}"
@@ -459,8 +464,6 @@ fn a_hysteresis_turns_over_within_half_the_channels_span() {
 /// channel's lowest level.
 #[test]
 fn a_saturation_levels_off_within_the_levels() {
-    let (d, t) = eight_levels_twice();
-    let n = t.len();
     // every level compressed alike, from zero: no level is reached without it
     let all = Response {
         knee: 0.0,
@@ -474,15 +477,7 @@ fn a_saturation_levels_off_within_the_levels() {
         ..Response::base(0.95, 23.04, [1.0, 1.0])
     };
     for (extra, truth) in [(StepExtra::Saturation, all), (StepExtra::ChannelCap, one)] {
-        let p = x_axis_trial(&truth, &d, &t);
-        let f = fit(
-            &p,
-            &d,
-            &Response::base(0.6, 18.0, [1.0, 1.0]),
-            &[extra],
-            &[0],
-            &HeldOut::nothing(n),
-        );
+        let f = fit_eight_levels(&truth, extra);
         // the levels run from 4 to 20 (at the start's gain, which scales force channels)
         let within = match extra {
             StepExtra::Saturation => f.knee_span <= 16.0 + 1e-9,
