@@ -293,12 +293,12 @@ fn judged_with(spec: &CaseSpec, catalog: &[&dyn ModelEffect]) -> (strict::Strict
 
 /// The load cell's amplifier filter in dynamic trials: pam-physgen's critically damped
 /// second order of corner 2.5–10 Hz on the force samples (a group delay of 30–130 ms, and
-/// the operator's faster motion damped). A dead time of any length is not that shape; the
-/// catalog's `sensor_lowpass` (a second-order Butterworth on every regressor) is. Twelve
-/// 30 s logs of a contiguous seed range, across the severities: measured 6 strictly right,
-/// 4 with the shape taken out of the catalog. (Its weakest corners damp little of the
-/// operator's motion, and the rest of these logs' misfit, 20–40 % of the force, hides them:
-/// five are `none`.)
+/// the operator's faster motion damped). Twelve 30 s logs of a contiguous seed range,
+/// across the severities: measured 10 strictly right, with the catalog's `sensor_lowpass`
+/// shape or without it (the dead time then takes its place). A base whose pneumatic term
+/// may soften the arm at the motion's faster frequencies takes most of such a lag in: 6
+/// right with the sign left free. (The weakest corner damps little of the operator's motion, and the
+/// rest of the log's misfit hides it: `none`; one is named `drift`.)
 #[test]
 fn the_load_cell_amplifiers_filter_is_a_delay() {
     let full = pam_model_loop::effects::catalog();
@@ -328,7 +328,54 @@ fn the_load_cell_amplifiers_filter_is_a_delay() {
     let report = lines.join("\n");
     eprintln!("{report}\n{right} strictly right, {right_without} without the filter's shape");
     assert!(
-        right >= 5 && right > right_without,
+        right >= 9 && right >= right_without,
         "{right} of 12 strictly right, {right_without} without the filter's shape:\n{report}"
     );
+}
+
+/// A lag the log cannot confirm is said, not hidden: two of pam-physgen's weak amplifier
+/// filters (30 s logs) whose delay removes more than half a per cent of the error but
+/// within the fold-to-fold spread are named `none` with a warning that the force may lag
+/// the motion; the controls of the same seeds (the same rig, motion and noise) get no such
+/// warning.
+#[test]
+fn a_lag_the_log_cannot_confirm_is_reported_not_hidden() {
+    for k in [6u64, 13] {
+        let diagnosis = |effect, severity| {
+            let spec = CaseSpec {
+                experiment: pam_physgen::Experiment::Dynamic,
+                effect,
+                seed: 760_000 + k,
+                severity,
+            };
+            let g = generate(&spec, Some(DURATION_S)).expect("generating");
+            let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
+            let trial = Trial::from_log(&log).expect("a trial");
+            let (d, _) = diagnose(
+                &trial,
+                &RobotModel::thesis(),
+                Experiment::Dynamic,
+                Settings::default(),
+            )
+            .expect("diagnosing");
+            d
+        };
+        let lags = |d: &Diagnosis| {
+            d.warnings
+                .iter()
+                .any(|w| matches!(w, Warning::ForceLagsMotion { .. }))
+        };
+        let lagged = diagnosis(Effect::AmplifierLag, (k as f64 + 0.5) / 40.0);
+        let delay_named = lagged.effects.first().is_some_and(|e| {
+            e.accepted && e.family == Some(pam_model_loop::effects::Family::Delay)
+        });
+        assert!(
+            delay_named || lags(&lagged),
+            "seed {k}: verdict {}, warnings {:?}",
+            lagged.verdict,
+            lagged.warnings
+        );
+        let control = diagnosis(Effect::Control, 0.0);
+        assert!(!lags(&control), "seed {k}: {:?}", control.warnings);
+    }
 }

@@ -31,12 +31,10 @@ pub(super) struct BaseVariant {
 }
 
 impl BaseVariant {
-    /// Parameters kept ≥ 0: the stiffness form's. (The pneumatic term's sign is left
-    /// free: on the twin the converters' regulation makes the force lag the motion, a
-    /// negative effective damping that only a negative term describes. A pure delay is then
-    /// partly absorbed by it too; the delay family must beat it fold by fold.)
+    /// Parameters kept ≥ 0: the stiffness form's, and the pneumatic term's diagonals.
     pub(super) fn positive(&self) -> Vec<usize> {
-        self.stiffness.positive().to_vec()
+        self.stiffness
+            .positive_with_pneumatic(self.pneumatic.0 > 0.0)
     }
 }
 
@@ -180,6 +178,21 @@ impl Stiffness {
                 [0, 2, b1, b2, k1, k2]
             }
         }
+    }
+
+    /// [`Self::positive`] and, with the pneumatic term, its diagonals: a stretched
+    /// muscle's volume shrinks and its pressure rises until the converter bleeds it back,
+    /// so the gas stiffens the arm at the motion's faster frequencies and never softens it.
+    /// A force that lags the motion (a load cell's filter, the sensors read at different
+    /// instants) softens it there; kept physical, the term leaves that lag to the delay
+    /// family.
+    pub fn positive_with_pneumatic(self, pneumatic: bool) -> Vec<usize> {
+        let mut v = self.positive().to_vec();
+        if pneumatic {
+            let at = self.plain_len();
+            v.extend([at, at + 2]);
+        }
+        v
     }
 
     /// Whether the base carries a constant force per axis: the trial's equilibrium is known
@@ -361,7 +374,7 @@ pub(super) fn choose_pneumatic(
             rows.clone(),
             &mut memo,
         );
-        let th = lsq::solve(&ne, &stiffness.positive());
+        let th = lsq::solve(&ne, &stiffness.positive_with_pneumatic(true));
         let r = lsq::rss(&ne, yty, &th);
         if best.as_ref().is_none_or(|b| r < b.0) {
             best = Some((r, cols, (wn0 * wf, z)));

@@ -63,11 +63,9 @@ pub enum Warning {
         /// The share of the base's training residual it removes.
         gain: f64,
     },
-    /// The force lags the motion, and the log cannot tell a regulation lag (the base's
-    /// negative pressure stiffness) from a sampling delay.
+    /// The force may lag the motion: a delay removes part of the held-out error, but
+    /// within the fold-to-fold spread.
     ForceLagsMotion {
-        kp_xx_n_per_m: f64,
-        kp_yy_n_per_m: f64,
         delay_ms: f64,
         /// The share of the held-out error the rejected delay removes.
         improvement: f64,
@@ -186,16 +184,13 @@ impl fmt::Display for Warning {
                 100.0 * gain
             ),
             Warning::ForceLagsMotion {
-                kp_xx_n_per_m: kx,
-                kp_yy_n_per_m: ky,
                 delay_ms,
                 improvement,
             } => write!(
                 f,
-                "the force lags the motion: the base takes it as the muscles' pressure lag \
-                 (kp_xx {kx:.1}, kp_yy {ky:.1} N/m, negative), and a delay of {delay_ms:.0} ms between \
-                 the force and the encoder samples removes {:.1} % more, within the fold-to-fold \
-                 spread. The data cannot tell a regulation lag from a sampling delay: check the \
+                "the force may lag the motion: a delay of {delay_ms:.0} ms between the force and \
+                 the encoder samples removes {:.1} % of the held-out error, but within the \
+                 fold-to-fold spread, so no delay is named. To confirm or rule it out: check the \
                  logger's timestamps, or sample faster (≤ 5 ms) with quick reversals",
                 100.0 * improvement
             ),

@@ -152,7 +152,7 @@ pub fn diagnose_observed(
             .iter()
             .map(|r| &r.report)
             .find(|r| r.family == Some(Family::Delay));
-        if let Some(w) = lag_warning(&base_params, delay) {
+        if let Some(w) = lag_warning(delay) {
             warnings.push(w);
         }
     }
