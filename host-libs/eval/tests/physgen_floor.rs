@@ -17,15 +17,7 @@ const DURATION_S: f64 = 30.0;
 
 /// The truth's family, the final model, and what the loop found unexplained (for the report).
 fn judged(spec: &CaseSpec) -> (String, strict::FinalModel, String) {
-    let g = generate(spec, Some(DURATION_S)).expect("generating");
-    let exp = match spec.experiment {
-        pam_physgen::Experiment::Dynamic => Experiment::Dynamic,
-        pam_physgen::Experiment::Step => Experiment::Step,
-    };
-    let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
-    let trial = Trial::from_log(&log).expect("a trial");
-    let (d, _) =
-        diagnose(&trial, &RobotModel::thesis(), exp, Settings::default()).expect("diagnosing");
+    let (d, family) = diagnosed(spec, Some(DURATION_S));
     let v = serde_json::to_value(&d).expect("json");
     let unexplained = v["unexplained"]
         .as_array()
@@ -36,7 +28,7 @@ fn judged(spec: &CaseSpec) -> (String, strict::FinalModel, String) {
                 .join("; ")
         })
         .unwrap_or_default();
-    (g.truth.family, strict::read(&v), unexplained)
+    (family, strict::read(&v), unexplained)
 }
 
 #[test]
@@ -86,20 +78,29 @@ fn the_physics_generators_logs_hold_the_floor() {
 /// wander). The floor is one log under the measure, and no control may raise an alarm.
 const FLOOR_RIGHT: usize = 3;
 
-/// A step log of the physics generator at its full length, diagnosed with the default
-/// settings, and its truth's family.
-fn step_log(spec: &CaseSpec) -> (Diagnosis, String) {
-    let g = generate(spec, None).expect("generating");
+/// A log of the physics generator (`duration_s`: `None` its full length), diagnosed with
+/// the default settings, and its truth's family.
+fn diagnosed(spec: &CaseSpec, duration_s: Option<f64>) -> (Diagnosis, String) {
+    let g = generate(spec, duration_s).expect("generating");
+    let experiment = match spec.experiment {
+        pam_physgen::Experiment::Dynamic => Experiment::Dynamic,
+        pam_physgen::Experiment::Step => Experiment::Step,
+    };
     let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
     let trial = Trial::from_log(&log).expect("a trial");
     let (d, _) = diagnose(
         &trial,
         &RobotModel::thesis(),
-        Experiment::Step,
+        experiment,
         Settings::default(),
     )
     .expect("diagnosing");
     (d, g.truth.family)
+}
+
+/// A step log of the physics generator at its full length, diagnosed.
+fn step_log(spec: &CaseSpec) -> (Diagnosis, String) {
+    diagnosed(spec, None)
 }
 
 /// A step control of the physics generator, diagnosed.
@@ -348,17 +349,7 @@ fn a_lag_the_log_cannot_confirm_is_reported_not_hidden() {
                 seed: 760_000 + k,
                 severity,
             };
-            let g = generate(&spec, Some(DURATION_S)).expect("generating");
-            let log = pam_log::read_str(&g.log_text, None).expect("reading the log");
-            let trial = Trial::from_log(&log).expect("a trial");
-            let (d, _) = diagnose(
-                &trial,
-                &RobotModel::thesis(),
-                Experiment::Dynamic,
-                Settings::default(),
-            )
-            .expect("diagnosing");
-            d
+            diagnosed(&spec, Some(DURATION_S)).0
         };
         let lags = |d: &Diagnosis| {
             d.warnings
