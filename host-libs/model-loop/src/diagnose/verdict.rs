@@ -1,6 +1,8 @@
 //! The verdict of a diagnosis, and the doubt it cannot show: what is missing most (an
 //! effect, a structure no effect explains, or nothing), and a lag the data cannot place.
 
+use std::collections::BTreeMap;
+
 use super::diagnosis::{EffectReport, Verdict};
 use super::unexplained::UnexplainedReport;
 use super::ModelFit;
@@ -44,14 +46,17 @@ pub(super) fn verdict_of<'r>(
 /// and the user should know.
 pub(super) fn lag_warning(delay: Option<&EffectReport>) -> Option<Warning> {
     let delay = delay.filter(|d| !d.accepted && d.improvement > 0.005)?;
-    let own = &delay.params;
-    let delay_s = own
-        .get("delay_s")
-        .or_else(|| own.get("group_delay_s"))
-        .copied()
-        .unwrap_or(0.0);
     Some(Warning::ForceLagsMotion {
-        delay_ms: 1000.0 * delay_s,
+        delay_ms: 1000.0 * delay_length_s(&delay.params).unwrap_or(0.0),
         improvement: delay.improvement,
     })
+}
+
+/// A delay family's length in its fitted parameters: a dead time's, or a sensor filter's
+/// group delay.
+pub(super) fn delay_length_s(params: &BTreeMap<String, f64>) -> Option<f64> {
+    params
+        .get("delay_s")
+        .or_else(|| params.get("group_delay_s"))
+        .copied()
 }

@@ -7,6 +7,7 @@ use crate::diagnose::colour::coloured_noise;
 use crate::diagnose::resolution::encoder_floor;
 use crate::diagnose::sizes::change_rms_n;
 use crate::diagnose::unexplained::rounding_colours;
+use crate::diagnose::verdict::delay_length_s;
 use crate::diagnose::ModelFit;
 use crate::diagnose::Warning;
 use crate::effects::Family;
@@ -28,9 +29,8 @@ impl Judge<'_, '_> {
         if e.family() != Some(Family::Delay) {
             return None;
         }
-        // a dead time's length, or a sensor filter's group delay
         let own = f.params.get(e.id())?;
-        let d = *own.get("delay_s").or_else(|| own.get("group_delay_s"))?;
+        let d = delay_length_s(own)?;
         let floor_s = self.settings.converter_lag_s;
         let what = if self.dynamic {
             "the muscles' pressure following their volume through the converters, which the base's pneumatic term holds to first order only, and the load cell and the encoders read at different instants of a sample"
