@@ -86,12 +86,13 @@ fn physgen_runs(quick: bool) -> Vec<Vec<String>> {
 }
 
 fn crossgen_runs(quick: bool) -> Vec<Vec<String>> {
-    // 300 logs a generator: a strict rate of 70 % is then known to ±2.6 % (one binomial
-    // standard deviation), finer than the differences between grid points it ranks. The
+    // 400 logs a generator: a hundred controls (every fourth log), and a strict rate of
+    // 70 % known to ±2.3 % (one binomial standard deviation), finer than the differences
+    // between grid points it ranks. The
     // delay's floor stays at its default here: each value of it diagnoses every log again
     // (pam-physgen's step logs take 10–80 s each), which would make the section hours long;
     // `--lags 0,0.01,0.02` on the same command adds it to the grid.
-    let logs = if quick { 8 } else { 300 };
+    let logs = if quick { 8 } else { 400 };
     vec![crossgen(&format!(
         "--generators physgen,synth,twin --logs {logs} --seed0 720000 --gains 0.01,0.03,0.08"
     ))]
