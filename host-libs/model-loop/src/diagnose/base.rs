@@ -1,6 +1,7 @@
-//! The dynamic base model: eq. 4.29's mass and damping, the stiffness in one of several
-//! forms (Cartesian, joint space, the muscles' force law), a force offset per axis and the
-//! muscles' pneumatic compliance; and the derivative filter's cutoff that suits the data.
+//! The dynamic base model: eq. 4.29's mass and damping, the arm's own rigid-body dynamics
+//! when the data asks for them, the stiffness in one of several forms (Cartesian, joint
+//! space, the muscles' force law), a force offset per axis and the muscles' pneumatic
+//! compliance; and the derivative filter's cutoff that suits the data.
 
 use super::sizes::effective_samples_of;
 use crate::effects::DynCtx;
@@ -11,6 +12,7 @@ use pam_ident::step::StepParams;
 use pam_ident::trial::FilterSettings;
 use pam_ident::trial::Prepared;
 use pam_ident::trial::Trial;
+use pam_model::cartesian::{coriolis_torques, joint_inertia};
 use pam_model::RobotModel;
 use pam_numerics::lsq;
 use pam_numerics::lsq::Column;
@@ -25,16 +27,18 @@ pub(super) struct BaseVariant {
     pub(super) tare: bool,
     pub(super) pneumatic: (f64, f64),
     pub(super) stiffness: Stiffness,
+    pub(super) mass: MassForm,
     /// Normal equations of `cols` on the training rows: shared by every fit with this
     /// variant.
     pub(super) normal: lsq::Normal,
 }
 
 impl BaseVariant {
-    /// Parameters kept ≥ 0: the stiffness form's, and the pneumatic term's diagonals.
+    /// Parameters kept ≥ 0: the stiffness form's, the arm's scale, and the pneumatic term's
+    /// diagonals.
     pub(super) fn positive(&self) -> Vec<usize> {
         self.stiffness
-            .positive_with_pneumatic(self.pneumatic.0 > 0.0)
+            .positive_with(self.mass, self.pneumatic.0 > 0.0)
     }
 }
 
@@ -85,19 +89,131 @@ pub fn prepare_with_best_cutoff(
 
 /// The columns every base variant starts from, made once so that the variants share them
 /// (the fits' products with them are then computed once, see [`lsq::GramMemo`]): eq.
-/// 4.29's mass, damping and Cartesian stiffness, and the offsets.
+/// 4.29's mass, damping and Cartesian stiffness, the arm's rigid body, and the offsets.
 pub(super) struct SharedColumns {
     pub(super) msd: Vec<Column>,
+    /// The arm's rigid-body dynamics ([`rigid_body_column`]) when the training part takes
+    /// it.
+    pub(super) arm: Option<Column>,
     pub(super) offsets: [Column; 2],
 }
 
 impl SharedColumns {
-    pub(super) fn of(p: &Prepared) -> Self {
+    pub(super) fn of(p: &Prepared, model: &RobotModel<f64>) -> Self {
+        let msd = msd::msd_columns(p);
+        let offsets = offset_columns(p.len());
+        let ctx = DynCtx::new(p, model);
+        let arm = rigid_body_column(&ctx);
+        let pays = arm_pays(p, &ctx, &msd, &offsets, &arm);
         SharedColumns {
-            msd: msd::msd_columns(p),
-            offsets: offset_columns(p.len()),
+            msd,
+            arm: pays.then_some(arm),
+            offsets,
         }
     }
+
+    pub(super) fn mass(&self) -> MassForm {
+        if self.arm.is_some() {
+            MassForm::CartesianAndArm
+        } else {
+            MassForm::Cartesian
+        }
+    }
+}
+
+/// Whether the arm's rigid-body column pays for itself, like the pneumatic term: half a per
+/// cent of the training residual and the BIC on the plain residual's effective samples. A
+/// rig whose inertia sits at the handle, or a simulator with a constant Cartesian mass, does
+/// without it and its cost. Judged with the joint-space stiffness: the Cartesian one leaves
+/// the kinematics' curvature in the residual, which hides what the arm adds.
+fn arm_pays(
+    p: &Prepared,
+    ctx: &DynCtx,
+    msd: &[Column],
+    offsets: &[Column; 2],
+    arm: &Column,
+) -> bool {
+    let mut plain = msd[..6].to_vec();
+    plain.extend(joint_stiffness_columns(ctx, &joint_angle_changes(p), "kj"));
+    let mut with_arm = plain.clone();
+    with_arm.push(arm.clone());
+    for cols in [&mut plain, &mut with_arm] {
+        cols.extend(offsets.iter().cloned());
+    }
+    let y = msd::target(p);
+    let target = [y[0].as_slice(), y[1].as_slice()];
+    let yty = sum_of_squares(&y, p.split());
+    let fit = |cols: &[Column], mass: MassForm| {
+        let ne = lsq::normal_equations(cols, &target, 0..p.split());
+        let th = lsq::solve(&ne, &Stiffness::Joint.positive_with(mass, false));
+        (lsq::rss(&ne, yty, &th), th)
+    };
+    let (rss_plain, th) = fit(&plain, MassForm::Cartesian);
+    let (rss_arm, _) = fit(&with_arm, MassForm::CartesianAndArm);
+    let ratio = rss_arm / rss_plain.max(1e-300);
+    let pred = lsq::predict(&plain, &th, p.len());
+    let residuals: Vec<Vec<f64>> = (0..2)
+        .map(|a| (0..p.split()).map(|i| y[a][i] - pred[a][i]).collect())
+        .collect();
+    let n_eff = effective_samples_of(&residuals);
+    ratio < 0.995 && n_eff * ratio.ln() + n_eff.ln() < 0.0
+}
+
+/// Each joint's angle from where the trial starts (the smoothed angles).
+fn joint_angle_changes(p: &Prepared) -> [Vec<f64>; 2] {
+    [0, 1].map(|j| {
+        p.alpha_smooth_rad[j]
+            .iter()
+            .map(|a| a - p.alpha0_rad[j])
+            .collect()
+    })
+}
+
+/// How the dynamic base model writes the inertia the hand feels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MassForm {
+    /// A symmetric Cartesian mass, constant over the trial (eq. 4.29 as printed): 3
+    /// parameters.
+    Cartesian,
+    /// The same and the arm's own rigid-body dynamics in joint space, one scale
+    /// ([`rigid_body_column`], after the stiffness's columns): 4 parameters.
+    CartesianAndArm,
+}
+
+/// The arm's own rigid-body dynamics, M(θ) θ̈ + C(θ, θ̇) θ̇ (eq. 4.14–4.17 with the
+/// segments' masses, and their Coriolis and centrifugal torques), as a handle force through
+/// J⁻ᵀ at each sample, one scale: −f = s·J⁻ᵀ(M θ̈ + C θ̇). A Cartesian mass constant over the
+/// trial is the arm's inertia at one pose only: across the operator's few centimetres the
+/// elbow's angle changes it by several per cent, and the motion's centrifugal forces add
+/// to it, a residual quadratic in the motion that a pose dependence would otherwise take
+/// (pam-physgen's arm: with its inertia halved its controls raise no such alarm, doubled
+/// they all do). The joint rates are the smoothed angles' central differences, on the
+/// derivatives' band.
+fn rigid_body_column(ctx: &DynCtx) -> Column {
+    let p = ctx.p;
+    let n = p.len();
+    let a = &p.alpha_smooth_rad;
+    let h = p.dt_s;
+    let rates = |j: usize, i: usize| -> (f64, f64) {
+        if n < 3 {
+            return (0.0, 0.0);
+        }
+        let k = i.clamp(1, n - 2);
+        (
+            (a[j][k + 1] - a[j][k - 1]) / (2.0 * h),
+            (a[j][k + 1] - 2.0 * a[j][k] + a[j][k - 1]) / (h * h),
+        )
+    };
+    let params = &ctx.model.params;
+    ctx.torque_column("rigid_body_scale", |i| {
+        let (w1, a1) = rates(0, i);
+        let (w2, a2) = rates(1, i);
+        let theta2 = ctx.model.kinematics.theta([a[0][i], a[1][i]])[1];
+        let m = joint_inertia(params, theta2).mul_vec([a1, a2]);
+        let c = coriolis_torques(params, theta2, [w1, w2]);
+        // the columns are in −f, and `torque_column` writes −J⁻ᵀτ
+        [-(m[0] + c[0]), -(m[1] + c[1])]
+    })
 }
 
 /// A constant force per axis (the parameter is the offset of the measured f; the columns
@@ -155,8 +271,14 @@ impl Stiffness {
         Stiffness::ForceLawWithPreload,
     ];
 
-    /// Number of base columns without the pneumatic term (M, B and the stiffness).
-    pub fn plain_len(self) -> usize {
+    /// Number of base columns without the pneumatic term (M, B, the stiffness and, with
+    /// that mass form, the arm).
+    pub fn plain_len(self, mass: MassForm) -> usize {
+        self.block_len() + usize::from(mass == MassForm::CartesianAndArm)
+    }
+
+    /// Number of columns of M, B and the stiffness.
+    fn block_len(self) -> usize {
         match self {
             Stiffness::ForceLaw | Stiffness::ForceLawAbsolute => 8,
             Stiffness::ForceLawWithPreload => 10,
@@ -180,16 +302,20 @@ impl Stiffness {
         }
     }
 
-    /// [`Self::positive`] and, with the pneumatic term, its diagonals: a stretched
+    /// [`Self::positive`], the rigid body's scale with that mass form, and, with the
+    /// pneumatic term, its diagonals: a stretched
     /// muscle's volume shrinks and its pressure rises until the converter bleeds it back,
     /// so the gas stiffens the arm at the motion's faster frequencies and never softens it.
     /// A force that lags the motion (a load cell's filter, the sensors read at different
     /// instants) softens it there; kept physical, the term leaves that lag to the delay
     /// family.
-    pub fn positive_with_pneumatic(self, pneumatic: bool) -> Vec<usize> {
+    pub fn positive_with(self, mass: MassForm, pneumatic: bool) -> Vec<usize> {
         let mut v = self.positive().to_vec();
+        if mass == MassForm::CartesianAndArm {
+            v.push(self.block_len());
+        }
         if pneumatic {
-            let at = self.plain_len();
+            let at = self.plain_len(mass);
             v.extend([at, at + 2]);
         }
         v
@@ -288,14 +414,8 @@ pub(super) fn base_columns(
     match stiffness {
         Stiffness::Cartesian => {}
         Stiffness::Joint => {
-            let da = [0, 1].map(|j| {
-                p.alpha_smooth_rad[j]
-                    .iter()
-                    .map(|a| a - p.alpha0_rad[j])
-                    .collect::<Vec<f64>>()
-            });
             cols.truncate(6);
-            cols.extend(joint_stiffness_columns(ctx, &da, "kj"));
+            cols.extend(joint_stiffness_columns(ctx, &joint_angle_changes(p), "kj"));
         }
         Stiffness::ForceLaw | Stiffness::ForceLawAbsolute | Stiffness::ForceLawWithPreload => {
             let from_start = stiffness != Stiffness::ForceLawAbsolute;
@@ -308,6 +428,9 @@ pub(super) fn base_columns(
                 cols.push(ctx.torque_column("start_torque_nm_joint2", |_| [0.0, 1.0]));
             }
         }
+    }
+    if let Some(arm) = &shared.arm {
+        cols.push(arm.clone());
     }
     if omega_n > 0.0 {
         cols.extend(pneumatic_columns(
@@ -347,7 +470,7 @@ pub(super) fn choose_pneumatic(
     let plain_off = with_offset(&plain);
     let target = [y[0].as_slice(), y[1].as_slice()];
     let ne_plain = lsq::normal_equations(&plain_off, &target, rows.clone());
-    let th_plain = lsq::solve(&ne_plain, &stiffness.positive());
+    let th_plain = lsq::solve(&ne_plain, &stiffness.positive_with(shared.mass(), false));
     let rss_plain = lsq::rss(&ne_plain, yty, &th_plain);
     // the pneumatic columns go after the plain ones (and before the offsets, as in
     // `base_columns`); only their products are new, the plain block is reused
@@ -374,7 +497,7 @@ pub(super) fn choose_pneumatic(
             rows.clone(),
             &mut memo,
         );
-        let th = lsq::solve(&ne, &stiffness.positive_with_pneumatic(true));
+        let th = lsq::solve(&ne, &stiffness.positive_with(shared.mass(), true));
         let r = lsq::rss(&ne, yty, &th);
         if best.as_ref().is_none_or(|b| r < b.0) {
             best = Some((r, cols, (wn0 * wf, z)));

@@ -415,7 +415,7 @@ impl<'a> Loop<'a> {
         // its training part prefers by the information criterion
         let (mut base_variants, n_eff) = if experiment == Experiment::Dynamic {
             // the stiffness forms on both cores, kept in their order
-            let shared = SharedColumns::of(&p);
+            let shared = SharedColumns::of(&p, model);
             let v: Vec<BaseVariant> = Stiffness::ALL
                 .par_iter()
                 .map(|&stiffness| {
@@ -424,7 +424,7 @@ impl<'a> Loop<'a> {
                         return Vec::new();
                     };
                     let mut plain = cols.clone();
-                    plain.truncate(stiffness.plain_len());
+                    plain.truncate(stiffness.plain_len(shared.mass()));
                     let mut forms = vec![(plain, (0.0, 0.0))];
                     if pneumatic.0 > 0.0 {
                         forms.push((cols, pneumatic));
@@ -447,6 +447,7 @@ impl<'a> Loop<'a> {
                                 tare: false,
                                 pneumatic,
                                 stiffness,
+                                mass: shared.mass(),
                                 normal,
                             }
                         })
