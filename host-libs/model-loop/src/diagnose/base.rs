@@ -186,8 +186,8 @@ pub enum MassForm {
 /// trial is the arm's inertia at one pose only: across the operator's few centimetres the
 /// elbow's angle changes it by several per cent, and the motion's centrifugal forces add
 /// to it, a residual quadratic in the motion that a pose dependence would otherwise take
-/// (pam-physgen's arm: with its inertia halved its controls raise no such alarm, doubled
-/// they all do). The joint rates are the smoothed angles' central differences, on the
+/// (two of pam-physgen's controls: with the arm's inertia halved neither raised one,
+/// doubled both were named a pose dependence). The joint rates are the smoothed angles' central differences, on the
 /// derivatives' band.
 fn rigid_body_column(ctx: &DynCtx) -> Column {
     let p = ctx.p;
