@@ -89,27 +89,30 @@ pub fn prepare_with_best_cutoff(
 
 /// The columns every base variant starts from, made once so that the variants share them
 /// (the fits' products with them are then computed once, see [`lsq::GramMemo`]): eq.
-/// 4.29's mass, damping and Cartesian stiffness, the arm's rigid body, and the offsets.
-pub(super) struct SharedColumns {
+/// 4.29's mass, damping and Cartesian stiffness, the arm's rigid body, and the offsets;
+/// and the Jacobians every variant's joint-space columns go through.
+pub(super) struct SharedColumns<'a> {
     pub(super) msd: Vec<Column>,
     /// The arm's rigid-body dynamics ([`rigid_body_column`]) when the training part takes
     /// it.
     pub(super) arm: Option<Column>,
     pub(super) offsets: [Column; 2],
+    pub(super) ctx: DynCtx<'a>,
 }
 
-impl SharedColumns {
-    pub(super) fn of(p: &Prepared, model: &RobotModel<f64>) -> Self {
-        let msd = msd::msd_columns(p);
-        let offsets = offset_columns(p.len());
-        let ctx = DynCtx::new(p, model);
-        let arm = rigid_body_column(&ctx);
-        let pays = arm_pays(p, &ctx, &msd, &offsets, &arm);
-        SharedColumns {
-            msd,
-            arm: pays.then_some(arm),
-            offsets,
+impl<'a> SharedColumns<'a> {
+    pub(super) fn of(p: &'a Prepared, model: &'a RobotModel<f64>) -> Self {
+        let mut shared = SharedColumns {
+            msd: msd::msd_columns(p),
+            arm: None,
+            offsets: offset_columns(p.len()),
+            ctx: DynCtx::new(p, model),
+        };
+        let arm = rigid_body_column(&shared.ctx);
+        if arm_pays(p, &shared, &arm) {
+            shared.arm = Some(arm);
         }
+        shared
     }
 
     pub(super) fn mass(&self) -> MassForm {
@@ -126,19 +129,14 @@ impl SharedColumns {
 /// rig whose inertia sits at the handle, or a simulator with a constant Cartesian mass, does
 /// without it and its cost. Judged with the joint-space stiffness: the Cartesian one leaves
 /// the kinematics' curvature in the residual, which hides what the arm adds.
-fn arm_pays(
-    p: &Prepared,
-    ctx: &DynCtx,
-    msd: &[Column],
-    offsets: &[Column; 2],
-    arm: &Column,
-) -> bool {
-    let mut plain = msd[..6].to_vec();
-    plain.extend(joint_stiffness_columns(ctx, &joint_angle_changes(p), "kj"));
+fn arm_pays(p: &Prepared, without: &SharedColumns, arm: &Column) -> bool {
+    let Some(mut plain) = base_columns(p, &without.ctx, Stiffness::Joint, 0.0, 0.0, without) else {
+        return false;
+    };
     let mut with_arm = plain.clone();
     with_arm.push(arm.clone());
     for cols in [&mut plain, &mut with_arm] {
-        cols.extend(offsets.iter().cloned());
+        cols.extend(without.offsets.iter().cloned());
     }
     let y = msd::target(p);
     let target = [y[0].as_slice(), y[1].as_slice()];
@@ -151,12 +149,23 @@ fn arm_pays(
     let (rss_plain, th) = fit(&plain, MassForm::Cartesian);
     let (rss_arm, _) = fit(&with_arm, MassForm::CartesianAndArm);
     let ratio = rss_arm / rss_plain.max(1e-300);
-    let pred = lsq::predict(&plain, &th, p.len());
+    let n_eff = training_effective_samples(p, &plain, &th, &y);
+    ratio < 0.995 && n_eff * ratio.ln() + n_eff.ln() < 0.0
+}
+
+/// The effective number of independent samples of a fit's training residual (`y` the
+/// target): the sample count a term's BIC is charged on.
+fn training_effective_samples(
+    p: &Prepared,
+    cols: &[Column],
+    theta: &[f64],
+    y: &[Vec<f64>; 2],
+) -> f64 {
+    let pred = lsq::predict(cols, theta, p.split());
     let residuals: Vec<Vec<f64>> = (0..2)
         .map(|a| (0..p.split()).map(|i| y[a][i] - pred[a][i]).collect())
         .collect();
-    let n_eff = effective_samples_of(&residuals);
-    ratio < 0.995 && n_eff * ratio.ln() + n_eff.ln() < 0.0
+    effective_samples_of(&residuals)
 }
 
 /// Each joint's angle from where the trial starts (the smoothed angles).
@@ -187,8 +196,8 @@ pub enum MassForm {
 /// elbow's angle changes it by several per cent, and the motion's centrifugal forces add
 /// to it, a residual quadratic in the motion that a pose dependence would otherwise take
 /// (two of pam-physgen's controls: with the arm's inertia halved neither raised one,
-/// doubled both were named a pose dependence). The joint rates are the smoothed angles' central differences, on the
-/// derivatives' band.
+/// doubled both were named a pose dependence). The joint rates are the smoothed angles'
+/// central differences, on the derivatives' band.
 fn rigid_body_column(ctx: &DynCtx) -> Column {
     let p = ctx.p;
     let n = p.len();
@@ -456,7 +465,7 @@ pub(super) fn choose_pneumatic(
     let rows = 0..p.split();
     let yty = sum_of_squares(&y, p.split());
     let wn0 = model.params.ip.natural_freq_rad_s;
-    let ctx = DynCtx::new(p, model);
+    let ctx = &shared.ctx;
     let z0 = model.params.ip.damping_ratio;
     let with_offset = |cols: &[Column]| {
         let mut c = cols.to_vec();
@@ -466,7 +475,7 @@ pub(super) fn choose_pneumatic(
         c
     };
     // without the pneumatic term
-    let plain = base_columns(p, &ctx, stiffness, 0.0, 0.0, shared)?;
+    let plain = base_columns(p, ctx, stiffness, 0.0, 0.0, shared)?;
     let plain_off = with_offset(&plain);
     let target = [y[0].as_slice(), y[1].as_slice()];
     let ne_plain = lsq::normal_equations(&plain_off, &target, rows.clone());
@@ -485,7 +494,7 @@ pub(super) fn choose_pneumatic(
         let mut cols = plain.clone();
         cols.extend(pneumatic_columns(
             p,
-            &ctx,
+            ctx,
             stiffness.joint_space(),
             wn0 * wf,
             z,
@@ -506,11 +515,7 @@ pub(super) fn choose_pneumatic(
     let (rss_pn, cols, wz) = best.expect("grid is not empty");
     // the term must pay for itself like an effect: a relative gain of 1 % and the BIC on
     // the effective number of samples of the plain residual (4 parameters with the grid)
-    let pred = lsq::predict(&with_offset(&plain), &th_plain, p.len());
-    let residuals: Vec<Vec<f64>> = (0..2)
-        .map(|a| (0..p.split()).map(|i| y[a][i] - pred[a][i]).collect())
-        .collect();
-    let n_eff = effective_samples_of(&residuals);
+    let n_eff = training_effective_samples(p, &plain_off, &th_plain, &y);
     let ratio = rss_pn / rss_plain.max(1e-300);
     Some(
         if ratio < 0.99 && n_eff * ratio.ln() + 4.0 * n_eff.ln() < 0.0 {
