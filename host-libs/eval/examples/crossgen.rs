@@ -498,15 +498,16 @@ fn main() {
             if i == def { " (default)" } else { "" }
         )
     };
-    println!("| generator | min_family_gain / converter_lag | strictly right | first family right | stacked | undecided | false alarms | alarms said | strictly right per family |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| generator | min_family_gain / converter_lag | strictly right | of them decided | first family right | stacked | undecided | false alarms | alarms said | strictly right per family |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for (gen, judged) in &runs {
         for i in 0..points.len() {
             let t = tally(judged, i);
             println!(
-                "| {gen} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {gen} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 name(i),
                 Tally::ratio(t.right, t.cases),
+                t.decided,
                 Tally::ratio(t.first_right, t.cases),
                 t.stacked,
                 t.undecided,

@@ -83,9 +83,11 @@ pub enum Strict {
     /// The right first family, with a family in the final model that is not in the log.
     Stacked,
     /// The right verdict, and the log's family among the ones the diagnosis says it cannot
-    /// tell apart (with the experiment that would), nothing outside them in the final
-    /// model: the honest answer where one log cannot decide (a joint's friction against
-    /// the muscles' hysteresis at one stiffness level). Not counted as right.
+    /// tell apart (with the experiment that would) but not first, nothing outside them in
+    /// the final model: the honest answer where one log cannot decide (a joint's friction
+    /// against the muscles' hysteresis at one stiffness level). Not counted as right. (With
+    /// the log's family first among them, the judgement is `Right`, as the definition
+    /// reads; [`Tally::decided`] counts apart the right ones the log did not leave open.)
     Undecided,
     /// The wrong verdict or the wrong first family.
     Wrong,
@@ -128,6 +130,9 @@ pub struct Tally {
     pub right: usize,
     /// Right first family (or right verdict for a control / unexplained).
     pub first_right: usize,
+    /// Strictly right, and the diagnosis did not say the log cannot tell the family from
+    /// another: where it did, the family came first only by the order of a tie.
+    pub decided: usize,
     pub stacked: usize,
     /// Not right, but the log's family among those the diagnosis says it cannot tell
     /// apart, with the experiment that would ([`Strict::Undecided`]).
@@ -146,6 +151,8 @@ impl Tally {
         let s = judge(truth_family, says);
         self.cases += 1;
         self.right += usize::from(s == Strict::Right);
+        self.decided +=
+            usize::from(s == Strict::Right && !says.undecided.iter().any(|u| u == truth_family));
         self.first_right += usize::from(matches!(s, Strict::Right | Strict::Stacked));
         self.undecided += usize::from(s == Strict::Undecided);
         self.stacked += usize::from(s == Strict::Stacked);
@@ -248,6 +255,14 @@ mod tests {
         let mut t = Tally::default();
         t.add("friction", &says);
         assert_eq!((t.right, t.first_right, t.undecided), (0, 0, 1));
+        // right as the definition reads, but not decided: the log left it open
+        t.add("hysteresis", &says);
+        assert_eq!((t.right, t.decided, t.undecided), (1, 0, 1));
+        t.add(
+            "hysteresis",
+            &read(&diagnosis("effect", "hysteresis", &["a_shape"])),
+        );
+        assert_eq!((t.right, t.decided), (2, 1));
     }
 
     #[test]

@@ -79,7 +79,10 @@ pub struct Peak {
 }
 
 /// Lines whose power is ≥ `min_prominence` × the local median and that carry at least
-/// `min_share` of the variance. The neighbourhood is ±max(20 bins, 5 % of the frequency).
+/// `min_share` of the variance. The neighbourhood is ±20 bins around the line (40 below it
+/// near the top of the spectrum, ±(k − 1) near the bottom) without the line's own ±3; a line
+/// needs 8 bins of it, so the lowest seven bins (fewer than eight cycles in the record)
+/// hold none.
 pub fn narrow_peaks(s: &Spectrum, min_prominence: f64, min_share: f64) -> Vec<Peak> {
     let p: Vec<f64> = s.amplitude.iter().map(|a| a * a).collect();
     let total: f64 = p.iter().skip(1).sum::<f64>().max(1e-300);
@@ -105,8 +108,13 @@ pub fn narrow_peaks(s: &Spectrum, min_prominence: f64, min_share: f64) -> Vec<Pe
         let is_max = p[k] >= p[k - 1] && p[k] >= right && p[k] > 0.0;
         let bm = block_median[k / BLOCK].min(block_median[(k / BLOCK).saturating_sub(1)]);
         if is_max && p[k] >= 0.5 * min_prominence * bm {
-            // the neighbourhood: ±20 bins, or 40 bins below the top of the spectrum
-            let w = 20usize;
+            // the neighbourhood: ±20 bins, or 40 bins below the top of the spectrum. Near
+            // the bottom it stays symmetric (±(k − 1) bins): a one-sided neighbourhood
+            // there lies wholly above the line, where a coloured background (a load cell's
+            // 1/f noise) is several times lower, and makes a line of any slow bump. The
+            // slowest bins, with too few neighbours below them, are no line: a structure of
+            // a few cycles per record is a slow wander, and the wander test judges it
+            let w = 20usize.min(k - 1);
             let lo = k.saturating_sub(if k + w >= n { 2 * w } else { w }).max(1);
             let hi = (k + w + 1).min(n);
             let mut neigh: Vec<f64> = (lo..hi)
@@ -220,6 +228,70 @@ mod tests {
             .collect();
         let s = amplitude_spectrum(&x, 0.001);
         assert!(narrow_peaks(&s, 30.0, 0.02).is_empty());
+    }
+
+    /// A load cell's 1/f noise (octave-spaced relaxations, 0.01 Hz up to a few Hz) over
+    /// 80 s: its slowest bins rise far above the bins beside them on one side, which a
+    /// one-sided neighbourhood took for lines in one record in forty.
+    #[test]
+    fn a_pink_records_slowest_bins_are_not_lines() {
+        let (n, dt) = (16_000usize, 0.005);
+        let mut state = 7u64;
+        let mut uniform = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut lines = Vec::new();
+        for record in 0..200 {
+            let mut gauss = || {
+                let (u, v) = (uniform(), uniform());
+                (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
+            };
+            let poles: Vec<f64> = (0..9)
+                .map(|o| (-2.0 * PI * 0.01 * f64::powi(2.0, o) * dt).exp())
+                .collect();
+            let mut state_of: Vec<f64> = poles.iter().map(|_| gauss()).collect();
+            let x: Vec<f64> = (0..n)
+                .map(|_| {
+                    for (s, a) in state_of.iter_mut().zip(&poles) {
+                        *s = a * *s + (1.0 - a * a).sqrt() * gauss();
+                    }
+                    state_of.iter().sum::<f64>() / 3.0 + gauss()
+                })
+                .collect();
+            let s = amplitude_spectrum(&x, dt);
+            lines.extend(
+                narrow_peaks(&s, 40.0, 0.03)
+                    .into_iter()
+                    .map(|p| (record, p.freq_hz)),
+            );
+        }
+        assert!(lines.is_empty(), "{lines:?}");
+    }
+
+    /// A slow tone with room for a neighbourhood on both sides is still a line.
+    #[test]
+    fn a_slow_tone_above_the_lowest_bins_is_a_line() {
+        let (n, dt) = (16_000usize, 0.005);
+        let mut state = 3u64;
+        let x: Vec<f64> = (0..n)
+            .map(|i| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let noise = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                // bin 12: 12 cycles in the record
+                0.3 * (2.0 * PI * 12.0 * i as f64 / n as f64).sin() + noise
+            })
+            .collect();
+        let s = amplitude_spectrum(&x, dt);
+        let peaks = narrow_peaks(&s, 40.0, 0.03);
+        assert!(
+            !peaks.is_empty() && (peaks[0].freq_hz - 12.0 / (n as f64 * dt)).abs() < 1e-9,
+            "{peaks:?}"
+        );
     }
 
     #[test]
