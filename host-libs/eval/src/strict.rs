@@ -25,6 +25,14 @@ pub struct FinalModel {
     pub undecided: Vec<String>,
 }
 
+impl FinalModel {
+    /// Whether the diagnosis says the log cannot tell `family` from another (with the
+    /// experiment that would).
+    pub fn left_open(&self, family: &str) -> bool {
+        self.undecided.iter().any(|u| u == family)
+    }
+}
+
 /// Reads the final model from `serde_json::to_value(&diagnosis)`.
 pub fn read(v: &Value) -> FinalModel {
     let verdict = v["verdict"].as_str().unwrap_or("?").to_string();
@@ -105,11 +113,10 @@ pub fn judge(truth_family: &str, says: &FinalModel) -> Strict {
             }
         }
         t => {
-            let among = |f: &String| says.undecided.iter().any(|u| u == f);
             if says.verdict == "effect"
                 && says.first.as_deref() != Some(t)
-                && says.undecided.iter().any(|u| u == t)
-                && says.families.iter().all(among)
+                && says.left_open(t)
+                && says.families.iter().all(|f| says.left_open(f))
             {
                 Strict::Undecided
             } else if says.verdict != "effect" || says.first.as_deref() != Some(t) {
@@ -151,8 +158,7 @@ impl Tally {
         let s = judge(truth_family, says);
         self.cases += 1;
         self.right += usize::from(s == Strict::Right);
-        self.decided +=
-            usize::from(s == Strict::Right && !says.undecided.iter().any(|u| u == truth_family));
+        self.decided += usize::from(s == Strict::Right && !says.left_open(truth_family));
         self.first_right += usize::from(matches!(s, Strict::Right | Strict::Stacked));
         self.undecided += usize::from(s == Strict::Undecided);
         self.stacked += usize::from(s == Strict::Stacked);

@@ -150,6 +150,18 @@ mod tests {
     use super::{amplitude_spectrum, narrow_peaks};
     use std::f64::consts::PI;
 
+    /// A seeded stream of uniform draws in [0, 1) (a 64-bit linear congruential generator's
+    /// top 53 bits): the same noise on every run and every machine.
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// The spectrum against a direct DFT at lengths that are not powers of two (prime,
     /// odd, even), every bin.
     #[test]
@@ -217,15 +229,8 @@ mod tests {
 
     #[test]
     fn white_noise_has_no_narrow_peaks() {
-        let mut state = 12345u64;
-        let x: Vec<f64> = (0..16384)
-            .map(|_| {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect();
+        let mut u = uniform(12345);
+        let x: Vec<f64> = (0..16384).map(|_| u() - 0.5).collect();
         let s = amplitude_spectrum(&x, 0.001);
         assert!(narrow_peaks(&s, 30.0, 0.02).is_empty());
     }
@@ -236,18 +241,13 @@ mod tests {
     #[test]
     fn a_pink_records_slowest_bins_are_not_lines() {
         let (n, dt) = (16_000usize, 0.005);
-        let mut state = 7u64;
-        let mut uniform = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
+        let mut u = uniform(7);
         let mut lines = Vec::new();
         for record in 0..200 {
+            // Box–Muller, on (0, 1] for the logarithm
             let mut gauss = || {
-                let (u, v) = (uniform(), uniform());
-                (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
+                let (a, b) = (1.0 - u(), u());
+                (-2.0 * a.ln()).sqrt() * (2.0 * PI * b).cos()
             };
             let poles: Vec<f64> = (0..9)
                 .map(|o| (-2.0 * PI * 0.01 * f64::powi(2.0, o) * dt).exp())
@@ -275,13 +275,10 @@ mod tests {
     #[test]
     fn a_slow_tone_above_the_lowest_bins_is_a_line() {
         let (n, dt) = (16_000usize, 0.005);
-        let mut state = 3u64;
+        let mut u = uniform(3);
         let x: Vec<f64> = (0..n)
             .map(|i| {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                let noise = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                let noise = u() - 0.5;
                 // bin 12: 12 cycles in the record
                 0.3 * (2.0 * PI * 12.0 * i as f64 / n as f64).sin() + noise
             })
@@ -297,13 +294,10 @@ mod tests {
     #[test]
     fn a_tone_at_the_nyquist_frequency_is_a_peak() {
         // 50 Hz sampled every 50 ms: ±A alternating
-        let mut state = 99u64;
+        let mut u = uniform(99);
         let x: Vec<f64> = (0..2048)
             .map(|i| {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                let noise = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3;
+                let noise = (u() - 0.5) * 0.3;
                 0.5 * if i % 2 == 0 { 1.0 } else { -1.0 } + noise
             })
             .collect();

@@ -259,7 +259,8 @@ converters that differ; about a quarter controls) and judges the final model str
 the final model that is not in the log; a false alarm is a control whose verdict is not `none`. \
 \"Of them decided\" counts the strictly right logs whose diagnosis did not also say the log \
 cannot tell the family from another: where it did, the right family came first by the order of a \
-tie, which the definition still counts as right. \"Stacked\" counts logs whose first family is right but whose final model holds another; \
+tie, which the definition still counts as right. \"Stacked\" counts logs whose first family is \
+right but whose final model holds another; \
 \"undecided\" counts logs, not right, whose family is among those the diagnosis says one log cannot \
 tell apart, with the experiment that would (a joint's friction and the muscles' hysteresis at one \
 stiffness level: the two-log decision is the friction-pairs section).",
