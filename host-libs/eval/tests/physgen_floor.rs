@@ -183,6 +183,34 @@ fn a_gain_the_held_out_steps_do_not_show_alike_is_too_few_steps_to_decide() {
     );
 }
 
+/// A few held-out steps do not decide. Seed 720303's rate limits removed 57 % of the
+/// held-out error, nearly all of it at one step the base misses badly (−0.2 % without that
+/// block). Seeds 730015 and 730079 hold out four of their 20 and 21 steps, which the six
+/// held-out blocks cut in parts: a saturation and a pose dependence passed the blocks'
+/// t-test. What
+/// the held-out steps leave open the cross-validation over every step decides, and it names
+/// none of these.
+#[test]
+fn a_few_held_out_steps_do_not_decide_a_step_control() {
+    let mut lines = Vec::new();
+    for seed in [720_303, 730_015, 730_079] {
+        let d = step_control(seed);
+        lines.push(format!(
+            "{seed}: {:?} {:?}; {}",
+            d.verdict,
+            d.effects
+                .iter()
+                .filter(|e| e.accepted)
+                .map(|e| &e.id)
+                .collect::<Vec<_>>(),
+            too_few_steps(&d).join(" | ")
+        ));
+    }
+    let report = lines.join("\n");
+    eprintln!("{report}");
+    assert!(lines.iter().all(|l| l.contains(": None ")), "{report}");
+}
+
 /// Friction in the joints' bearings, in one dynamic log: at one stiffness level the
 /// catalog's joint friction and the muscles' hysteresis remove nearly the same share of the
 /// error (a torque that turns over a small angle after each reversal), and which comes first

@@ -37,7 +37,7 @@ pub use settings::Settings;
 use sizes::effective_samples_of;
 pub use tare::SensorTare;
 pub use unexplained::unexplained_structure;
-pub use warning::Warning;
+pub use warning::{StepTest, Warning};
 
 use crate::effects::{Experiment, ModelEffect, Shape};
 use crate::response::{Drive, Response};

@@ -22,6 +22,9 @@ use statrs::distribution::{ContinuousCDF, StudentsT};
 pub struct FoldTest {
     /// 1 − Σ SSE(with) / Σ SSE(without), pooled over the folds.
     pub improvement: f64,
+    /// The same pooled gain with the fold that gains most (in SSE) left out: a pooled gain
+    /// that one fold carries is that fold's evidence alone.
+    pub improvement_without_best: f64,
     /// Mean and standard deviation of the per-fold gains.
     pub fold_mean: f64,
     pub fold_sd: f64,
@@ -129,12 +132,20 @@ pub fn fold_test(without: &FoldScores, with: &FoldScores, cross_validated: bool)
     let se = (var * factor).sqrt();
     let (sw, sb): (f64, f64) = (with.sse[..k].iter().sum(), without.sse[..k].iter().sum());
     let wins = gains.iter().filter(|g| **g > 0.0).count();
+    let best = (0..k)
+        .max_by(|&i, &j| (without.sse[i] - with.sse[i]).total_cmp(&(without.sse[j] - with.sse[j])));
+    let (sw_rest, sb_rest) = best.map_or((sw, sb), |b| (sw - with.sse[b], sb - without.sse[b]));
     FoldTest {
         wins,
         sign_p: sign_test_p(wins, n),
         rank_p: signed_rank_p(&gains),
         gains: gains.clone(),
         improvement: if sb > 0.0 { 1.0 - sw / sb } else { 0.0 },
+        improvement_without_best: if k > 1 && sb_rest > 0.0 {
+            1.0 - sw_rest / sb_rest
+        } else {
+            0.0
+        },
         fold_mean: mean,
         fold_sd: var.sqrt(),
         folds: n,
@@ -190,6 +201,7 @@ pub fn paired_test(base: &FoldScores, a: &FoldScores, b: &FoldScores, cv: bool) 
         rank_p: signed_rank_p(&diffs),
         gains: diffs.clone(),
         improvement: mean,
+        improvement_without_best: mean,
         fold_mean: mean,
         fold_sd: var.sqrt(),
         folds: n,
@@ -249,6 +261,21 @@ mod tests {
         // ties share their rank; the null stays a distribution (p = 1 at W⁺ = 0)
         assert!((signed_rank_p(&[-1.0, -1.0, -2.0]) - 1.0).abs() < 1e-12);
         assert!((signed_rank_p(&[1.0, 1.0, 1.0]) - 1.0 / 8.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_pooled_gain_one_fold_carries_is_nothing_without_it() {
+        let base = scores(&[1.0, 1.0, 10.0, 1.0, 1.0, 1.0]);
+        // one fold the base misses badly, fixed; the others a little worse
+        let one = scores(&[1.02, 1.01, 2.0, 1.03, 1.0, 1.02]);
+        let t = fold_test(&base, &one, false);
+        assert!(t.improvement > 0.5, "{t:?}");
+        assert!(t.improvement_without_best < 0.0, "{t:?}");
+        // the same pooled gain spread over every fold stays with the best fold left out
+        let spread = scores(&[0.4, 0.4, 4.0, 0.4, 0.4, 0.4]);
+        let t = fold_test(&base, &spread, false);
+        assert!((t.improvement - 0.6).abs() < 1e-9, "{t:?}");
+        assert!((t.improvement_without_best - 0.6).abs() < 1e-9, "{t:?}");
     }
 
     #[test]

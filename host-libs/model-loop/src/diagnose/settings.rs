@@ -60,10 +60,11 @@ pub struct Settings {
     /// sample.
     pub converter_lag_s: f64,
     /// Step trials: a family is accepted only when its gain is significant across the
-    /// held-out blocks (the fold test of a dynamic trial) or it removes at least this share
-    /// of the held-out error. A gain of a few per cent that some held-out steps show and
-    /// others do not is what a rig's own step-to-step differences give as often as a real
-    /// effect (docs/model-loop.md, "Step trials: too few steps to decide").
+    /// held-out blocks (the fold test of a dynamic trial; only when every block holds a
+    /// held-out step of its own) or it removes at least this share of the held-out error,
+    /// with the block that gains most left out too. A gain of a few per cent that some
+    /// held-out steps show and others do not is what a rig's own step-to-step differences
+    /// give as often as a real effect (docs/model-loop.md, "Step trials: too few steps to decide").
     pub step_decisive_improvement: f64,
 }
 

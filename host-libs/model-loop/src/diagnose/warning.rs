@@ -77,6 +77,8 @@ pub enum Warning {
         family: Family,
         /// The share of the base's held-out error it removes.
         improvement: f64,
+        /// The fold test that left it open, its t and critical t.
+        test: StepTest,
         t: f64,
         t_critical: f64,
         steps: usize,
@@ -87,6 +89,24 @@ pub enum Warning {
     ReferenceStill { axis: usize },
     /// The model explains little of an axis in the held-out part.
     LowR2 { axis: usize, r2: f64 },
+}
+
+/// Which fold test of a step trial left a family open.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepTest {
+    /// The held-out part's blocks.
+    HeldOutBlocks,
+    /// The cross-validation over every step, each scored by a fit that never saw it.
+    AllSteps,
+}
+
+impl StepTest {
+    fn phrase(self) -> &'static str {
+        match self {
+            StepTest::HeldOutBlocks => "across the held-out blocks",
+            StepTest::AllSteps => "over all the steps, each scored by a fit that never saw it",
+        }
+    }
 }
 
 const AXES: [&str; 2] = ["fx", "fy"];
@@ -197,17 +217,29 @@ impl fmt::Display for Warning {
             Warning::TooFewSteps {
                 family,
                 improvement,
+                test,
                 t,
                 t_critical,
                 steps,
                 steps_needed,
             } => {
-                write!(
-                    f,
-                    "{} removes {:.1} % of the held-out error, but not step by step alike (t = {t:.1} across the held-out blocks, {t_critical:.1} needed): {steps} steps are too few to decide, so it is not named",
-                    family.name(),
-                    100.0 * improvement,
-                )?;
+                if t >= t_critical {
+                    write!(
+                        f,
+                        "{} removes {:.1} % of the held-out error and its gain holds step by step (t = {t:.1} {}, {t_critical:.1} needed), but over all the steps it is too small to name: {steps} steps are too few to decide, so it is not named",
+                        family.name(),
+                        100.0 * improvement,
+                        test.phrase(),
+                    )?;
+                } else {
+                    write!(
+                        f,
+                        "{} removes {:.1} % of the held-out error, but not step by step alike (t = {t:.1} {}, {t_critical:.1} needed): {steps} steps are too few to decide, so it is not named",
+                        family.name(),
+                        100.0 * improvement,
+                        test.phrase(),
+                    )?;
+                }
                 match steps_needed {
                     Some(k) => write!(f, "; about {k} steps would decide"),
                     None => write!(f, "; more steps of the same levels would decide"),
@@ -230,5 +262,38 @@ impl fmt::Display for Warning {
 impl Serialize for Warning {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         serializer.collect_str(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{StepTest, Warning};
+    use crate::effects::Family;
+
+    fn too_few(test: StepTest, t: f64, steps_needed: Option<usize>) -> String {
+        Warning::TooFewSteps {
+            family: Family::RateLimits,
+            improvement: 0.05,
+            test,
+            t,
+            t_critical: 1.7,
+            steps: 20,
+            steps_needed,
+        }
+        .to_string()
+    }
+
+    #[test]
+    fn a_step_familys_warning_names_the_test_that_left_it_open() {
+        let short = too_few(StepTest::AllSteps, 1.2, Some(41));
+        assert!(short.contains("not step by step alike"), "{short}");
+        assert!(short.contains("over all the steps"), "{short}");
+        assert!(short.contains("about 41 steps would decide"), "{short}");
+        let blocks = too_few(StepTest::HeldOutBlocks, 1.2, Some(41));
+        assert!(blocks.contains("across the held-out blocks"), "{blocks}");
+        // a gain that holds step by step but is too small is not said to vary
+        let small = too_few(StepTest::AllSteps, 2.5, None);
+        assert!(!small.contains("not step by step alike"), "{small}");
+        assert!(small.contains("too small to name"), "{small}");
     }
 }

@@ -18,6 +18,7 @@ use super::AxisPair;
 use super::Loop;
 use super::ModelFit;
 use super::Settings;
+use super::StepTest;
 use super::Warning;
 use crate::effects::Experiment;
 use crate::effects::ModelEffect;
@@ -332,9 +333,15 @@ impl<'l, 'a> Judge<'l, 'a> {
         // its size, is what a rig's step-to-step differences give as often as an effect
         // (pam-physgen's controls; pam-synth's weakest effects look the same): too few
         // steps to decide, said as such
+        // (a gain decisive by its size is so without its best held-out block too: one
+        // step the base misses badly can carry most of the held-out error alone)
+        // (and the blocks' test decides only when every block holds a step of its own: a
+        // short log's three held-out steps cut in six blocks are three pieces of evidence)
+        let blocks_own_steps = self.lp.p.held_out.ranges().len() >= STEP_BLOCKS;
         let held_decisive = dynamic
-            || test.significant(t_crit, level)
-            || improvement >= settings.step_decisive_improvement;
+            || (blocks_own_steps && test.significant(t_crit, level))
+            || (improvement >= settings.step_decisive_improvement
+                && test.improvement_without_best >= settings.step_decisive_improvement);
         // what the held-out steps leave open, all of the log's steps decide, each scored
         // by a fit of the folds that never saw it. The steps of one fold share that fit and
         // every two folds share most of their training steps, so the gains are not
@@ -358,7 +365,17 @@ impl<'l, 'a> Judge<'l, 'a> {
         // the warning names a family: an effect outside the catalog's families is refused
         // with its evidence alone
         let undecided = too_few_steps
-            .then(|| self.too_few_steps(e, improvement, test.t))
+            .then(|| {
+                // the test that left it open: all the steps where they were asked and
+                // fell short, else the held-out blocks where those did
+                let by = match (&cv, cv_t_crit) {
+                    (Some(c), Some(crit)) if c.t < crit || test.t >= t_crit => {
+                        (StepTest::AllSteps, c.t, crit)
+                    }
+                    _ => (StepTest::HeldOutBlocks, test.t, t_crit),
+                };
+                self.too_few_steps(e, improvement, by)
+            })
             .flatten();
         let accepted = accepted && decisive;
         let mut evidence = format!(
@@ -384,7 +401,12 @@ impl<'l, 'a> Judge<'l, 'a> {
             ));
         }
         if too_few_steps {
-            evidence.push_str(&self.too_few_steps_note(undecided.is_some()));
+            evidence.push_str(&self.too_few_steps_note(
+                improvement,
+                &test,
+                blocks_own_steps,
+                undecided.is_some(),
+            ));
         }
         if let Some(note) = lag {
             evidence.push_str(&note);

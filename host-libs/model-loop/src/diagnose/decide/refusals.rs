@@ -8,7 +8,9 @@ use crate::diagnose::resolution::encoder_floor;
 use crate::diagnose::sizes::change_rms_n;
 use crate::diagnose::unexplained::rounding_colours;
 use crate::diagnose::verdict::delay_length_s;
+use crate::diagnose::FoldTest;
 use crate::diagnose::ModelFit;
+use crate::diagnose::StepTest;
 use crate::diagnose::Warning;
 use crate::effects::Family;
 use crate::effects::ModelEffect;
@@ -99,12 +101,41 @@ impl Judge<'_, '_> {
         worst
     }
 
-    /// What a step effect's evidence adds when the log has too few steps to decide on it;
-    /// `warned`: a warning says about how many would.
-    pub(super) fn too_few_steps_note(&self, warned: bool) -> String {
+    /// What a step effect's evidence adds when the log has too few steps to decide on it:
+    /// why the held-out steps do not (`blocks_own_steps`: every held-out block holds a step
+    /// of its own; `improvement`: the held-out gain; `test`: the held-out blocks' fold
+    /// test); `warned`: a warning says about how many would.
+    pub(super) fn too_few_steps_note(
+        &self,
+        improvement: f64,
+        test: &FoldTest,
+        blocks_own_steps: bool,
+        warned: bool,
+    ) -> String {
+        let decisive = self.settings.step_decisive_improvement;
+        let alike = if blocks_own_steps {
+            "the held-out steps do not show the gain alike".to_string()
+        } else {
+            format!(
+                "the log holds out {} steps, too few for the {} blocks to count as evidence",
+                self.lp.p.held_out.ranges().len(),
+                test.folds
+            )
+        };
+        let size = if improvement >= decisive {
+            format!(
+                "it removes {:.0} % of their error but {:.1} % without the block that gains most: one step carries it",
+                100.0 * improvement,
+                100.0 * test.improvement_without_best
+            )
+        } else {
+            format!(
+                "it removes less than {:.0} % of their error",
+                100.0 * decisive
+            )
+        };
         format!(
-            "; the held-out steps do not show the gain alike and it removes less than {:.0} % of their error: the log has too few steps to decide{}",
-            100.0 * self.settings.step_decisive_improvement,
+            "; {alike} and {size}: the log has too few steps to decide{}",
             if warned {
                 " (a warning says about how many would)"
             } else {
@@ -120,7 +151,7 @@ impl Judge<'_, '_> {
         &self,
         e: &dyn ModelEffect,
         improvement: f64,
-        t: f64,
+        (test, t, t_critical): (StepTest, f64, f64),
     ) -> Option<Warning> {
         let family = e.family()?;
         // the steps the held-out part was chosen from, else those of the force the
@@ -131,13 +162,16 @@ impl Judge<'_, '_> {
                 reference_steps(r, self.settings.step_threshold_n).len()
             })
         });
-        let steps_needed = (t > 0.0 && steps > 0)
-            .then(|| (steps as f64 * (self.t_crit / t).powi(2)).ceil() as usize);
+        // (a t already past its critical value gives no count: the gain failed the rule's
+        // size over the steps, not their spread)
+        let steps_needed = (t > 0.0 && t < t_critical && steps > 0)
+            .then(|| (steps as f64 * (t_critical / t).powi(2)).ceil() as usize);
         Some(Warning::TooFewSteps {
             family,
             improvement,
+            test,
             t,
-            t_critical: self.t_crit,
+            t_critical,
             steps,
             steps_needed,
         })
