@@ -16,8 +16,8 @@ pub(super) struct Tried<'e> {
     pub(super) fit: Option<ModelFit>,
     /// The family's other shapes (filled by [`best_shape_per_family`]).
     pub(super) alternatives: Vec<&'e dyn ModelEffect>,
-    /// A step family that would be accepted but for the fold test: the log has too few
-    /// steps to decide on it.
+    /// A step family that would be accepted but for the fold test (the log has too few
+    /// steps to decide on it) or for the converters' spread: the warning that says so.
     pub(super) undecided: Option<Warning>,
 }
 

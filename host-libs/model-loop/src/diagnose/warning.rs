@@ -85,6 +85,16 @@ pub enum Warning {
         /// `None`: its gain is not positive across the held-out blocks on average.
         steps_needed: Option<usize>,
     },
+    /// A step trial: a family removes no more of the held-out error than a share of each
+    /// axis's force in the other (the four converters' spread at one pose) does, within
+    /// `Settings::min_family_gain`: the log cannot tell it from that spread.
+    WithinConverterSpread {
+        family: Family,
+        /// The share of the base's held-out error it removes.
+        improvement: f64,
+        /// The share the converters' spread removes.
+        spread_improvement: f64,
+    },
     /// An axis's reference does not step in the held-out part (a step trial).
     ReferenceStill { axis: usize },
     /// The model explains little of an axis in the held-out part.
@@ -202,6 +212,17 @@ impl fmt::Display for Warning {
                 turning_rms_n[0],
                 turning_rms_n[1],
                 100.0 * gain
+            ),
+            Warning::WithinConverterSpread {
+                family,
+                improvement,
+                spread_improvement,
+            } => write!(
+                f,
+                "{} removes {:.1} % of the held-out error, but a share of each axis's force in the other (the four converters' spread, at one pose a linear change of the steps) removes {:.1} %: the log cannot tell the two apart, so it is not named. To tell them: step at a second co-contraction level or pose (the channels' levels then cross a saturation's ceiling or leave it, while the spread keeps its share)",
+                family.name(),
+                100.0 * improvement,
+                100.0 * spread_improvement
             ),
             Warning::ForceLagsMotion {
                 delay_ms,

@@ -203,6 +203,9 @@ struct Judge<'l, 'a> {
     level: f64,
     /// The encoders' rounding in the force (frozen at every rest), drawn when first asked.
     floor: std::sync::OnceLock<Option<super::resolution::EncoderFloor>>,
+    /// The share of the step base's held-out error the converters' spread removes, drawn
+    /// when first asked.
+    spread: std::sync::OnceLock<f64>,
 }
 
 impl<'l, 'a> Judge<'l, 'a> {
@@ -233,6 +236,7 @@ impl<'l, 'a> Judge<'l, 'a> {
             t_crit: 0.0,
             level: 0.0,
             floor: std::sync::OnceLock::new(),
+            spread: std::sync::OnceLock::new(),
         };
         judge.base_folds = judge.folds_of(&[], base);
         // the level is split over the candidates the data is asked about: one per family
@@ -329,6 +333,13 @@ impl<'l, 'a> Judge<'l, 'a> {
             None
         };
         let accepted = accepted && colour.is_none();
+        // nor a saturation within the converters' spread
+        let spread = if accepted {
+            self.within_spread(e, improvement)
+        } else {
+            None
+        };
+        let accepted = accepted && spread.is_none();
         // steps: a gain the held-out blocks do not show alike, and that is not decisive by
         // its size, is what a rig's step-to-step differences give as often as an effect
         // (pam-physgen's controls; pam-synth's weakest effects look the same): too few
@@ -375,7 +386,15 @@ impl<'l, 'a> Judge<'l, 'a> {
                 };
                 self.too_few_steps(e, improvement, by)
             })
-            .flatten();
+            .flatten()
+            .or_else(|| {
+                let spread_improvement = spread?;
+                Some(Warning::WithinConverterSpread {
+                    family: e.family()?,
+                    improvement,
+                    spread_improvement,
+                })
+            });
         let accepted = accepted && decisive;
         let mut evidence = format!(
             "{}: refitting with it removes {:.1} % of the base model's training residual and {:.1} % of the {} error (fold gains {:.1} ± {:.1} %, t = {:.1} against {:.1}), changing the prediction by {:.2} % of the signal ({} parameter{})",
@@ -409,6 +428,13 @@ impl<'l, 'a> Judge<'l, 'a> {
         }
         if let Some(note) = lag {
             evidence.push_str(&note);
+        }
+        if let Some(s) = spread {
+            evidence.push_str(&format!(
+                "; a share of each axis's force in the other (the converters' spread) removes {:.1} %, not {:.0} % less than it: the log cannot tell it from that spread",
+                100.0 * s,
+                100.0 * settings.min_family_gain
+            ));
         }
         if let Some((change, bound, exponent)) = colour {
             evidence.push_str(&format!(

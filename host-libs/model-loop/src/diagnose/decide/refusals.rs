@@ -1,6 +1,7 @@
 //! The nulls an effect is refused against when its gain passes the tests: the rig's own
 //! lag (a delay), the encoders' rounding and the load cell's coloured noise (a slow
-//! change), and a step trial with too few steps to decide.
+//! change), the converters' spread (a saturation in a step trial), and a step trial with
+//! too few steps to decide.
 
 use super::Judge;
 use crate::diagnose::colour::coloured_noise;
@@ -15,6 +16,7 @@ use crate::diagnose::Warning;
 use crate::effects::Family;
 use crate::effects::ModelEffect;
 use pam_ident::step_detection::reference_steps;
+use pam_numerics::lsq;
 use pam_numerics::stats::rms;
 
 impl Judge<'_, '_> {
@@ -101,6 +103,22 @@ impl Judge<'_, '_> {
         worst
     }
 
+    /// A saturation in a step trial that removes no more of the held-out error than the
+    /// converters' spread, within `Settings::min_family_gain` (the margin a shape outside
+    /// the catalog can account for), cannot be told from it: the spread's share when so.
+    /// The four converters each have their own gain, so at one pose each axis's force
+    /// holds a share of the other's; and a channel a saturation holds at its ceiling over
+    /// every level changes the steps linearly as well. Both are a 2 × 2 gain on the
+    /// base's force at one pose; only steps that move the channels' levels across the
+    /// ceiling (another co-contraction level or pose) tell a saturation from the spread.
+    pub(super) fn within_spread(&self, e: &dyn ModelEffect, improvement: f64) -> Option<f64> {
+        if self.dynamic || e.family() != Some(Family::Saturation) {
+            return None;
+        }
+        let spread = *self.spread.get_or_init(|| spread_improvement(self.base));
+        (improvement - spread < self.settings.min_family_gain).then_some(spread)
+    }
+
     /// What a step effect's evidence adds when the log has too few steps to decide on it:
     /// why the held-out steps do not (`blocks_own_steps`: every held-out block holds a step
     /// of its own; `improvement`: the held-out gain; `test`: the held-out blocks' fold
@@ -176,4 +194,43 @@ impl Judge<'_, '_> {
             steps_needed,
         })
     }
+}
+
+/// The share of a step trial's held-out base error that the converters' spread removes:
+/// each stepping axis's force refitted as a gain on the base's prediction of it, a share of
+/// the base's prediction of the other axis and an offset (least squares on the training
+/// rows; the base's dynamics are kept, so the spread is not given more than the base
+/// already fitted), scored on the held-out rows as every step family is.
+pub(super) fn spread_improvement(base: &ModelFit) -> f64 {
+    let mut spread = base.clone();
+    for &a in &base.axes {
+        let own = &base.predicted[a];
+        let other = &base.predicted[1 - a];
+        let y = &base.measured[a];
+        let mut gram = vec![vec![0.0; 3]; 3];
+        let mut rhs = vec![0.0; 3];
+        for i in base.held_out.train_rows() {
+            let x = [own[i], other[i], 1.0];
+            for r in 0..3 {
+                rhs[r] += x[r] * y[i];
+                for c in 0..3 {
+                    gram[r][c] += x[r] * x[c];
+                }
+            }
+        }
+        // an axis that does not step leaves its prediction a constant, the offset's column:
+        // a ridge of 1e-9 of the diagonal keeps the solve defined
+        for (r, row) in gram.iter_mut().enumerate() {
+            row[r] *= 1.0 + 1e-9;
+        }
+        let theta = lsq::solve(&lsq::Normal { gram, rhs }, &[]);
+        for (i, p) in spread.predicted[a].iter_mut().enumerate() {
+            *p = theta[0] * own[i] + theta[1] * other[i] + theta[2];
+        }
+    }
+    let e_base = base.relative_mse();
+    if !(e_base > 0.0) {
+        return 0.0;
+    }
+    1.0 - spread.relative_mse() / e_base
 }
