@@ -86,8 +86,8 @@ pub enum Warning {
         steps_needed: Option<usize>,
     },
     /// A step trial: a family removes no more of the held-out error than a share of each
-    /// axis's force in the other (the four converters' spread at one pose) does, within
-    /// `Settings::min_family_gain`: the log cannot tell it from that spread.
+    /// axis's force in the other (the four converters' spread at one pose) does: the log
+    /// cannot tell it from that spread.
     WithinConverterSpread {
         family: Family,
         /// The share of the base's held-out error it removes.

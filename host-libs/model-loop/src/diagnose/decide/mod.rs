@@ -431,9 +431,8 @@ impl<'l, 'a> Judge<'l, 'a> {
         }
         if let Some(s) = spread {
             evidence.push_str(&format!(
-                "; a share of each axis's force in the other (the converters' spread) removes {:.1} %, not {:.0} % less than it: the log cannot tell it from that spread",
-                100.0 * s,
-                100.0 * settings.min_family_gain
+                "; a share of each axis's force in the other (the converters' spread) removes {:.1} %, as much or more: the log cannot tell it from that spread",
+                100.0 * s
             ));
         }
         if let Some((change, bound, exponent)) = colour {

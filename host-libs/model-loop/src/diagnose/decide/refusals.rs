@@ -104,8 +104,10 @@ impl Judge<'_, '_> {
     }
 
     /// A saturation in a step trial that removes no more of the held-out error than the
-    /// converters' spread, within `Settings::min_family_gain` (the margin a shape outside
-    /// the catalog can account for), cannot be told from it: the spread's share when so.
+    /// converters' spread does cannot be told from it: the spread's share when so. (No margin:
+    /// with `Settings::min_family_gain` the twin's saturations at a pose off the centre,
+    /// whose knee and maximum the fit recovers, would be refused; a saturation ahead of the
+    /// spread by less than 3 % can still be the log's.)
     /// The four converters each have their own gain, so at one pose each axis's force
     /// holds a share of the other's; and a channel a saturation holds at its ceiling over
     /// every level changes the steps linearly as well. Both are a 2 × 2 gain on the
@@ -116,7 +118,7 @@ impl Judge<'_, '_> {
             return None;
         }
         let spread = *self.spread.get_or_init(|| spread_improvement(self.base));
-        (improvement - spread < self.settings.min_family_gain).then_some(spread)
+        (improvement <= spread).then_some(spread)
     }
 
     /// What a step effect's evidence adds when the log has too few steps to decide on it:
@@ -199,8 +201,8 @@ impl Judge<'_, '_> {
 /// The share of a step trial's held-out base error that the converters' spread removes:
 /// each stepping axis's force refitted as a gain on the base's prediction of it, a share of
 /// the base's prediction of the other axis and an offset (least squares on the training
-/// rows; the base's dynamics are kept, so the spread is not given more than the base
-/// already fitted), scored on the held-out rows as every step family is.
+/// rows; the base's dynamics are kept, not refitted with it, so its share is if anything
+/// understated), scored on the held-out rows as every step family is.
 pub(super) fn spread_improvement(base: &ModelFit) -> f64 {
     let mut spread = base.clone();
     for &a in &base.axes {
