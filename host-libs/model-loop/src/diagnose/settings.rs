@@ -64,7 +64,8 @@ pub struct Settings {
     /// held-out step of its own) or it removes at least this share of the held-out error,
     /// with the block that gains most left out too. A gain of a few per cent that some
     /// held-out steps show and others do not is what a rig's own step-to-step differences
-    /// give as often as a real effect (docs/model-loop.md, "Step trials: too few steps to decide").
+    /// give as often as a real effect (docs/model-loop.md, "Step trials": too few steps to
+    /// decide).
     pub step_decisive_improvement: f64,
 }
 

@@ -343,10 +343,11 @@ impl<'l, 'a> Judge<'l, 'a> {
         // steps: a gain the held-out blocks do not show alike, and that is not decisive by
         // its size, is what a rig's step-to-step differences give as often as an effect
         // (pam-physgen's controls; pam-synth's weakest effects look the same): too few
-        // steps to decide, said as such. The blocks' test counts only when every block holds a held-out step of
-        // its own (three held-out steps cut in six blocks are three pieces of evidence, not
-        // six), and a gain decisive by its size must stay so without the block that gains
-        // most (one step the base misses badly can carry the whole held-out gain)
+        // steps to decide, said as such. The blocks' test counts only when every block
+        // holds a held-out step of its own (three held-out steps cut in six blocks are
+        // three pieces of evidence, not six), and a gain decisive by its size must stay so
+        // without the block that gains most (one step the base misses badly can carry the
+        // whole held-out gain)
         let blocks_own_steps = self.lp.p.held_out.ranges().len() >= STEP_BLOCKS;
         let held_decisive = dynamic
             || (blocks_own_steps && test.significant(t_crit, level))
