@@ -73,12 +73,20 @@ impl ModelEffect for CableSlip {
             }
             slip[i] = s;
         }
+        // Both coefficients are joint 1's stiffness times what the cable does, so neither
+        // may be negative: the slip's, K·(slip rate), because the cable gives way in the
+        // direction the torque pulls (a coefficient of the other sign is a torque that
+        // winds itself up, which no groove makes: free, the accumulated excess is a slow
+        // random walk that takes up the load cell's 1/f wander); the play's, K, because
+        // the muscles pull back by −K·(play offset).
         let mut cols = vec![ctx.torque_column("slip_nm_per_nm_s", |i| [slip[i], 0.0])];
         if half > 0.0 {
-            cols.push(ctx.torque_column("backlash_torque_nm_per_rad", |i| [play[i], 0.0]));
+            cols.push(ctx.torque_column("play_stiffness_nm_per_rad", |i| [-play[i], 0.0]));
         }
+        let positive = (0..cols.len()).collect();
         DynTerm {
             columns: cols,
+            positive,
             ..Default::default()
         }
     }
