@@ -11,6 +11,7 @@ mod cv;
 mod decide;
 mod diagnosis;
 mod dynamic;
+mod inertia;
 mod recording;
 mod resolution;
 mod selection;
