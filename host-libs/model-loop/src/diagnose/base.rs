@@ -3,8 +3,6 @@
 //! space, the muscles' force law), a force offset per axis and the muscles' pneumatic
 //! compliance; and the derivative filter's cutoff that suits the data.
 
-pub(super) use super::inertia::MassForm;
-use super::inertia::{joint_inertia_columns, rigid_body_column};
 use super::sizes::effective_samples_of;
 use crate::effects::DynCtx;
 use pam_ident::msd;
@@ -14,6 +12,7 @@ use pam_ident::step::StepParams;
 use pam_ident::trial::FilterSettings;
 use pam_ident::trial::Prepared;
 use pam_ident::trial::Trial;
+use pam_model::cartesian::{coriolis_torques, joint_inertia};
 use pam_model::RobotModel;
 use pam_numerics::lsq;
 use pam_numerics::lsq::Column;
@@ -97,9 +96,6 @@ pub(super) struct SharedColumns<'a> {
     /// The arm's rigid-body dynamics ([`rigid_body_column`]) when the training part takes
     /// it.
     pub(super) arm: Option<Column>,
-    /// A constant inertia at each joint ([`joint_inertia_columns`]) when the training part
-    /// takes it; before the arm's column.
-    pub(super) joint_inertia: Vec<Column>,
     pub(super) offsets: [Column; 2],
     pub(super) ctx: DynCtx<'a>,
 }
@@ -109,62 +105,52 @@ impl<'a> SharedColumns<'a> {
         let mut shared = SharedColumns {
             msd: msd::msd_columns(p),
             arm: None,
-            joint_inertia: Vec::new(),
             offsets: offset_columns(p.len()),
             ctx: DynCtx::new(p, model),
         };
-        // the joints' inertia first: the arm's rigid body then pays only for what its
-        // elbow-dependent inertia and Coriolis forces add to it
-        let joints = joint_inertia_columns(&shared.ctx);
-        if pays(p, &shared, &joints) {
-            shared.joint_inertia = joints;
-        }
         let arm = rigid_body_column(&shared.ctx);
-        if pays(p, &shared, std::slice::from_ref(&arm)) {
+        if arm_pays(p, &shared, &arm) {
             shared.arm = Some(arm);
         }
         shared
     }
 
     pub(super) fn mass(&self) -> MassForm {
-        MassForm {
-            joint: !self.joint_inertia.is_empty(),
-            arm: self.arm.is_some(),
+        if self.arm.is_some() {
+            MassForm::CartesianAndArm
+        } else {
+            MassForm::Cartesian
         }
     }
 }
 
-/// Whether `extra` (mass columns, each with a coefficient ≥ 0) pays for itself on top of
-/// the base `without` carries, like the pneumatic term: half a per cent of the training
-/// residual and the BIC on the plain residual's effective samples. A rig whose inertia sits
-/// at the handle, or a simulator with a constant Cartesian mass, does without it and its
-/// cost. Judged with the joint-space stiffness: the Cartesian one leaves the kinematics'
-/// curvature in the residual, which hides what an inertia in joint space adds.
-fn pays(p: &Prepared, without: &SharedColumns, extra: &[Column]) -> bool {
+/// Whether the arm's rigid-body column pays for itself, like the pneumatic term: half a per
+/// cent of the training residual and the BIC on the plain residual's effective samples. A
+/// rig whose inertia sits at the handle, or a simulator with a constant Cartesian mass, does
+/// without it and its cost. Judged with the joint-space stiffness: the Cartesian one leaves
+/// the kinematics' curvature in the residual, which hides what the arm adds.
+fn arm_pays(p: &Prepared, without: &SharedColumns, arm: &Column) -> bool {
     let Some(mut plain) = base_columns(p, &without.ctx, Stiffness::Joint, 0.0, 0.0, without) else {
         return false;
     };
-    let positive = Stiffness::Joint.positive_with(without.mass(), false);
-    let mut positive_with = positive.clone();
-    positive_with.extend(plain.len()..plain.len() + extra.len());
-    let mut with = plain.clone();
-    with.extend(extra.iter().cloned());
-    for cols in [&mut plain, &mut with] {
+    let mut with_arm = plain.clone();
+    with_arm.push(arm.clone());
+    for cols in [&mut plain, &mut with_arm] {
         cols.extend(without.offsets.iter().cloned());
     }
     let y = msd::target(p);
     let target = [y[0].as_slice(), y[1].as_slice()];
     let yty = sum_of_squares(&y, p.split());
-    let fit = |cols: &[Column], positive: &[usize]| {
+    let fit = |cols: &[Column], mass: MassForm| {
         let ne = lsq::normal_equations(cols, &target, 0..p.split());
-        let th = lsq::solve(&ne, positive);
+        let th = lsq::solve(&ne, &Stiffness::Joint.positive_with(mass, false));
         (lsq::rss(&ne, yty, &th), th)
     };
-    let (rss_plain, th) = fit(&plain, &positive);
-    let (rss_with, _) = fit(&with, &positive_with);
-    let ratio = rss_with / rss_plain.max(1e-300);
+    let (rss_plain, th) = fit(&plain, MassForm::Cartesian);
+    let (rss_arm, _) = fit(&with_arm, MassForm::CartesianAndArm);
+    let ratio = rss_arm / rss_plain.max(1e-300);
     let n_eff = training_effective_samples(p, &plain, &th, &y);
-    ratio < 0.995 && n_eff * ratio.ln() + extra.len() as f64 * n_eff.ln() < 0.0
+    ratio < 0.995 && n_eff * ratio.ln() + n_eff.ln() < 0.0
 }
 
 /// The effective number of independent samples of a fit's training residual (`y` the
@@ -189,6 +175,53 @@ fn joint_angle_changes(p: &Prepared) -> [Vec<f64>; 2] {
             .iter()
             .map(|a| a - p.alpha0_rad[j])
             .collect()
+    })
+}
+
+/// How the dynamic base model writes the inertia the hand feels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MassForm {
+    /// A symmetric Cartesian mass, constant over the trial (eq. 4.29 as printed): 3
+    /// parameters.
+    Cartesian,
+    /// The same and the arm's own rigid-body dynamics in joint space, one scale
+    /// ([`rigid_body_column`], after the stiffness's columns): 4 parameters.
+    CartesianAndArm,
+}
+
+/// The arm's own rigid-body dynamics, M(θ) θ̈ + C(θ, θ̇) θ̇ (eq. 4.14–4.17 with the
+/// segments' masses, and their Coriolis and centrifugal torques), as a handle force through
+/// J⁻ᵀ at each sample, one scale: −f = s·J⁻ᵀ(M θ̈ + C θ̇). A Cartesian mass constant over the
+/// trial is the arm's inertia at one pose only: across the operator's few centimetres the
+/// elbow's angle changes it by several per cent, and the motion's centrifugal forces add
+/// to it, a residual quadratic in the motion that a pose dependence would otherwise take
+/// (two of pam-physgen's controls: with the arm's inertia halved neither raised one,
+/// doubled both were named a pose dependence). The joint rates are the smoothed angles'
+/// central differences, on the derivatives' band.
+fn rigid_body_column(ctx: &DynCtx) -> Column {
+    let p = ctx.p;
+    let n = p.len();
+    let a = &p.alpha_smooth_rad;
+    let h = p.dt_s;
+    let rates = |j: usize, i: usize| -> (f64, f64) {
+        if n < 3 {
+            return (0.0, 0.0);
+        }
+        let k = i.clamp(1, n - 2);
+        (
+            (a[j][k + 1] - a[j][k - 1]) / (2.0 * h),
+            (a[j][k + 1] - 2.0 * a[j][k] + a[j][k - 1]) / (h * h),
+        )
+    };
+    let params = &ctx.model.params;
+    ctx.torque_column("rigid_body_scale", |i| {
+        let (w1, a1) = rates(0, i);
+        let (w2, a2) = rates(1, i);
+        let theta2 = ctx.model.kinematics.theta([a[0][i], a[1][i]])[1];
+        let m = joint_inertia(params, theta2).mul_vec([a1, a2]);
+        let c = coriolis_torques(params, theta2, [w1, w2]);
+        // the columns are in −f, and `torque_column` writes −J⁻ᵀτ
+        [-(m[0] + c[0]), -(m[1] + c[1])]
     })
 }
 
@@ -250,7 +283,7 @@ impl Stiffness {
     /// Number of base columns without the pneumatic term (M, B, the stiffness and, with
     /// that mass form, the arm).
     pub fn plain_len(self, mass: MassForm) -> usize {
-        self.block_len() + mass.columns()
+        self.block_len() + usize::from(mass == MassForm::CartesianAndArm)
     }
 
     /// Number of columns of M, B and the stiffness.
@@ -278,8 +311,7 @@ impl Stiffness {
         }
     }
 
-    /// [`Self::positive`], the joints' inertias and the rigid body's scale with that mass
-    /// form, and, with the
+    /// [`Self::positive`], the rigid body's scale with that mass form, and, with the
     /// pneumatic term, its diagonals: a stretched
     /// muscle's volume shrinks and its pressure rises until the converter bleeds it back,
     /// so the gas stiffens the arm at the motion's faster frequencies and never softens it.
@@ -288,7 +320,9 @@ impl Stiffness {
     /// family.
     pub fn positive_with(self, mass: MassForm, pneumatic: bool) -> Vec<usize> {
         let mut v = self.positive().to_vec();
-        v.extend(self.block_len()..self.block_len() + mass.columns());
+        if mass == MassForm::CartesianAndArm {
+            v.push(self.block_len());
+        }
         if pneumatic {
             let at = self.plain_len(mass);
             v.extend([at, at + 2]);
@@ -404,7 +438,6 @@ pub(super) fn base_columns(
             }
         }
     }
-    cols.extend(shared.joint_inertia.iter().cloned());
     if let Some(arm) = &shared.arm {
         cols.push(arm.clone());
     }

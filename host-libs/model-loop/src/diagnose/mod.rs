@@ -11,7 +11,6 @@ mod cv;
 mod decide;
 mod diagnosis;
 mod dynamic;
-mod inertia;
 mod recording;
 mod resolution;
 mod selection;
