@@ -13,8 +13,10 @@
 //! behaviour) are diagnosed at every point of the grid (the refinement gate
 //! `min_family_gain` × the delay's floor `converter_lag_s`; the loop's defaults when
 //! not given); the tables show, per generator and point, the strict accuracy and the false
-//! alarms, then the cross-generator table: the point that is best on X (most logs strictly
-//! right, then fewest false alarms) scored on Y.
+//! alarms; then, at the default point, the effect logs by footprint (`pam_eval::footprint`:
+//! how many carry an effect under the model loop's materiality line, and how many of the
+//! misses are those); then the cross-generator table: the point that is best on X (most logs
+//! strictly right, then fewest false alarms) scored on Y.
 //!
 //! - physgen: pam-physgen, the rig's physics (rigid-body arm, gas-volume muscles, LuGre,
 //!   Maxwell-slip, Bouc–Wen, a load cell's 1/f and AR noise, a tare in the sensor frame);
@@ -27,6 +29,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use pam_effect_id::EffectId;
+use pam_eval::footprint::Footprints;
 use pam_eval::strict::{self, FinalModel, Strict, Tally};
 use pam_ident::Trial;
 use pam_log::Log;
@@ -36,12 +39,19 @@ use pam_model_loop::effects::Experiment;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// One log to diagnose: its generator's label, the trial, the truth's family.
+/// One log to diagnose: its generator's label, the trial, the truth's family, and the
+/// effect's footprint (`pam_eval::footprint`; `None` for a control).
 struct Case {
     label: String,
     family: String,
     experiment: Experiment,
     log: Result<Log, String>,
+    footprint: Option<f64>,
+}
+
+/// The footprint of `log`'s effect against the same config drawn without it.
+fn footprint_against(log: &Result<Log, String>, without: Result<Log, String>) -> Option<f64> {
+    pam_eval::footprint::footprint(log.as_ref().ok()?, &without.ok()?)
 }
 
 fn physgen_case(k: usize, seed0: u64, n: usize, only: Option<Experiment>) -> Case {
@@ -88,12 +98,15 @@ fn physgen_case(k: usize, seed0: u64, n: usize, only: Option<Experiment>) -> Cas
             family: g.truth.family.clone(),
             experiment,
             log: pam_log::read_str(&g.log_text, None).map_err(|e| e.to_string()),
+            // the generator runs the plant once more without the effect
+            footprint: (spec.effect != Effect::Control).then_some(g.truth.relative_size),
         },
         Err(e) => Case {
             label: format!("physgen {seed}"),
             family: spec.effect.family().into(),
             experiment,
             log: Err(e.to_string()),
+            footprint: None,
         },
     }
 }
@@ -114,12 +127,15 @@ fn synth_case(spec: &pam_synth::CaseSpec) -> Case {
             family: g.truth.family.name().to_string(),
             experiment,
             log: pam_log::read_str(&g.log_text, None).map_err(|e| e.to_string()),
+            // the generator measures the effect's own contribution
+            footprint: (spec.shape != pam_synth::Shape::Control).then_some(g.truth.relative_size),
         },
         Err(e) => Case {
             label: format!("synth {}", spec.seed),
             family: spec.family.name().to_string(),
             experiment,
             log: Err(e.to_string()),
+            footprint: None,
         },
     }
 }
@@ -191,13 +207,24 @@ fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
                     family,
                     experiment: Experiment::Dynamic,
                     log: Err(e.to_string()),
+                    footprint: None,
                 }
             }
         }
     }
-    let mut cfg = ExperimentConfig::new(tw);
-    cfg.period_s = period_s;
-    let (experiment, log, where_) = if dynamic {
+    let config = |tw: TwinConfig| {
+        let mut cfg = ExperimentConfig::new(tw);
+        cfg.period_s = period_s;
+        cfg
+    };
+    // the twin draws its noise and path from the seed alone: the same config without the
+    // effect gives the log the effect changed
+    let bare = TwinConfig {
+        effects: EffectSet::default(),
+        ..tw.clone()
+    };
+    let (cfg, bare) = (config(tw), config(bare));
+    let (experiment, log, without, where_) = if dynamic {
         // the friction-heavy specs stay at point 1, where the twin's preload is in range
         let point = if spec.starts_with("nonlinear") {
             1
@@ -207,6 +234,7 @@ fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
         (
             Experiment::Dynamic,
             dynamic_trial(&cfg, point, StiffnessLevel::Low, 60.0),
+            (!spec.is_empty()).then(|| dynamic_trial(&bare, point, StiffnessLevel::Low, 60.0)),
             format!("point {point}"),
         )
     } else {
@@ -218,9 +246,11 @@ fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
         (
             Experiment::Step,
             force_step_test(&cfg, pose),
+            (!spec.is_empty()).then(|| force_step_test(&bare, pose)),
             format!("pose {pose:?}"),
         )
     };
+    let log = log.map_err(|e| e.to_string());
     Case {
         label: format!(
             "twin {seed} {} {} {where_} {period_s} s",
@@ -229,7 +259,8 @@ fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
         ),
         family,
         experiment,
-        log: log.map_err(|e| e.to_string()),
+        footprint: without.and_then(|w| footprint_against(&log, w.map_err(|e| e.to_string()))),
+        log,
     }
 }
 
@@ -309,6 +340,8 @@ struct Judged {
     family: String,
     /// One final model per point of the grid.
     says: Vec<FinalModel>,
+    /// The effect's footprint (`pam_eval::footprint`), where it was drawn.
+    footprint: Option<f64>,
 }
 
 fn run(
@@ -359,8 +392,11 @@ fn run(
                         eprintln!("cannot write {}: {e}", path.display());
                     }
                 }
+                let footprint = case
+                    .footprint
+                    .map_or(String::new(), |f| format!(" footprint {:.2} %", 100.0 * f));
                 eprintln!(
-                    "{mark} {:<60} truth {:<12} -> {:<11} {:<22} final [{}] {:.1} s",
+                    "{mark} {:<60} truth {:<12} -> {:<11} {:<22} final [{}]{footprint} {:.1} s",
                     case.label,
                     case.family,
                     mid.verdict,
@@ -371,6 +407,7 @@ fn run(
                 out.lock().unwrap()[k] = Some(Judged {
                     family: case.family,
                     says,
+                    footprint: case.footprint,
                 });
             });
         }
@@ -425,6 +462,35 @@ fn calibrate(judged: &[Judged], grid: &Grid) -> usize {
                 .then(((b as f64 - d).abs()).total_cmp(&(a as f64 - d).abs()))
         })
         .unwrap_or(0)
+}
+
+/// The effect logs whose footprint was drawn, at the default point: how many carry an
+/// effect under the model loop's materiality line, and how many of the misses are those.
+fn footprints(runs: &[(String, Vec<Judged>)], def: usize) {
+    let line = Settings::default().min_effect_size;
+    let counts: Vec<(&String, Footprints)> = runs
+        .iter()
+        .map(|(gen, judged)| {
+            let mut c = Footprints::new(line);
+            for j in judged {
+                c.add(&j.family, &j.says[def], j.footprint);
+            }
+            (gen, c)
+        })
+        .filter(|(_, c)| c.measured > 0)
+        .collect();
+    if counts.is_empty() {
+        return;
+    }
+    println!();
+    println!(
+        "{}",
+        Footprints::HEADER.replace("{line}", &format!("{:.1}", 100.0 * line))
+    );
+    println!("|---|---|---|---|---|---|");
+    for (gen, c) in counts {
+        println!("| {gen} | {} |", c.row());
+    }
 }
 
 fn list(s: String) -> Vec<f64> {
@@ -517,6 +583,7 @@ fn main() {
             );
         }
     }
+    footprints(&runs, def);
     if runs.len() > 1 && points.len() > 1 {
         println!();
         println!("| calibrated on | chosen | scored on | strictly right | false alarms |");

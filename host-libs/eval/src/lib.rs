@@ -1,5 +1,6 @@
 //! `pam-eval`: how well the model loop does, measured.
 //!
+//! - [`footprint`]: how much of a log a hidden effect is (with it and without it, one seed).
 //! - [`judge`]: scores a diagnosis (its JSON) against the truth a generator hid in the log,
 //!   and draws the confusion matrix of many cases.
 //! - [`pairs`]: pairs of logs at two stiffness levels, friction or hysteresis, decided.
@@ -13,6 +14,7 @@
 //! - `scripts/`: the loop through pamctl on twin logs (`matrix.sh`), the recorded diagnoses
 //!   of a fixed set of logs (`behaviour.sh`), and the speed against numpy (`numpy_ratio.sh`).
 
+pub mod footprint;
 pub mod judge;
 pub mod pairs;
 pub mod strict;

@@ -263,7 +263,8 @@ tie, which the definition still counts as right. \"Stacked\" counts logs whose f
 right but whose final model holds another; \
 \"undecided\" counts logs, not right, whose family is among those the diagnosis says one log cannot \
 tell apart, with the experiment that would (a joint's friction and the muscles' hysteresis at one \
-stiffness level: the two-log decision is the friction-pairs section).",
+stiffness level: the two-log decision is the friction-pairs section). The second table counts \
+the effect logs by their footprint, as the cross-generator section's does.",
         kind: Kind::Tables,
         runs: physgen_runs,
     },
@@ -275,8 +276,13 @@ first enters the final model only if it removes that share of the base's error b
 shape of a family already in it; two families within it of each other are ambiguous), over the \
 same logs of pam-physgen, pam-synth and the twin (`pamctl simulate \
 --with SPEC`'s effects, two magnitudes, Table 4.1's points at 1 and 10 ms, step poses within ±10° at 10 ms), judged \
-strictly. The second table picks the point best on one generator (most logs strictly right, then \
-fewest false alarms) and scores it on each of the others.",
+strictly. The second table counts the effect logs by their footprint: the RMS change the effect \
+makes in the force over the force's spread, both axes pooled (`pam_eval::footprint`; pam-physgen \
+and pam-synth report it, the twin's log is drawn again from the same seed without the effect). An \
+effect under the model loop's materiality line (0.5 % of the signal) is one the protocol hardly \
+exercises and no decision can name; the strict counts above take those logs as they are, and the \
+table says how many of the misses they are. The third table picks the point best on one \
+generator (most logs strictly right, then fewest false alarms) and scores it on each of the others.",
         kind: Kind::Tables,
         runs: crossgen_runs,
     },
