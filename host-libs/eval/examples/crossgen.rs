@@ -483,11 +483,7 @@ fn footprints(runs: &[(String, Vec<Judged>)], def: usize) {
         return;
     }
     println!();
-    println!(
-        "{}",
-        Footprints::HEADER.replace("{line}", &format!("{:.1}", 100.0 * line))
-    );
-    println!("|---|---|---|---|---|---|");
+    println!("{}", counts[0].1.header());
     for (gen, c) in counts {
         println!("| {gen} | {} |", c.row());
     }

@@ -58,9 +58,6 @@ pub struct Footprints {
 }
 
 impl Footprints {
-    /// The table's header; `{line}` is the line in per cent.
-    pub const HEADER: &'static str = "| generator | effect logs with a footprint | under {line} % of the signal | of them strictly right | effect logs not strictly right | of them under the line |";
-
     pub fn new(line: f64) -> Self {
         Footprints {
             line,
@@ -80,6 +77,14 @@ impl Footprints {
         self.under_right += usize::from(under && right);
         self.missed += usize::from(!right);
         self.missed_under += usize::from(!right && under);
+    }
+
+    /// The table's header and rule, the line in per cent.
+    pub fn header(&self) -> String {
+        format!(
+            "| generator | effect logs with a footprint | under {:.1} % of the signal | of them strictly right | effect logs not strictly right | of them under the line |\n|---|---|---|---|---|---|",
+            100.0 * self.line
+        )
     }
 
     /// The table's row after the generator's name.
@@ -143,5 +148,6 @@ mod tests {
             (2, 1, 0, 2, 1)
         );
         assert_eq!(c.row(), "2 | 1 | 0 | 2 | 1");
+        assert!(c.header().contains("under 0.5 % of the signal"));
     }
 }

@@ -22,7 +22,7 @@ fn step_log(spec: Option<&str>, seed: u64, pose: [f64; 2]) -> Log {
 /// hundred-thousandths of the signal (a noise drawn again would differ by a few per cent).
 /// The cross-generator table counts such logs apart from the misses.
 #[test]
-fn a_saturation_whose_knee_the_steps_never_reach_leaves_no_footprint() {
+fn a_saturation_whose_knee_the_steps_hardly_reach_leaves_almost_no_footprint() {
     let (seed, pose) = (720_021, [5.2, -8.4]);
     let without = step_log(None, seed, pose);
     let default = step_log(Some("pressure_saturation"), seed, pose);
