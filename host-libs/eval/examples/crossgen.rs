@@ -18,6 +18,12 @@
 //! misses are those); then the cross-generator table: the point that is best on X (most logs
 //! strictly right, then fewest false alarms) scored on Y.
 //!
+//! Where a diagnosis leaves a joint's friction against the muscles' hysteresis open and
+//! names the same trial at the other stiffness level, the run makes that log (pam-physgen
+//! and the twin can) and decides the pair (`pam_model_loop::stiffness_pair`), as a user
+//! following the diagnosis would: the main table's "strictly right after them" scores the
+//! final model with the pair's family in place of the two left open.
+//!
 //! - physgen: pam-physgen, the rig's physics (rigid-body arm, gas-volume muscles, LuGre,
 //!   Maxwell-slip, Bouc–Wen, a load cell's 1/f and AR noise, a tare in the sensor frame);
 //! - synth: pam-synth's balanced plan;
@@ -28,256 +34,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
-use pam_effect_id::EffectId;
+use pam_eval::cases::{case, Case};
 use pam_eval::footprint::Footprints;
 use pam_eval::strict::{self, FinalModel, Strict, Tally};
 use pam_ident::Trial;
-use pam_log::Log;
 use pam_model::RobotModel;
 use pam_model_loop::diagnose::{diagnose, Settings};
-use pam_model_loop::effects::Experiment;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-
-/// One log to diagnose: its generator's label, the trial, the truth's family, and the
-/// effect's footprint (`pam_eval::footprint`; `None` for a control).
-struct Case {
-    label: String,
-    family: String,
-    experiment: Experiment,
-    log: Result<Log, String>,
-    footprint: Option<f64>,
-}
-
-/// The footprint of `log`'s effect against the same config drawn without it.
-fn footprint_against(log: &Result<Log, String>, without: Result<Log, String>) -> Option<f64> {
-    pam_eval::footprint::footprint(log.as_ref().ok()?, &without.ok()?)
-}
-
-fn physgen_case(k: usize, seed0: u64, n: usize, only: Option<Experiment>) -> Case {
-    use pam_physgen::{generate, CaseSpec, Effect};
-    let seed = seed0 + k as u64;
-    let controls = n / 4;
-    // the controls spread through the plan, as `pam-physgen --cases N` spreads them
-    let control = controls > 0 && (k * controls) / n != ((k + 1) * controls) / n;
-    let before = (k * controls) / n;
-    // the plan's controls alternate dynamic and step, its effects run through the dynamic
-    // ones then the step ones: one experiment alone keeps its own in turn
-    let (per, skip) = (
-        Effect::DYNAMIC.len() + Effect::STEP.len(),
-        Effect::DYNAMIC.len(),
-    );
-    let (control_k, effect_k) = match only {
-        None => (before, k - before),
-        Some(Experiment::Dynamic) => (2 * before, {
-            let i = k - before;
-            (i / skip) * per + i % skip
-        }),
-        Some(Experiment::Step) => (2 * before + 1, {
-            let i = k - before;
-            let m = per - skip;
-            (i / m) * per + skip + i % m
-        }),
-    };
-    let spec = if control {
-        CaseSpec::control(control_k, seed)
-    } else {
-        let mut draw = ChaCha8Rng::seed_from_u64(seed0 ^ (k as u64).wrapping_mul(0x9e37));
-        CaseSpec::effect_case(effect_k, seed, &mut draw)
-    };
-    let experiment = match spec.experiment {
-        pam_physgen::Experiment::Dynamic => Experiment::Dynamic,
-        pam_physgen::Experiment::Step => Experiment::Step,
-    };
-    match generate(&spec, None) {
-        Ok(g) => Case {
-            label: format!(
-                "physgen {seed} {} {}",
-                g.truth.experiment, g.truth.physical_effect
-            ),
-            family: g.truth.family.clone(),
-            experiment,
-            log: pam_log::read_str(&g.log_text, None).map_err(|e| e.to_string()),
-            // the generator runs the plant once more without the effect
-            footprint: (spec.effect != Effect::Control).then_some(g.truth.relative_size),
-        },
-        Err(e) => Case {
-            label: format!("physgen {seed}"),
-            family: spec.effect.family().into(),
-            experiment,
-            log: Err(e.to_string()),
-            footprint: None,
-        },
-    }
-}
-
-fn synth_case(spec: &pam_synth::CaseSpec) -> Case {
-    let experiment = match spec.experiment {
-        pam_synth::Experiment::Dynamic => Experiment::Dynamic,
-        pam_synth::Experiment::Step => Experiment::Step,
-    };
-    match pam_synth::generate(spec) {
-        Ok(g) => Case {
-            label: format!(
-                "synth {} {} {}",
-                spec.seed,
-                g.truth.experiment.name(),
-                g.truth.shape.name()
-            ),
-            family: g.truth.family.name().to_string(),
-            experiment,
-            log: pam_log::read_str(&g.log_text, None).map_err(|e| e.to_string()),
-            // the generator measures the effect's own contribution
-            footprint: (spec.shape != pam_synth::Shape::Control).then_some(g.truth.relative_size),
-        },
-        Err(e) => Case {
-            label: format!("synth {}", spec.seed),
-            family: spec.family.name().to_string(),
-            experiment,
-            log: Err(e.to_string()),
-            footprint: None,
-        },
-    }
-}
-
-/// The twin's effects as `pamctl simulate --with` takes them, two magnitudes each.
-const TWIN_DYNAMIC: &[&str] = &[
-    "",
-    "carrier_ball_friction:coulomb_n=1",
-    "carrier_ball_friction:coulomb_n=3",
-    "velocity_squared:coeff_n_s2_per_m2=150",
-    "velocity_squared:coeff_n_s2_per_m2=400",
-    "muscle_hysteresis",
-    "muscle_hysteresis:fraction=0.08",
-    "pose_dependence:gain_per_rad_1=0.6,gain_per_rad_2=-0.4",
-    "cable_slip",
-    "cable_slip:backlash_rad=0.01",
-    "loadcell_drift",
-    "loadcell_drift:offset_x_n=-3,drift_x_n_per_s=0.03",
-];
-const TWIN_STEP: &[&str] = &[
-    "",
-    "transport_delay",
-    "transport_delay:delay_s=0.02",
-    "asymmetric_ip_rates",
-    "asymmetric_ip_rates:inflation_s=4,deflation_s=1",
-    "pressure_saturation",
-    "pressure_saturation:max_bar=3.5,knee_bar=2.8",
-];
-
-fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
-    use pam_twin::experiments::{dynamic_trial, force_step_test, ExperimentConfig, StiffnessLevel};
-    use pam_twin::{EffectSet, TwinConfig};
-    let seed = seed0 + k as u64;
-    let mut r = ChaCha8Rng::seed_from_u64(seed);
-    // a control every fourth log, the effects of each trial in turn between them
-    let dynamic = match only {
-        Some(e) => e == Experiment::Dynamic,
-        None => k.is_multiple_of(2),
-    };
-    let list = if dynamic { TWIN_DYNAMIC } else { TWIN_STEP };
-    let spec = if k % 8 < 2 {
-        ""
-    } else {
-        list[1 + (k / 2) % (list.len() - 1)]
-    };
-    let family = if spec.is_empty() {
-        "none".to_string()
-    } else {
-        let id = spec.split(':').next().unwrap_or(spec);
-        match id.parse::<EffectId>().ok().map(EffectId::family) {
-            Some(Some(f)) => f.name().to_string(),
-            _ => "unexplained".to_string(),
-        }
-    };
-    let mut tw = TwinConfig::thesis();
-    tw.seed = seed;
-    // a step test is 24 steps at one pose: at 10 ms (the thesis's rig logs at 30–50 ms)
-    let period_s = if dynamic && r.random::<bool>() {
-        0.001
-    } else {
-        0.01
-    };
-    if !spec.is_empty() {
-        match EffectSet::parse_list(&[spec]) {
-            Ok(e) => tw.effects = e,
-            Err(e) => {
-                return Case {
-                    label: format!("twin {seed} {spec}"),
-                    family,
-                    experiment: Experiment::Dynamic,
-                    log: Err(e.to_string()),
-                    footprint: None,
-                }
-            }
-        }
-    }
-    let config = |tw: TwinConfig| {
-        let mut cfg = ExperimentConfig::new(tw);
-        cfg.period_s = period_s;
-        cfg
-    };
-    // the twin draws its noise and path from the seed alone: the same config without the
-    // effect gives the log the effect changed
-    let bare = TwinConfig {
-        effects: EffectSet::default(),
-        ..tw.clone()
-    };
-    let (cfg, bare) = (config(tw), config(bare));
-    let (experiment, log, without, where_) = if dynamic {
-        // the friction-heavy specs stay at point 1, where the twin's preload is in range
-        let point = if spec.starts_with("nonlinear") {
-            1
-        } else {
-            r.random_range(1..=5)
-        };
-        (
-            Experiment::Dynamic,
-            dynamic_trial(&cfg, point, StiffnessLevel::Low, 60.0),
-            (!spec.is_empty()).then(|| dynamic_trial(&bare, point, StiffnessLevel::Low, 60.0)),
-            format!("point {point}"),
-        )
-    } else {
-        let pose = [
-            r.random_range(-10.0..10.0f64),
-            r.random_range(-10.0..10.0f64),
-        ]
-        .map(|x| (x * 10.0).round() / 10.0);
-        (
-            Experiment::Step,
-            force_step_test(&cfg, pose),
-            (!spec.is_empty()).then(|| force_step_test(&bare, pose)),
-            format!("pose {pose:?}"),
-        )
-    };
-    let log = log.map_err(|e| e.to_string());
-    Case {
-        label: format!(
-            "twin {seed} {} {} {where_} {period_s} s",
-            if dynamic { "dynamic" } else { "step" },
-            if spec.is_empty() { "control" } else { spec }
-        ),
-        family,
-        experiment,
-        footprint: without.and_then(|w| footprint_against(&log, w.map_err(|e| e.to_string()))),
-        log,
-    }
-}
-
-fn cases(generator: &str, n: usize, seed0: u64, k: usize, only: Option<Experiment>) -> Case {
-    match generator {
-        "physgen" => physgen_case(k, seed0, n, only),
-        "twin" => twin_case(k, seed0, only),
-        _ => {
-            let only = only.map(|e| match e {
-                Experiment::Dynamic => pam_synth::Experiment::Dynamic,
-                Experiment::Step => pam_synth::Experiment::Step,
-            });
-            let plan = pam_synth::balanced::plan(n, seed0, only);
-            synth_case(&plan[k])
-        }
-    }
-}
+use pam_model_loop::effects::{Experiment, Family};
 
 /// The decision's two calibrated thresholds: the refinement gate and the delay's
 /// floor (the converters' own lag).
@@ -340,6 +103,11 @@ struct Judged {
     family: String,
     /// One final model per point of the grid.
     says: Vec<FinalModel>,
+    /// The same, once the separating experiment the diagnosis named for friction against
+    /// hysteresis (the trial at the other stiffness level) has been run and decided.
+    settled: Vec<FinalModel>,
+    /// Whether that experiment was run.
+    paired: bool,
     /// The effect's footprint (`pam_eval::footprint`), where it was drawn.
     footprint: Option<f64>,
 }
@@ -365,7 +133,7 @@ fn run(
                     break;
                 }
                 let t = Instant::now();
-                let case = cases(generator, n, seed0, k, only);
+                let case = case(generator, n, seed0, k, only);
                 let says = final_models(&case, &grid.gains, &grid.lags).unwrap_or_else(|e| {
                     vec![
                         FinalModel {
@@ -375,6 +143,9 @@ fn run(
                         points
                     ]
                 });
+                let (named, paired) = stiffness_pair(&case, &says);
+                let settled: Vec<FinalModel> =
+                    says.iter().map(|m| m.settled(named.as_deref())).collect();
                 let mid = &says[show];
                 let judged = strict::judge(&case.family, mid);
                 let mark = match judged {
@@ -392,9 +163,12 @@ fn run(
                         eprintln!("cannot write {}: {e}", path.display());
                     }
                 }
-                let footprint = case
+                let mut footprint = case
                     .footprint
                     .map_or(String::new(), |f| format!(" footprint {:.2} %", 100.0 * f));
+                if paired {
+                    footprint += &format!(" pair: {}", named.as_deref().unwrap_or("cannot tell"));
+                }
                 eprintln!(
                     "{mark} {:<60} truth {:<12} -> {:<11} {:<22} final [{}]{footprint} {:.1} s",
                     case.label,
@@ -407,12 +181,39 @@ fn run(
                 out.lock().unwrap()[k] = Some(Judged {
                     family: case.family,
                     says,
+                    settled,
+                    paired,
                     footprint: case.footprint,
                 });
             });
         }
     });
     out.into_inner().unwrap().into_iter().flatten().collect()
+}
+
+/// Runs the experiment a diagnosis names where one log cannot tell a joint's friction from
+/// the muscles' hysteresis (the same trial at the other stiffness level), as a user would,
+/// and decides the pair: the family it names (`None` when it cannot tell, or fails), and
+/// whether it was run (only where some point of the grid left the two open and the
+/// generator can run the trial).
+fn stiffness_pair(case: &Case, says: &[FinalModel]) -> (Option<String>, bool) {
+    let (Some(other), Ok(log)) = (&case.other_stiffness, &case.log) else {
+        return (None, false);
+    };
+    if !says.iter().any(FinalModel::awaits_stiffness_pair) {
+        return (None, false);
+    }
+    let verdict = Trial::from_log(log)
+        .map_err(|e| e.to_string())
+        .and_then(|a| Ok((a, other.trial()?)))
+        .and_then(|(a, b)| pam_eval::pairs::decide(&a, &b));
+    match verdict {
+        Ok(v) => (v.family.map(Family::name).map(str::to_string), true),
+        Err(e) => {
+            eprintln!("{}: the stiffness pair failed: {e}", case.label);
+            (None, true)
+        }
+    }
 }
 
 struct Grid {
@@ -445,6 +246,15 @@ fn tally(judged: &[Judged], g: usize) -> Tally {
     let mut t = Tally::default();
     for j in judged {
         t.add(&j.family, &j.says[g]);
+    }
+    t
+}
+
+/// [`tally`] once the named stiffness pairs were run and decided.
+fn tally_settled(judged: &[Judged], g: usize) -> Tally {
+    let mut t = Tally::default();
+    for j in judged {
+        t.add(&j.family, &j.settled[g]);
     }
     t
 }
@@ -560,19 +370,22 @@ fn main() {
             if i == def { " (default)" } else { "" }
         )
     };
-    println!("| generator | min_family_gain / converter_lag | strictly right | of them decided | first family right | stacked | undecided | false alarms | alarms said | strictly right per family |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| generator | min_family_gain / converter_lag | strictly right | of them decided | first family right | stacked | undecided | stiffness pairs run | strictly right after them | false alarms | alarms said | strictly right per family |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (gen, judged) in &runs {
+        let paired = judged.iter().filter(|j| j.paired).count();
         for i in 0..points.len() {
             let t = tally(judged, i);
+            let after = tally_settled(judged, i);
             println!(
-                "| {gen} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {gen} | {} | {} | {} | {} | {} | {} | {paired} | {} | {} | {} | {} |",
                 name(i),
                 Tally::ratio(t.right, t.cases),
                 t.decided,
                 Tally::ratio(t.first_right, t.cases),
                 t.stacked,
                 t.undecided,
+                Tally::ratio(after.right, after.cases),
                 Tally::ratio(t.false_alarms, t.controls),
                 t.alarms_said(),
                 t.per_family_said()

@@ -1,5 +1,7 @@
 //! `pam-eval`: how well the model loop does, measured.
 //!
+//! - [`cases`]: the logs of the cross-generator runs, each with its truth, its footprint and
+//!   the same trial at the other stiffness level where the generator can run it.
 //! - [`footprint`]: how much of a log a hidden effect is (with it and without it, one seed).
 //! - [`judge`]: scores a diagnosis (its JSON) against the truth a generator hid in the log,
 //!   and draws the confusion matrix of many cases.
@@ -14,6 +16,7 @@
 //! - `scripts/`: the loop through pamctl on twin logs (`matrix.sh`), the recorded diagnoses
 //!   of a fixed set of logs (`behaviour.sh`), and the speed against numpy (`numpy_ratio.sh`).
 
+pub mod cases;
 pub mod footprint;
 pub mod judge;
 pub mod pairs;

@@ -83,11 +83,15 @@ fn severity(index: usize) -> f64 {
     (0.5 + index as f64 * 0.618_033_988_749_895).fract()
 }
 
-fn decided(form: String, logs: Result<[Trial; 2], String>) -> PairOutcome {
+/// Friction or hysteresis from a dynamic log and the same trial at the other stiffness
+/// level, with the loop's default settings and the thesis's model.
+pub fn decide(a: &Trial, b: &Trial) -> Result<PairVerdict, String> {
     let model = RobotModel::<f64>::thesis();
-    let verdict = logs.and_then(|[a, b]| {
-        friction_or_hysteresis(&a, &b, &model, Settings::default()).map_err(|e| e.to_string())
-    });
+    friction_or_hysteresis(a, b, &model, Settings::default()).map_err(|e| e.to_string())
+}
+
+fn decided(form: String, logs: Result<[Trial; 2], String>) -> PairOutcome {
+    let verdict = logs.and_then(|[a, b]| decide(&a, &b));
     match verdict {
         Ok(v) => PairOutcome {
             form,

@@ -31,6 +31,40 @@ impl FinalModel {
     pub fn left_open(&self, family: &str) -> bool {
         self.undecided.iter().any(|u| u == family)
     }
+
+    /// Whether the diagnosis leaves friction against hysteresis open: the same trial at
+    /// the other stiffness level decides it (`pam_model_loop::stiffness_pair`).
+    pub fn awaits_stiffness_pair(&self) -> bool {
+        self.verdict == "effect" && self.left_open("friction") && self.left_open("hysteresis")
+    }
+
+    /// The final model once the separating experiment has named `family`: it takes the
+    /// place of every family left open, and nothing is left open. Unchanged when the
+    /// experiment named nothing, or a family the diagnosis did not leave open.
+    pub fn settled(&self, family: Option<&str>) -> FinalModel {
+        let Some(named) = family.filter(|f| self.left_open(f)) else {
+            return self.clone();
+        };
+        let mut families: Vec<String> = Vec::new();
+        for f in &self.families {
+            let f = if self.left_open(f) { named } else { f.as_str() };
+            if !families.iter().any(|g| g == f) {
+                families.push(f.to_string());
+            }
+        }
+        FinalModel {
+            verdict: self.verdict.clone(),
+            first: self.first.as_ref().map(|f| {
+                if self.left_open(f) {
+                    named.to_string()
+                } else {
+                    f.clone()
+                }
+            }),
+            families,
+            undecided: Vec::new(),
+        }
+    }
 }
 
 /// Reads the final model from `serde_json::to_value(&diagnosis)`.
@@ -269,6 +303,34 @@ mod tests {
             &read(&diagnosis("effect", "hysteresis", &["a_shape"])),
         );
         assert_eq!((t.right, t.decided), (2, 1));
+    }
+
+    #[test]
+    fn the_separating_experiment_settles_what_the_log_left_open() {
+        let mut v = diagnosis("effect", "hysteresis", &["a_shape"]);
+        v["ambiguous"] = json!(["hysteresis", "friction"]);
+        v["separating_experiment"] = json!("the other stiffness level");
+        let says = read(&v);
+        assert!(says.awaits_stiffness_pair());
+        let friction = says.settled(Some("friction"));
+        assert_eq!(friction.first.as_deref(), Some("friction"));
+        assert_eq!(friction.families, ["friction"]);
+        assert!(friction.undecided.is_empty() && !friction.awaits_stiffness_pair());
+        assert_eq!(judge("friction", &friction), Strict::Right);
+        assert_eq!(judge("hysteresis", &friction), Strict::Wrong);
+        // the pair could not tell, or named a family the log did not leave open
+        assert_eq!(judge("friction", &says.settled(None)), Strict::Undecided);
+        assert_eq!(says.settled(Some("drift")).undecided, says.undecided);
+        // a family the log did not leave open stays in the final model
+        let mut v = diagnosis("effect", "hysteresis", &["a_shape", "maxwell_slip"]);
+        v["effects"][1]["family"] = json!("backlash");
+        v["ambiguous"] = json!(["hysteresis", "friction"]);
+        v["separating_experiment"] = json!("the other stiffness level");
+        let stacked = read(&v).settled(Some("friction"));
+        assert_eq!(stacked.families, ["friction", "backlash"]);
+        assert_eq!(judge("friction", &stacked), Strict::Stacked);
+        // one log that decided needs no pair
+        assert!(!read(&diagnosis("effect", "friction", &["a_shape"])).awaits_stiffness_pair());
     }
 
     #[test]

@@ -124,6 +124,10 @@ fn draw_rig(
             base.insert("hand_b_n_s_per_m".into(), hand.b_n_s_per_m);
             base.insert("joint_stiffness_nm_per_rad_1".into(), kj[0]);
             base.insert("joint_stiffness_nm_per_rad_2".into(), kj[1]);
+            // where between the point's K_low (0) and K_high (1): the other level's trial
+            // (`generate_at_stiffness`) is the experiment that separates friction from
+            // the muscles' hysteresis
+            base.insert("stiffness_level".into(), level);
             Rig {
                 regulators,
                 hand,

@@ -263,7 +263,8 @@ tie, which the definition still counts as right. \"Stacked\" counts logs whose f
 right but whose final model holds another; \
 \"undecided\" counts logs, not right, whose family is among those the diagnosis says one log cannot \
 tell apart, with the experiment that would (a joint's friction and the muscles' hysteresis at one \
-stiffness level: the two-log decision is the friction-pairs section). The second table counts \
+stiffness level: \"stiffness pairs run\" and \"strictly right after them\" are the final model \
+once that experiment was run and decided, as in the cross-generator section). The second table counts \
 the effect logs by their footprint, as the cross-generator section's does.",
         kind: Kind::Tables,
         runs: physgen_runs,
@@ -276,7 +277,12 @@ first enters the final model only if it removes that share of the base's error b
 shape of a family already in it; two families within it of each other are ambiguous), over the \
 same logs of pam-physgen, pam-synth and the twin (`pamctl simulate \
 --with SPEC`'s effects, two magnitudes, Table 4.1's points at 1 and 10 ms, step poses within ±10° at 10 ms), judged \
-strictly. The second table counts the effect logs by their footprint: the RMS change the effect \
+strictly. Where a diagnosis says one log cannot tell a joint's friction from the muscles' \
+hysteresis and names the same trial at the other stiffness level, the run makes that log with \
+the generator (pam-physgen and the twin can; pam-synth has no stiffness level) and decides the \
+pair as `pamctl model diagnose A.csv B.csv` does: \"stiffness pairs run\" counts them, \
+\"strictly right after them\" scores the final model with the pair's family in place of the \
+two left open. The second table counts the effect logs by their footprint: the RMS change the effect \
 makes in the force over the force's spread, both axes pooled (`pam_eval::footprint`; pam-physgen \
 and pam-synth report it, the twin's log is drawn again from the same seed without the effect). An \
 effect under the model loop's materiality line (0.5 % of the signal) is one the protocol hardly \

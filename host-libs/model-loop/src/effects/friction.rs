@@ -1,5 +1,6 @@
 //! Friction at the handle: the carrier ball's dry friction and quadratic drag.
 
+use super::hysteresis::{maxwell_slip_state, SLIP_BREAKAWAYS_RAD};
 use super::DynCtx;
 use super::DynTerm;
 use super::Experiment;
@@ -200,15 +201,17 @@ impl ModelEffect for PreslidingFriction {
 
 /// Friction in each joint's bearings and pulley: a torque of constant size against the
 /// joint's motion, per joint (≥ 0), acting on the arm where it turns rather than at the
-/// handle. Its shapes are Coulomb friction faded in over a joint speed (rad/s, grid) and
+/// handle. Its shapes are Coulomb friction faded in over a joint speed (rad/s, grid),
 /// LuGre bristles that deflect over a presliding angle (rad, grid) before the joint slides,
-/// so the torque turns over that angle after each reversal. Viscous friction in the joints
-/// is the base model's damping.
+/// and the generalized Maxwell-slip form of a bearing's presliding friction (elements that
+/// break away at δ, 2δ and 4δ; δ a grid in rad), so the torque turns over that angle after
+/// each reversal. Viscous friction in the joints is the base model's damping.
 ///
 /// Within one log the presliding torque is the same signal as the muscles' hysteresis (a
-/// torque that turns over a small excursion): the pressures are constant through a dynamic
-/// trial, and only how the torque changes with them tells the two apart (the same trial at
-/// the other stiffness level, [`crate::stiffness_pair`]).
+/// torque that turns over a small excursion; the Maxwell-slip shapes are the hysteresis
+/// family's own, so the fit cannot prefer either): the pressures are constant through a
+/// dynamic trial, and only how the torque changes with them tells the two apart (the same
+/// trial at the other stiffness level, [`crate::stiffness_pair`]).
 pub struct JointFriction;
 impl ModelEffect for JointFriction {
     fn id(&self) -> &'static str {
@@ -236,7 +239,10 @@ impl ModelEffect for JointFriction {
         let lugre = [0.0004, 0.0015]
             .iter()
             .map(|&d| Shape(vec![(ShapeParam::PreslidingRad, d)]));
-        coulomb.chain(lugre).collect()
+        let maxwell_slip = SLIP_BREAKAWAYS_RAD
+            .iter()
+            .map(|&d| Shape(vec![(ShapeParam::BreakawayRad, d)]));
+        coulomb.chain(lugre).chain(maxwell_slip).collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         let p = ctx.p;
@@ -245,7 +251,9 @@ impl ModelEffect for JointFriction {
         for (j, name) in [(0, "coulomb_nm_joint1"), (1, "coulomb_nm_joint2")] {
             let a = &p.alpha_smooth_rad[j];
             let mut col = vec![0.0; n];
-            if let Some(d) = shape.get(ShapeParam::PreslidingRad) {
+            if let Some(d) = shape.get(ShapeParam::BreakawayRad) {
+                col = maxwell_slip_state(a, d);
+            } else if let Some(d) = shape.get(ShapeParam::PreslidingRad) {
                 // the bristles' mean deflection z/z_ss: dz = dα (1 − z·sgn(dα)) / d
                 let d = d.max(1e-7);
                 let mut z = 0.0f64;

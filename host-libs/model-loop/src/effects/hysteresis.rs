@@ -156,6 +156,30 @@ impl ModelEffect for ElasticLoop {
     }
 }
 
+/// The breakaway angles (rad) of the Maxwell-slip shapes: the muscles' hysteresis and a
+/// joint's generalized Maxwell-slip friction share them.
+pub(crate) const SLIP_BREAKAWAYS_RAD: [f64; 5] = [0.0003, 0.0006, 0.0012, 0.0025, 0.005];
+
+/// The state of three elasto-plastic elements in parallel (breakaway angles δ, 2δ, 4δ)
+/// driven by the angle `a_rad`, as the share of the torque at full slip (−1 to 1): each
+/// sticks until it is deflected by its breakaway angle, then slips.
+pub(crate) fn maxwell_slip_state(a_rad: &[f64], delta_rad: f64) -> Vec<f64> {
+    let delta = delta_rad.max(1e-6);
+    let widths = [delta, 2.0 * delta, 4.0 * delta];
+    let mut z = [0.0f64; 3];
+    let mut col = vec![0.0; a_rad.len()];
+    for i in 1..a_rad.len() {
+        let da = a_rad[i] - a_rad[i - 1];
+        let mut sum = 0.0;
+        for (zk, w) in z.iter_mut().zip(widths) {
+            *zk = (*zk + da).clamp(-w, w);
+            sum += *zk / w;
+        }
+        col[i] = sum / 3.0;
+    }
+    col
+}
+
 /// Maxwell-slip hysteresis of the muscle pairs: per joint, elasto-plastic elements that
 /// stick until their breakaway angle (δ, 2δ, 4δ; δ a grid in rad) and then slip — the
 /// braid's friction seen as a torque; the torque at full slip ≥ 0 per joint.
@@ -180,29 +204,17 @@ impl ModelEffect for MaxwellSlip {
         e == Experiment::Dynamic
     }
     fn shapes(&self, _ctx: &DynCtx) -> Vec<Shape> {
-        [0.0003, 0.0006, 0.0012, 0.0025, 0.005]
+        SLIP_BREAKAWAYS_RAD
             .iter()
             .map(|&d| Shape(vec![(ShapeParam::BreakawayRad, d)]))
             .collect()
     }
     fn dynamic_term(&self, ctx: &DynCtx, shape: &Shape) -> DynTerm {
         let p = ctx.p;
-        let delta = shape.get(ShapeParam::BreakawayRad).unwrap_or(0.0).max(1e-6);
+        let delta = shape.get(ShapeParam::BreakawayRad).unwrap_or(0.0);
         let mut cols = Vec::new();
         for (j, name) in [(0, "slip_torque_nm_joint1"), (1, "slip_torque_nm_joint2")] {
-            let widths = [delta, 2.0 * delta, 4.0 * delta];
-            let mut z = [0.0f64; 3];
-            let mut col = vec![0.0; p.len()];
-            let a = &p.alpha_smooth_rad[j];
-            for i in 1..p.len() {
-                let da = a[i] - a[i - 1];
-                let mut sum = 0.0;
-                for (zk, w) in z.iter_mut().zip(widths) {
-                    *zk = (*zk + da).clamp(-w, w);
-                    sum += *zk / w;
-                }
-                col[i] = sum / 3.0;
-            }
+            let col = maxwell_slip_state(&p.alpha_smooth_rad[j], delta);
             cols.push(ctx.torque_column(name, |i| {
                 let mut t = [0.0; 2];
                 t[j] = -col[i];

@@ -397,13 +397,16 @@ pub fn catalog() -> Vec<&'static dyn ModelEffect> {
         &LoadcellDrift,
         &StribeckFriction,
         &PreslidingFriction,
-        &JointFriction,
         &JointPlay,
         &SettlingDrift,
         &CommandSlew,
         &ForceSlew,
         &ElasticLoop,
         &MaxwellSlip,
+        // after the muscles' Maxwell-slip: a joint's Maxwell-slip friction is the same
+        // signal, and where the two fit alike the family whose own shape it is comes first
+        // (the diagnosis says the log cannot tell them apart either way)
+        &JointFriction,
         &CubicAboutEquilibrium,
         &ForceSaturation,
         &MusclePressureCap,
