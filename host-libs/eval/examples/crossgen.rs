@@ -89,14 +89,23 @@ fn final_models_at(
 }
 
 /// The final model at every point of the grid (lags outer, gains inner).
-fn final_models(case: &Case, gains: &[f64], lags: &[f64]) -> Result<Vec<FinalModel>, String> {
-    let log = case.log.as_ref().map_err(Clone::clone)?;
-    let trial = Trial::from_log(log).map_err(|e| e.to_string())?;
+fn final_models(
+    trial: &Trial,
+    experiment: Experiment,
+    gains: &[f64],
+    lags: &[f64],
+) -> Result<Vec<FinalModel>, String> {
     let mut out = Vec::new();
     for &lag in lags {
-        out.extend(final_models_at(&trial, case.experiment, gains, lag)?);
+        out.extend(final_models_at(trial, experiment, gains, lag)?);
     }
     Ok(out)
+}
+
+/// The case's log as a trial.
+fn trial_of(case: &Case) -> Result<Trial, String> {
+    let log = case.log.as_ref().map_err(Clone::clone)?;
+    Trial::from_log(log).map_err(|e| e.to_string())
 }
 
 struct Judged {
@@ -134,16 +143,24 @@ fn run(
                 }
                 let t = Instant::now();
                 let case = case(generator, n, seed0, k, only);
-                let says = final_models(&case, &grid.gains, &grid.lags).unwrap_or_else(|e| {
-                    vec![
-                        FinalModel {
-                            verdict: format!("error: {e}"),
-                            ..Default::default()
-                        };
-                        points
-                    ]
-                });
-                let (named, paired) = stiffness_pair(&case, &says);
+                let trial = trial_of(&case);
+                let says = trial
+                    .as_ref()
+                    .map_err(Clone::clone)
+                    .and_then(|tr| final_models(tr, case.experiment, &grid.gains, &grid.lags))
+                    .unwrap_or_else(|e| {
+                        vec![
+                            FinalModel {
+                                verdict: format!("error: {e}"),
+                                ..Default::default()
+                            };
+                            points
+                        ]
+                    });
+                let (named, paired) = match &trial {
+                    Ok(tr) => stiffness_pair(&case, tr, &says),
+                    Err(_) => (None, false),
+                };
                 let settled: Vec<FinalModel> =
                     says.iter().map(|m| m.settled(named.as_deref())).collect();
                 let mid = &says[show];
@@ -196,17 +213,16 @@ fn run(
 /// and decides the pair: the family it names (`None` when it cannot tell, or fails), and
 /// whether it was run (only where some point of the grid left the two open and the
 /// generator can run the trial).
-fn stiffness_pair(case: &Case, says: &[FinalModel]) -> (Option<String>, bool) {
-    let (Some(other), Ok(log)) = (&case.other_stiffness, &case.log) else {
+fn stiffness_pair(case: &Case, trial: &Trial, says: &[FinalModel]) -> (Option<String>, bool) {
+    let Some(other) = &case.other_stiffness else {
         return (None, false);
     };
     if !says.iter().any(FinalModel::awaits_stiffness_pair) {
         return (None, false);
     }
-    let verdict = Trial::from_log(log)
-        .map_err(|e| e.to_string())
-        .and_then(|a| Ok((a, other.trial()?)))
-        .and_then(|(a, b)| pam_eval::pairs::decide(&a, &b));
+    let verdict = other
+        .trial()
+        .and_then(|b| pam_eval::pairs::decide(trial, &b));
     match verdict {
         Ok(v) => (v.family.map(Family::name).map(str::to_string), true),
         Err(e) => {

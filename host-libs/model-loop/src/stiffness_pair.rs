@@ -23,6 +23,7 @@
 //! (`cargo xtask eval --only friction-pairs`); within [`GROWTH_DOUBT`] of it the pair cannot tell.
 
 use crate::diagnose::{Loop, Settings};
+use crate::effects::SLIP_BREAKAWAYS_RAD;
 use crate::effects::{
     DynCtx, DynTerm, Experiment, Family, MaxwellSlip, ModelEffect, PreslidingFriction, Shape,
     ShapeParam,
@@ -54,7 +55,7 @@ pub const SEPARATING_EXPERIMENT: &str = "repeat the same trial at Table 4.1's ot
 /// The Maxwell-slip breakaway angles tried (rad): the catalog's grid. Both logs are compared
 /// at the one that fits them best together, so a change of shape is not read as a change of
 /// size.
-pub const BREAKAWAYS_RAD: [f64; 5] = [0.0003, 0.0006, 0.0012, 0.0025, 0.005];
+pub const BREAKAWAYS_RAD: [f64; 5] = SLIP_BREAKAWAYS_RAD;
 
 /// The catalog's Maxwell-slip at the k-th of [`BREAKAWAYS_RAD`] (an id of its own each, as
 /// the loop keeps the shapes it chose per id).

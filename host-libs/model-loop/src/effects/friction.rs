@@ -250,30 +250,33 @@ impl ModelEffect for JointFriction {
         let mut cols = Vec::new();
         for (j, name) in [(0, "coulomb_nm_joint1"), (1, "coulomb_nm_joint2")] {
             let a = &p.alpha_smooth_rad[j];
-            let mut col = vec![0.0; n];
-            if let Some(d) = shape.get(ShapeParam::BreakawayRad) {
-                col = maxwell_slip_state(a, d);
-            } else if let Some(d) = shape.get(ShapeParam::PreslidingRad) {
-                // the bristles' mean deflection z/z_ss: dz = dα (1 − z·sgn(dα)) / d
-                let d = d.max(1e-7);
-                let mut z = 0.0f64;
-                for i in 1..n {
-                    let da = a[i] - a[i - 1];
-                    z = (z + da / d * (1.0 - z * da.signum())).clamp(-1.0, 1.0);
-                    col[i] = z;
-                }
+            let col = if let Some(d) = shape.get(ShapeParam::BreakawayRad) {
+                maxwell_slip_state(a, d)
             } else {
-                let w = shape
-                    .get(ShapeParam::SmoothingRadS)
-                    .unwrap_or(0.01)
-                    .max(1e-6);
-                for i in 0..n {
-                    let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
-                    let dt = (hi - lo) as f64 * p.dt_s;
-                    let omega = if dt > 0.0 { (a[hi] - a[lo]) / dt } else { 0.0 };
-                    col[i] = omega / (omega * omega + w * w).sqrt();
+                let mut col = vec![0.0; n];
+                if let Some(d) = shape.get(ShapeParam::PreslidingRad) {
+                    // the bristles' mean deflection z/z_ss: dz = dα (1 − z·sgn(dα)) / d
+                    let d = d.max(1e-7);
+                    let mut z = 0.0f64;
+                    for i in 1..n {
+                        let da = a[i] - a[i - 1];
+                        z = (z + da / d * (1.0 - z * da.signum())).clamp(-1.0, 1.0);
+                        col[i] = z;
+                    }
+                } else {
+                    let w = shape
+                        .get(ShapeParam::SmoothingRadS)
+                        .unwrap_or(0.01)
+                        .max(1e-6);
+                    for i in 0..n {
+                        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                        let dt = (hi - lo) as f64 * p.dt_s;
+                        let omega = if dt > 0.0 { (a[hi] - a[lo]) / dt } else { 0.0 };
+                        col[i] = omega / (omega * omega + w * w).sqrt();
+                    }
                 }
-            }
+                col
+            };
             // the friction torque opposes the motion: Δτ = −T·col
             cols.push(ctx.torque_column(name, |i| {
                 let mut t = [0.0; 2];

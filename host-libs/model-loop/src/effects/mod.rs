@@ -371,6 +371,7 @@ mod stiffness;
 pub use friction::{
     CarrierBallFriction, JointFriction, PreslidingFriction, StribeckFriction, VelocitySquared,
 };
+pub(crate) use hysteresis::SLIP_BREAKAWAYS_RAD;
 pub use hysteresis::{ElasticLoop, MaxwellSlip, MuscleHysteresis, PressureHysteresis};
 pub use pose::PoseDependence;
 pub use sensor_filter::{group_delay_s, LoadCellFilter, LowpassMemo};
