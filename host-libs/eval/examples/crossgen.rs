@@ -22,7 +22,11 @@
 //! names the same trial at the other stiffness level, the run makes that log (pam-physgen
 //! and the twin can) and decides the pair (`pam_model_loop::stiffness_pair`), as a user
 //! following the diagnosis would: the main table's "strictly right after them" scores the
-//! final model with the pair's family in place of the two left open.
+//! final model with the pair's family in place of the two left open. Where a step log's
+//! diagnosis says it has too few steps to decide and about how many would (at most
+//! [`MORE_STEPS_MAX`] times its own), the run makes the same trial that much longer
+//! (pam-physgen and pam-synth can; the twin's step test is its fixed 24 steps) and scores
+//! that log's final model instead.
 //!
 //! - physgen: pam-physgen, the rig's physics (rigid-body arm, gas-volume muscles, LuGre,
 //!   Maxwell-slip, Bouc–Wen, a load cell's 1/f and AR noise, a tare in the sensor frame);
@@ -117,6 +121,9 @@ struct Judged {
     settled: Vec<FinalModel>,
     /// Whether that experiment was run.
     paired: bool,
+    /// Whether a step log's diagnosis named a longer trial (too few steps to decide) and
+    /// it was run: `settled` then holds its final model where the diagnosis named it.
+    lengthened: bool,
     /// The effect's footprint (`pam_eval::footprint`), where it was drawn.
     footprint: Option<f64>,
 }
@@ -161,8 +168,19 @@ fn run(
                     Ok(tr) => stiffness_pair(&case, tr, &says),
                     Err(_) => (None, false),
                 };
-                let settled: Vec<FinalModel> =
+                let mut settled: Vec<FinalModel> =
                     says.iter().map(|m| m.settled(named.as_deref())).collect();
+                let lengthened = match &trial {
+                    Ok(tr) => more_steps(&case, tr, &says, grid),
+                    Err(_) => None,
+                };
+                if let Some(longer) = &lengthened {
+                    for (i, m) in longer.says.iter().enumerate() {
+                        if let Some(m) = m {
+                            settled[i] = m.clone();
+                        }
+                    }
+                }
                 let mid = &says[show];
                 let judged = strict::judge(&case.family, mid);
                 let mark = match judged {
@@ -186,6 +204,16 @@ fn run(
                 if paired {
                     footprint += &format!(" pair: {}", named.as_deref().unwrap_or("cannot tell"));
                 }
+                if let Some(longer) = &lengthened {
+                    if let Some(m) = &longer.says[show] {
+                        footprint += &format!(
+                            " {} steps: {} [{}]",
+                            longer.steps,
+                            m.verdict,
+                            m.families.join(", ")
+                        );
+                    }
+                }
                 eprintln!(
                     "{mark} {:<60} truth {:<12} -> {:<11} {:<22} final [{}]{footprint} {:.1} s",
                     case.label,
@@ -200,6 +228,7 @@ fn run(
                     says,
                     settled,
                     paired,
+                    lengthened: lengthened.is_some(),
                     footprint: case.footprint,
                 });
             });
@@ -228,6 +257,54 @@ fn stiffness_pair(case: &Case, trial: &Trial, says: &[FinalModel]) -> (Option<St
         Err(e) => {
             eprintln!("{}: the stiffness pair failed: {e}", case.label);
             (None, true)
+        }
+    }
+}
+
+/// The longest trial a step log's diagnosis may name and still be run, as a multiple of the
+/// log's own steps: a user runs the longer trial a diagnosis names when it is within reach
+/// (an afternoon at the rig); one that needs more than this shows no gain worth following.
+const MORE_STEPS_MAX: f64 = 4.0;
+
+/// The longer step trial a diagnosis named, run and diagnosed.
+struct Longer {
+    /// Its final model at every point of the grid whose diagnosis named it.
+    says: Vec<Option<FinalModel>>,
+    /// The steps it was asked for.
+    steps: usize,
+}
+
+/// Runs the longer trial a step log's diagnosis names where it has too few steps to decide
+/// (about how many would decide, at the grid's points), as a user would, and diagnoses it.
+/// `None` when no point named one within [`MORE_STEPS_MAX`], or the generator cannot run it.
+fn more_steps(case: &Case, trial: &Trial, says: &[FinalModel], grid: &Grid) -> Option<Longer> {
+    let more = case.more_steps.as_ref()?;
+    let within = |m: &FinalModel| {
+        m.more_steps
+            .filter(|&(have, need)| have > 0 && need as f64 <= MORE_STEPS_MAX * have as f64)
+    };
+    // one trial serves every point: the most steps any of them asks for
+    let (have, need) = says
+        .iter()
+        .filter_map(within)
+        .max_by_key(|&(_, need)| need)?;
+    let span_s = trial.t_s.last()? - trial.t_s.first()?;
+    let duration_s = (span_s * need as f64 / have as f64).ceil();
+    let longer = more
+        .trial(duration_s)
+        .and_then(|tr| final_models(&tr, case.experiment, &grid.gains, &grid.lags));
+    match longer {
+        Ok(l) => Some(Longer {
+            says: says
+                .iter()
+                .zip(l)
+                .map(|(m, l)| within(m).map(|_| l))
+                .collect(),
+            steps: need,
+        }),
+        Err(e) => {
+            eprintln!("{}: the longer trial failed: {e}", case.label);
+            None
         }
     }
 }
@@ -266,7 +343,8 @@ fn tally(judged: &[Judged], g: usize) -> Tally {
     t
 }
 
-/// [`tally`] once the named stiffness pairs were run and decided.
+/// [`tally`] once the named experiments (stiffness pairs, longer step trials) were run and
+/// decided.
 fn tally_settled(judged: &[Judged], g: usize) -> Tally {
     let mut t = Tally::default();
     for j in judged {
@@ -386,15 +464,16 @@ fn main() {
             if i == def { " (default)" } else { "" }
         )
     };
-    println!("| generator | min_family_gain / converter_lag | strictly right | of them decided | first family right | stacked | undecided | stiffness pairs run | strictly right after them | false alarms | alarms said | strictly right per family |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| generator | min_family_gain / converter_lag | strictly right | of them decided | first family right | stacked | undecided | stiffness pairs run | longer step trials run | strictly right after them | false alarms | false alarms after them | alarms said | strictly right per family |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (gen, judged) in &runs {
         let paired = judged.iter().filter(|j| j.paired).count();
+        let lengthened = judged.iter().filter(|j| j.lengthened).count();
         for i in 0..points.len() {
             let t = tally(judged, i);
             let after = tally_settled(judged, i);
             println!(
-                "| {gen} | {} | {} | {} | {} | {} | {} | {paired} | {} | {} | {} | {} |",
+                "| {gen} | {} | {} | {} | {} | {} | {} | {paired} | {lengthened} | {} | {} | {} | {} | {} |",
                 name(i),
                 Tally::ratio(t.right, t.cases),
                 t.decided,
@@ -403,6 +482,7 @@ fn main() {
                 t.undecided,
                 Tally::ratio(after.right, after.cases),
                 Tally::ratio(t.false_alarms, t.controls),
+                Tally::ratio(after.false_alarms, after.controls),
                 t.alarms_said(),
                 t.per_family_said()
             );

@@ -2,7 +2,8 @@
 //! plan: pam-physgen's, pam-synth's and the twin's, each with its truth's family, the
 //! effect's footprint ([`crate::footprint`]) and, where the generator can run it, the
 //! separating experiment the diagnosis may name for a joint's friction against the
-//! muscles' hysteresis: the same trial at the other stiffness level ([`OtherStiffness`]).
+//! muscles' hysteresis: the same trial at the other stiffness level ([`OtherStiffness`]);
+//! and, for a step log with too few steps to decide, the same trial longer ([`MoreSteps`]).
 
 use pam_effect_id::EffectId;
 use pam_ident::Trial;
@@ -70,6 +71,33 @@ impl OtherStiffness {
     }
 }
 
+/// The same step trial, longer, as the generator makes it: the same rig and effect (one
+/// seed), the schedule drawn again for the longer duration.
+#[derive(Clone, Debug)]
+pub enum MoreSteps {
+    Physgen(pam_physgen::CaseSpec),
+    Synth(Box<pam_synth::CaseSpec>),
+}
+
+impl MoreSteps {
+    /// Runs the trial for `duration_s`.
+    pub fn trial(&self, duration_s: f64) -> Result<Trial, String> {
+        let text = match self {
+            MoreSteps::Physgen(spec) => pam_physgen::generate(spec, Some(duration_s))
+                .map(|g| g.log_text)
+                .map_err(|e| e.to_string())?,
+            MoreSteps::Synth(spec) => pam_synth::generate(&pam_synth::CaseSpec {
+                duration_s,
+                ..(**spec).clone()
+            })
+            .map(|g| g.log_text)
+            .map_err(|e| e.to_string())?,
+        };
+        let log = pam_log::read_str(&text, None).map_err(|e| e.to_string())?;
+        Trial::from_log(&log).map_err(|e| e.to_string())
+    }
+}
+
 /// One log to diagnose: its generator's label, the trial, the truth's family, and the
 /// effect's footprint (`pam_eval::footprint`; `None` for a control).
 pub struct Case {
@@ -80,6 +108,8 @@ pub struct Case {
     pub footprint: Option<f64>,
     /// The same trial at the other stiffness level, where the generator can run it.
     pub other_stiffness: Option<OtherStiffness>,
+    /// A step trial: the same trial longer, where the generator can run it.
+    pub more_steps: Option<MoreSteps>,
 }
 
 /// The footprint of `log`'s effect against the same config drawn without it.
@@ -134,6 +164,7 @@ fn physgen_case(k: usize, seed0: u64, n: usize, only: Option<Experiment>) -> Cas
             // the generator runs the plant once more without the effect
             footprint: (spec.effect != Effect::Control).then_some(g.truth.relative_size),
             other_stiffness: OtherStiffness::physgen(&spec, &g.truth, None),
+            more_steps: (experiment == Experiment::Step).then_some(MoreSteps::Physgen(spec)),
         },
         Err(e) => Case {
             label: format!("physgen {seed}"),
@@ -142,6 +173,7 @@ fn physgen_case(k: usize, seed0: u64, n: usize, only: Option<Experiment>) -> Cas
             log: Err(e.to_string()),
             footprint: None,
             other_stiffness: None,
+            more_steps: None,
         },
     }
 }
@@ -166,6 +198,8 @@ fn synth_case(spec: &pam_synth::CaseSpec) -> Case {
             footprint: (spec.shape != pam_synth::Shape::Control).then_some(g.truth.relative_size),
             // pam-synth's logs have no stiffness level to change
             other_stiffness: None,
+            more_steps: (experiment == Experiment::Step)
+                .then(|| MoreSteps::Synth(Box::new(spec.clone()))),
         },
         Err(e) => Case {
             label: format!("synth {}", spec.seed),
@@ -174,6 +208,7 @@ fn synth_case(spec: &pam_synth::CaseSpec) -> Case {
             log: Err(e.to_string()),
             footprint: None,
             other_stiffness: None,
+            more_steps: None,
         },
     }
 }
@@ -247,6 +282,7 @@ fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
                     log: Err(e.to_string()),
                     footprint: None,
                     other_stiffness: None,
+                    more_steps: None,
                 }
             }
         }
@@ -308,6 +344,8 @@ fn twin_case(k: usize, seed0: u64, only: Option<Experiment>) -> Case {
         footprint: without.and_then(|w| footprint_against(&log, w.map_err(|e| e.to_string()))),
         log,
         other_stiffness,
+        // the twin's step test is its fixed 24 steps
+        more_steps: None,
     }
 }
 

@@ -23,6 +23,9 @@ pub struct FinalModel {
     /// The families the log cannot tell apart (the first is `first`), when the diagnosis
     /// names the experiment that would.
     pub undecided: Vec<String>,
+    /// A step trial: the steps the log has and the fewest steps any family it has too few
+    /// to decide on would need (the same trial, longer, is the experiment that decides).
+    pub more_steps: Option<(usize, usize)>,
 }
 
 impl FinalModel {
@@ -63,6 +66,7 @@ impl FinalModel {
             }),
             families,
             undecided: Vec::new(),
+            more_steps: self.more_steps,
         }
     }
 }
@@ -108,11 +112,18 @@ pub fn read(v: &Value) -> FinalModel {
     } else {
         Vec::new()
     };
+    let more_steps = v["too_few_steps"].as_array().and_then(|a| {
+        a.iter()
+            .filter_map(|s| Some((s["steps"].as_u64()?, s["steps_needed"].as_u64()?)))
+            .min_by_key(|&(_, need)| need)
+            .map(|(have, need)| (have as usize, need as usize))
+    });
     FinalModel {
         verdict,
         first,
         families,
         undecided,
+        more_steps,
     }
 }
 

@@ -264,7 +264,8 @@ right but whose final model holds another; \
 \"undecided\" counts logs, not right, whose family is among those the diagnosis says one log cannot \
 tell apart, with the experiment that would (a joint's friction and the muscles' hysteresis at one \
 stiffness level: \"stiffness pairs run\" and \"strictly right after them\" are the final model \
-once that experiment was run and decided, as in the cross-generator section). The second table counts \
+once that experiment was run and decided, as in the cross-generator section, where a step log \
+with too few steps to decide is followed by the longer trial its diagnosis asks for as well). The second table counts \
 the effect logs by their footprint, as the cross-generator section's does.",
         kind: Kind::Tables,
         runs: physgen_runs,
@@ -282,7 +283,11 @@ hysteresis and names the same trial at the other stiffness level, the run makes 
 the generator (pam-physgen and the twin can; pam-synth has no stiffness level) and decides the \
 pair as `pamctl model diagnose A.csv B.csv` does: \"stiffness pairs run\" counts them, \
 \"strictly right after them\" scores the final model with the pair's family in place of the \
-two left open. The second table counts the effect logs by their footprint: the RMS change the effect \
+two left open. Where a step log has too few steps to decide and its diagnosis asks for about N \
+(at most four times its own), the run makes the same trial that long (pam-physgen and pam-synth \
+can; the twin's step test is its fixed 24 steps) and scores that log's final model instead: \
+\"longer step trials run\" counts them, \"false alarms after them\" the controls then named. \
+The second table counts the effect logs by their footprint: the RMS change the effect \
 makes in the force over the force's spread, both axes pooled (`pam_eval::footprint`; pam-physgen \
 and pam-synth report it, the twin's log is drawn again from the same seed without the effect). An \
 effect under the model loop's materiality line (0.5 % of the signal) is one the protocol hardly \

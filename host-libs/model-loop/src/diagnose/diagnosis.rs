@@ -120,6 +120,17 @@ pub struct StepReport {
     pub nrmse: AxisPair,
 }
 
+/// A step family the log has too few steps to decide on: the steps it has and about how
+/// many would decide (the experiment a diagnosis names for it: the same trial, longer).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct StepsToDecide {
+    pub family: Family,
+    pub steps: usize,
+    /// `None`: its gain is not positive across the steps on average, so no count of them
+    /// is in sight.
+    pub steps_needed: Option<usize>,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct Diagnosis {
     pub experiment: Experiment,
@@ -152,5 +163,8 @@ pub struct Diagnosis {
     /// Accepted families the final model leaves out, as too small beyond it to be told from
     /// a refinement of what it holds.
     pub refinements: Vec<Refinement>,
+    /// Step families the log has too few steps to decide on (each with a warning that
+    /// says so in words).
+    pub too_few_steps: Vec<StepsToDecide>,
     pub warnings: Vec<Warning>,
 }

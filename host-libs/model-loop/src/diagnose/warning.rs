@@ -72,7 +72,8 @@ pub enum Warning {
     },
     /// A step trial: a family removes part of the held-out error, but not consistently
     /// across the held-out steps; the log has too few steps to decide, and about
-    /// `steps_needed` would (the fold test's t grows as the square root of the steps).
+    /// `steps_needed` would, four times in five if the gain is real (the fold test's t grows
+    /// as the square root of the steps).
     TooFewSteps {
         family: Family,
         /// The share of the base's held-out error it removes.
@@ -263,7 +264,10 @@ impl fmt::Display for Warning {
                     test.phrase(),
                 )?;
                 match steps_needed {
-                    Some(k) => write!(f, "; about {k} steps would decide"),
+                    Some(k) => write!(
+                        f,
+                        "; about {k} steps would decide (four times in five if the gain is real)"
+                    ),
                     None => write!(f, "; more steps of the same levels would decide"),
                 }
             }

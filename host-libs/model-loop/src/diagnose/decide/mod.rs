@@ -5,7 +5,7 @@ mod combine;
 mod refusals;
 
 use super::cv::{held_out_blocks, FoldScores, STEP_BLOCKS};
-use super::diagnosis::{BaseReport, Diagnosis, EffectReport, StepReport};
+use super::diagnosis::{BaseReport, Diagnosis, EffectReport, StepReport, StepsToDecide};
 use super::recording::loop_without_spikes;
 use super::recording::sampling_warning;
 use super::selection::fold_test;
@@ -147,7 +147,24 @@ pub fn diagnose_observed(
     }
     warnings.extend(sampling_warning(&lp));
     // the best shape of each family the log has too few steps to decide on
-    warnings.extend(reports.iter().filter_map(|t| t.undecided.clone()));
+    let undecided: Vec<Warning> = reports.iter().filter_map(|t| t.undecided.clone()).collect();
+    let too_few_steps = undecided
+        .iter()
+        .filter_map(|w| match *w {
+            Warning::TooFewSteps {
+                family,
+                steps,
+                steps_needed,
+                ..
+            } => Some(StepsToDecide {
+                family,
+                steps,
+                steps_needed,
+            }),
+            _ => None,
+        })
+        .collect();
+    warnings.extend(undecided);
     warnings.extend(structure.set_aside);
     if dynamic {
         let delay = reports
@@ -178,6 +195,7 @@ pub fn diagnose_observed(
             unexplained,
             steps,
             refinements,
+            too_few_steps,
             warnings,
         },
         fits,

@@ -19,6 +19,10 @@ use pam_ident::step_detection::reference_steps;
 use pam_numerics::lsq;
 use pam_numerics::stats::rms;
 
+/// The one-sided normal quantile of a power of 80 %: how far past its critical value a
+/// test's expected t must lie to pass four times in five.
+const POWER_Z: f64 = 0.84;
+
 impl Judge<'_, '_> {
     /// A delay within the rig's own lag cannot be told from it; the evidence's note when
     /// so. A step trial's base has one second order for the four converters and at most
@@ -183,9 +187,12 @@ impl Judge<'_, '_> {
             })
         });
         // (a t already past its critical value gives no count: the gain failed the rule's
-        // size over the steps, not their spread)
+        // size over the steps, not their spread). The count is the design of the trial
+        // that would decide: with the t expected to reach its critical value, a trial
+        // decides a real gain only half the time; the t expected one `POWER_Z` beyond it
+        // decides it four times in five
         let steps_needed = (t > 0.0 && t < t_critical && steps > 0)
-            .then(|| (steps as f64 * (t_critical / t).powi(2)).ceil() as usize);
+            .then(|| (steps as f64 * ((t_critical + POWER_Z) / t).powi(2)).ceil() as usize);
         Some(Warning::TooFewSteps {
             family,
             improvement,
