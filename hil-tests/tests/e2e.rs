@@ -513,6 +513,8 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
             "0.25",
             "--settle-s",
             "0.3",
+            "--repeats",
+            "2",
             "--yes",
             "--out",
             dir.to_str().unwrap(),
@@ -521,11 +523,12 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
     assert!(out.contains("1 log(s)"), "{out}");
     let log = pam_log::read_path(dir.join("step_pose0.csv")).expect("a valid log");
     assert_eq!(log.meta("experiment"), Some("force_step"));
+    assert_eq!(log.meta("repeats"), Some("2"));
     assert_eq!(log.meta("pose_deg"), Some("0 0"));
     assert_eq!(seq_gaps(&log), 0);
     let (fx, fy) = (column(&log, col::FX_N), column(&log, col::FY_N));
     let (rx, ry) = (column(&log, col::FX_REF_N), column(&log, col::FY_REF_N));
-    // 2 axes × 13 levels, each ending settled near its reference (blocked handle)
+    // twice 2 axes × 13 levels, each ending settled near its reference (blocked handle)
     let mut levels = 0;
     for i in 1..log.len() {
         let end_of_level = rx[i] != rx[i - 1] || ry[i] != ry[i - 1];
@@ -542,7 +545,8 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
             );
         }
     }
-    assert!(levels >= 20, "{levels} level changes");
+    // the staircase's 24 steps, twice
+    assert!(levels >= 47, "{levels} level changes");
     assert!(
         rx.iter().chain(ry).any(|&f| (f - 27.3).abs() < 1e-3)
             && rx.iter().chain(ry).any(|&f| (f + 27.3).abs() < 1e-3)

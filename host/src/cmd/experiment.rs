@@ -8,7 +8,7 @@
 //!   for the trial's duration (90 s).
 //! - step (§5.2): at each of the nine poses, joint mode brings the arm there, the handle is
 //!   blocked, then force mode steps the reference 0 → 27.3 → −27.3 → 0 N in 9.1 N steps along
-//!   X, then along Y.
+//!   X, then along Y (24 steps; `--repeats N` runs that staircase N times in the pose's log).
 //!
 //! The stiffnesses and poses are pam-model's thesis protocols (`pam_model::protocols`, the
 //! same the twin runs), computed from the robot parameters the device reports, and the
@@ -96,6 +96,11 @@ pub enum ExperimentKind {
         /// Correct the force command with the gain plane (eq. 5.2).
         #[arg(long)]
         feed_forward: bool,
+        /// Run each pose's staircase (24 steps, both axes) this many times in its log: where
+        /// `pamctl model diagnose` finds too few steps to decide, it says about how many
+        /// would.
+        #[arg(long, default_value_t = 1, value_name = "N")]
+        repeats: usize,
     },
 }
 
@@ -296,8 +301,14 @@ fn run_trials(
             poses,
             hold_s,
             feed_forward,
+            repeats,
         } => {
             positive("--hold-s", *hold_s)?;
+            if *repeats == 0 {
+                return Err(anyhow::anyhow!(
+                    "--repeats 0: the staircase must run at least once"
+                ));
+            }
             let poses: Vec<usize> = if poses.is_empty() {
                 (0..9).collect()
             } else {
@@ -331,6 +342,7 @@ fn run_trials(
                     ("pose_deg", format!("{} {}", pose_deg[0], pose_deg[1])),
                     ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
                     ("feed_forward", feed_forward.to_string()),
+                    ("repeats", repeats.to_string()),
                 ];
                 let mut trial = open_trial(
                     s.client,
@@ -339,7 +351,7 @@ fn run_trials(
                     true,
                     &meta,
                 )?;
-                for axis in 0..2 {
+                for axis in (0..*repeats).flat_map(|_| 0..2) {
                     for level in step_levels() {
                         let mut f = [0.0f32; 2];
                         f[axis] = level as f32;
