@@ -288,10 +288,8 @@ fn more_steps(case: &Case, trial: &Trial, says: &[FinalModel], grid: &Grid) -> O
         .iter()
         .filter_map(within)
         .max_by_key(|&(_, need)| need)?;
-    let span_s = trial.t_s.last()? - trial.t_s.first()?;
-    let duration_s = (span_s * need as f64 / have as f64).ceil();
     let longer = more
-        .trial(duration_s)
+        .trial_with_steps(trial, have, need)
         .and_then(|tr| final_models(&tr, case.experiment, &grid.gains, &grid.lags));
     match longer {
         Ok(l) => Some(Longer {

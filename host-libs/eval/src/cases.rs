@@ -80,6 +80,21 @@ pub enum MoreSteps {
 }
 
 impl MoreSteps {
+    /// Runs the trial `first` was, lengthened from its `steps` to about `steps_needed`
+    /// (the generators draw steps at an even rate over the trial).
+    pub fn trial_with_steps(
+        &self,
+        first: &Trial,
+        steps: usize,
+        steps_needed: usize,
+    ) -> Result<Trial, String> {
+        let span_s = match (first.t_s.first(), first.t_s.last()) {
+            (Some(a), Some(b)) if steps > 0 => b - a,
+            _ => return Err("the first trial has no steps to lengthen".into()),
+        };
+        self.trial((span_s * steps_needed as f64 / steps as f64).ceil())
+    }
+
     /// Runs the trial for `duration_s`.
     pub fn trial(&self, duration_s: f64) -> Result<Trial, String> {
         let text = match self {

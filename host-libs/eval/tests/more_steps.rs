@@ -27,12 +27,11 @@ fn followed(c: &Case) -> (FinalModel, (usize, usize), FinalModel) {
     let (have, need) = first
         .more_steps
         .unwrap_or_else(|| panic!("{}: no longer trial named: {first:?}", c.label));
-    let span_s = trial.t_s.last().unwrap() - trial.t_s.first().unwrap();
     let longer = c
         .more_steps
         .as_ref()
         .expect("the generator can lengthen its step trial")
-        .trial((span_s * need as f64 / have as f64).ceil())
+        .trial_with_steps(&trial, have, need)
         .expect("the longer trial");
     (first, (have, need), final_model(&longer))
 }

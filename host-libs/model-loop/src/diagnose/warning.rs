@@ -8,6 +8,7 @@ use std::fmt;
 use serde::{Serialize, Serializer};
 
 use super::SpikeReport;
+use super::StepsToDecide;
 use crate::effects::Experiment;
 use crate::effects::Family;
 use pam_ident::msd::MassWarning;
@@ -121,6 +122,26 @@ impl StepTest {
 }
 
 const AXES: [&str; 2] = ["fx", "fy"];
+
+impl Warning {
+    /// A step family the log has too few steps to decide on, as the diagnosis's JSON lists
+    /// it (`None` for every other warning).
+    pub fn steps_to_decide(&self) -> Option<StepsToDecide> {
+        match *self {
+            Warning::TooFewSteps {
+                family,
+                steps,
+                steps_needed,
+                ..
+            } => Some(StepsToDecide {
+                family,
+                steps,
+                steps_needed,
+            }),
+            _ => None,
+        }
+    }
+}
 
 impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -5,7 +5,7 @@ mod combine;
 mod refusals;
 
 use super::cv::{held_out_blocks, FoldScores, STEP_BLOCKS};
-use super::diagnosis::{BaseReport, Diagnosis, EffectReport, StepReport, StepsToDecide};
+use super::diagnosis::{BaseReport, Diagnosis, EffectReport, StepReport};
 use super::recording::loop_without_spikes;
 use super::recording::sampling_warning;
 use super::selection::fold_test;
@@ -150,19 +150,7 @@ pub fn diagnose_observed(
     let undecided: Vec<Warning> = reports.iter().filter_map(|t| t.undecided.clone()).collect();
     let too_few_steps = undecided
         .iter()
-        .filter_map(|w| match *w {
-            Warning::TooFewSteps {
-                family,
-                steps,
-                steps_needed,
-                ..
-            } => Some(StepsToDecide {
-                family,
-                steps,
-                steps_needed,
-            }),
-            _ => None,
-        })
+        .filter_map(Warning::steps_to_decide)
         .collect();
     warnings.extend(undecided);
     warnings.extend(structure.set_aside);
