@@ -552,3 +552,85 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
             && rx.iter().chain(ry).any(|&f| (f + 27.3).abs() < 1e-3)
     );
 }
+
+#[test]
+fn force_steps_at_both_co_contractions_make_the_pair_the_model_loop_decides() {
+    let _serial = exclusive();
+    let target = Target::acquire(SIM);
+    if !target.is_emulator() {
+        eprintln!(
+            "skipped on PAM_DEVICE: `pamctl experiment step` needs the handle blocked by hand"
+        );
+        return;
+    }
+    target.prepare(1.0);
+    let dir = tmp("experiment-co-contraction");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = ok(
+        &target.address,
+        &[
+            "experiment",
+            "step",
+            "--pose",
+            "0",
+            "--hold-s",
+            "0.5",
+            "--settle-s",
+            "0.3",
+            "--co-contraction",
+            "both",
+            "--yes",
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+    );
+    assert!(out.contains("2 log(s)"), "{out}");
+    let (low_path, high_path) = (dir.join("step_pose0.csv"), dir.join("step_pose0_high.csv"));
+    let low = pam_log::read_path(&low_path).expect("a valid log");
+    let high = pam_log::read_path(&high_path).expect("a valid log");
+    assert_eq!(low.meta("co_contraction"), Some("low"));
+    assert_eq!(high.meta("co_contraction"), Some("high"));
+    let k = |l: &pam_log::Log| -> Vec<f64> {
+        l.meta("k_joint_nm_per_rad")
+            .unwrap()
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect()
+    };
+    let (kl, kh) = (k(&low), k(&high));
+    assert!(kh[0] >= kl[0] && kh[1] >= kl[1] && (kh[0] > kl[0] || kh[1] > kl[1]));
+    // the same staircase, followed at the higher co-contraction too
+    for l in [&low, &high] {
+        assert!(column(l, col::FX_REF_N)
+            .iter()
+            .any(|f| (f - 27.3).abs() < 1e-3));
+        assert!(column(l, col::FY_REF_N)
+            .iter()
+            .any(|f| (f + 27.3).abs() < 1e-3));
+    }
+    let (fx, rx) = (column(&high, col::FX_N), column(&high, col::FX_REF_N));
+    assert!((fx[fx.len() - 1] - rx[rx.len() - 1]).abs() < 4.0);
+    // the model loop reads them as a pair: the currents are higher in the second
+    let json = ok(
+        &target.address,
+        &[
+            "model",
+            "diagnose",
+            low_path.to_str().unwrap(),
+            high_path.to_str().unwrap(),
+            "--json",
+        ],
+    );
+    let v: serde_json::Value = serde_json::from_str(&json).expect("JSON");
+    let pair = &v["family_or_spread"];
+    assert_eq!(pair["decided"], serde_json::Value::Bool(true), "{pair}");
+    let sum = |i: usize| -> f64 {
+        pair["logs"][i]["mean_current_ma"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .sum()
+    };
+    assert!(sum(1) > sum(0), "{pair}");
+}

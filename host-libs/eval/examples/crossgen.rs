@@ -26,7 +26,9 @@
 //! diagnosis says it has too few steps to decide and about how many would (at most
 //! [`MORE_STEPS_MAX`] times its own), the run makes the same trial that much longer
 //! (pam-physgen and pam-synth can; the twin's step test is its fixed 24 steps) and scores
-//! that log's final model instead.
+//! that log's final model instead. Where a step log's diagnosis leaves a family within the
+//! converters' spread, the run makes the same trial at a higher co-contraction (pam-physgen
+//! can) and decides the pair (`pam_model_loop::spread_pair`): a family it names comes first.
 //!
 //! - physgen: pam-physgen, the rig's physics (rigid-body arm, gas-volume muscles, LuGre,
 //!   Maxwell-slip, Bouc–Wen, a load cell's 1/f and AR noise, a tare in the sensor frame);
@@ -45,6 +47,7 @@ use pam_ident::Trial;
 use pam_model::RobotModel;
 use pam_model_loop::diagnose::{diagnose, Settings};
 use pam_model_loop::effects::{Experiment, Family};
+use pam_model_loop::spread_pair::saturation_or_spread;
 
 /// The decision's two calibrated thresholds: the refinement gate and the delay's
 /// floor (the converters' own lag).
@@ -121,6 +124,10 @@ struct Judged {
     settled: Vec<FinalModel>,
     /// Whether that experiment was run.
     paired: bool,
+    /// Whether a step log's diagnosis left a family within the converters' spread and the
+    /// same trial at another co-contraction was run and decided: `settled` then puts the
+    /// family the pair named beyond the spread first.
+    spread_paired: bool,
     /// Whether a step log's diagnosis named a longer trial (too few steps to decide) and
     /// it was run: `settled` then holds its final model where the diagnosis named it.
     lengthened: bool,
@@ -168,16 +175,24 @@ fn run(
                     Ok(tr) => stiffness_pair(&case, tr, &says),
                     Err(_) => (None, false),
                 };
-                let mut settled: Vec<FinalModel> =
-                    says.iter().map(|m| m.settled(named.as_deref())).collect();
+                let (beyond, spread_pair) = match &trial {
+                    Ok(tr) => co_contraction_pair(&case, tr, &says),
+                    Err(_) => (None, None),
+                };
+                let mut settled: Vec<FinalModel> = says
+                    .iter()
+                    .map(|m| m.settled(named.as_deref()).beyond_spread(beyond.as_deref()))
+                    .collect();
                 let lengthened = match &trial {
                     Ok(tr) => more_steps(&case, tr, &says, grid),
                     Err(_) => None,
                 };
+                // the longer trial's final model, with the co-contraction pair's family first
+                // where the longer log hides it within the spread too
                 if let Some(longer) = &lengthened {
                     for (i, m) in longer.says.iter().enumerate() {
                         if let Some(m) = m {
-                            settled[i] = m.clone();
+                            settled[i] = m.beyond_spread(beyond.as_deref());
                         }
                     }
                 }
@@ -204,6 +219,9 @@ fn run(
                 if paired {
                     footprint += &format!(" pair: {}", named.as_deref().unwrap_or("cannot tell"));
                 }
+                if let Some(line) = &spread_pair {
+                    footprint += &format!(" co-contraction pair: {line}");
+                }
                 if let Some(longer) = &lengthened {
                     if let Some(m) = &longer.says[show] {
                         footprint += &format!(
@@ -228,6 +246,7 @@ fn run(
                     says,
                     settled,
                     paired,
+                    spread_paired: spread_pair.is_some(),
                     lengthened: lengthened.is_some(),
                     footprint: case.footprint,
                 });
@@ -257,6 +276,44 @@ fn stiffness_pair(case: &Case, trial: &Trial, says: &[FinalModel]) -> (Option<St
         Err(e) => {
             eprintln!("{}: the stiffness pair failed: {e}", case.label);
             (None, true)
+        }
+    }
+}
+
+/// Runs the experiment a step log's diagnosis names where a family is within the
+/// converters' spread (the same trial at another co-contraction), as a user would, and
+/// decides the pair (`pam_model_loop::spread_pair`): the family it names beyond the spread
+/// (`None` when it names none, or fails), and whether it was run.
+fn co_contraction_pair(
+    case: &Case,
+    trial: &Trial,
+    says: &[FinalModel],
+) -> (Option<String>, Option<String>) {
+    let Some(other) = &case.other_stiffness else {
+        return (None, None);
+    };
+    if case.experiment != Experiment::Step
+        || !says.iter().any(FinalModel::awaits_co_contraction_pair)
+    {
+        return (None, None);
+    }
+    let model = RobotModel::<f64>::thesis();
+    let verdict = other.trial().and_then(|b| {
+        saturation_or_spread(trial, &b, &model, Settings::default()).map_err(|e| e.to_string())
+    });
+    match verdict {
+        Ok(v) => {
+            let other: Vec<&str> = v.logs[1].final_model.iter().map(|f| f.name()).collect();
+            let line = format!(
+                "{} (at the other co-contraction [{}])",
+                v.family.map_or("spread", Family::name),
+                other.join(", ")
+            );
+            (v.family.map(Family::name).map(str::to_string), Some(line))
+        }
+        Err(e) => {
+            eprintln!("{}: the co-contraction pair failed: {e}", case.label);
+            (None, Some("failed".into()))
         }
     }
 }
@@ -462,16 +519,17 @@ fn main() {
             if i == def { " (default)" } else { "" }
         )
     };
-    println!("| generator | min_family_gain / converter_lag | strictly right | of them decided | first family right | stacked | undecided | stiffness pairs run | longer step trials run | strictly right after them | false alarms | false alarms after them | alarms said | strictly right per family |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| generator | min_family_gain / converter_lag | strictly right | of them decided | first family right | stacked | undecided | stiffness pairs run | co-contraction pairs run | longer step trials run | strictly right after them | false alarms | false alarms after them | alarms said | strictly right per family |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (gen, judged) in &runs {
         let paired = judged.iter().filter(|j| j.paired).count();
+        let spread_paired = judged.iter().filter(|j| j.spread_paired).count();
         let lengthened = judged.iter().filter(|j| j.lengthened).count();
         for i in 0..points.len() {
             let t = tally(judged, i);
             let after = tally_settled(judged, i);
             println!(
-                "| {gen} | {} | {} | {} | {} | {} | {} | {paired} | {lengthened} | {} | {} | {} | {} | {} |",
+                "| {gen} | {} | {} | {} | {} | {} | {} | {paired} | {spread_paired} | {lengthened} | {} | {} | {} | {} | {} |",
                 name(i),
                 Tally::ratio(t.right, t.cases),
                 t.decided,

@@ -34,17 +34,30 @@ pub enum OtherStiffness {
 }
 
 impl OtherStiffness {
-    /// The other stiffness level of a pam-physgen dynamic log whose truth is `truth`: K_high
-    /// where the log was drawn nearer K_low, K_low otherwise. `None` for a step log.
+    /// The other stiffness level of a pam-physgen log whose truth is `truth`. Dynamic:
+    /// K_high where the log was drawn nearer K_low, K_low otherwise. Step (drawn at the
+    /// lowest co-contraction that lets every level through): 80 % of the way to the highest
+    /// that does, as `pamctl experiment step --co-contraction high` asks on a rig
+    /// (`pam_model::protocols::step_test_stiffness_at`).
     pub fn physgen(
         spec: &pam_physgen::CaseSpec,
         truth: &pam_physgen::Truth,
         duration_s: Option<f64>,
     ) -> Option<OtherStiffness> {
-        let drawn = *truth.base.get("stiffness_level")?;
+        let level = match spec.experiment {
+            pam_physgen::Experiment::Dynamic => {
+                let drawn = *truth.base.get("stiffness_level")?;
+                if drawn < 0.5 {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            pam_physgen::Experiment::Step => 0.8,
+        };
         Some(OtherStiffness::Physgen {
             spec: *spec,
-            level: if drawn < 0.5 { 1.0 } else { 0.0 },
+            level,
             duration_s,
         })
     }

@@ -26,6 +26,9 @@ pub struct FinalModel {
     /// A step trial: the steps the log has and the fewest steps any family it has too few
     /// to decide on would need (the same trial, longer, is the experiment that decides).
     pub more_steps: Option<(usize, usize)>,
+    /// A step trial: the families the log cannot tell from the converters' spread (the
+    /// same trial at another co-contraction is the experiment that decides).
+    pub within_spread: Vec<String>,
 }
 
 impl FinalModel {
@@ -39,6 +42,31 @@ impl FinalModel {
     /// the other stiffness level decides it (`pam_model_loop::stiffness_pair`).
     pub fn awaits_stiffness_pair(&self) -> bool {
         self.verdict == "effect" && self.left_open("friction") && self.left_open("hysteresis")
+    }
+
+    /// Whether the diagnosis leaves a family within the converters' spread: the same step
+    /// trial at another co-contraction decides it (`pam_model_loop::spread_pair`).
+    pub fn awaits_co_contraction_pair(&self) -> bool {
+        !self.within_spread.is_empty()
+    }
+
+    /// The final model once the step trial at another co-contraction has named `family`
+    /// beyond the converters' spread: it comes first, before what the log had named.
+    /// Unchanged when the pair named nothing, or a family the log did not hide.
+    pub fn beyond_spread(&self, family: Option<&str>) -> FinalModel {
+        let Some(named) = family.filter(|f| self.within_spread.iter().any(|w| w == f)) else {
+            return self.clone();
+        };
+        let mut families = vec![named.to_string()];
+        families.extend(self.families.iter().filter(|f| *f != named).cloned());
+        FinalModel {
+            verdict: "effect".into(),
+            first: Some(named.to_string()),
+            families,
+            undecided: Vec::new(),
+            more_steps: self.more_steps,
+            within_spread: Vec::new(),
+        }
     }
 
     /// The final model once the separating experiment has named `family`: it takes the
@@ -67,6 +95,7 @@ impl FinalModel {
             families,
             undecided: Vec::new(),
             more_steps: self.more_steps,
+            within_spread: self.within_spread.clone(),
         }
     }
 }
@@ -118,12 +147,22 @@ pub fn read(v: &Value) -> FinalModel {
             .min_by_key(|&(_, need)| need)
             .map(|(have, need)| (have as usize, need as usize))
     });
+    let within_spread = v["within_spread"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|w| w["family"].as_str())
+                .map(str::to_string)
+                .collect()
+        })
+        .unwrap_or_default();
     FinalModel {
         verdict,
         first,
         families,
         undecided,
         more_steps,
+        within_spread,
     }
 }
 

@@ -16,4 +16,5 @@
 pub mod diagnose;
 pub mod effects;
 pub mod response;
+pub mod spread_pair;
 pub mod stiffness_pair;

@@ -5,6 +5,7 @@
 //! inverse model of fig. 4.1). Only the controller's side (what the currents are) comes
 //! from pam-model: the rig does what the physics says.
 
+use pam_model::protocols::STEP_HIGH_PRESSURE_SHARE;
 use pam_model::thesis::{STEP_POSES_DEG, TABLE_4_1};
 use pam_model::RobotModel;
 use rand::Rng;
@@ -118,18 +119,24 @@ pub struct Hold {
 }
 
 /// The step schedule: rest at zero force, then runs of 4–8 steps on one axis, then the
-/// other, to levels of ±1–3 × `step_n`, each held 2–4 s. Returns the holds, the step and the
-/// stiffness asked.
+/// other, to levels of ±1–3 × `step_n`, each held 2–4 s. The joint stiffness (the muscles'
+/// co-contraction) is the lowest that lets every level through unclamped, or, with
+/// `level` (0–1), that far towards the highest that does: the same schedule, drawn from the
+/// same numbers, at another co-contraction. Returns the holds, the step and the stiffness.
 pub fn step_schedule(
     model: &RobotModel<f64>,
     alpha: [f64; 2],
     duration_s: f64,
     rng: &mut ChaCha8Rng,
+    level: Option<f64>,
 ) -> (Vec<Hold>, f64, [f64; 2]) {
     let mut step_n = rng.random_range(4.0..9.0);
     let stiffness = loop {
         if let Some(k) = feasible(model, alpha, step_n) {
-            break k;
+            break match level {
+                Some(l) => towards_highest(model, alpha, step_n, k, l.clamp(0.0, 1.0)),
+                None => k,
+            };
         }
         step_n *= 0.85;
         if step_n < 2.0 {
@@ -180,6 +187,59 @@ pub fn step_schedule(
         axis = 1 - axis;
     }
     (holds, step_n, stiffness)
+}
+
+/// The stiffness `level` of the way from `lowest` (every level through unclamped) to the
+/// highest that still lets every level through: the highest each joint's capability allows
+/// at every level's torque, brought down until no command is clamped and every commanded
+/// pressure keeps under the protocol's share of the range
+/// (`pam_model::protocols::STEP_HIGH_PRESSURE_SHARE`, the controller's side).
+fn towards_highest(
+    model: &RobotModel<f64>,
+    alpha: [f64; 2],
+    step_n: f64,
+    lowest: [f64; 2],
+    level: f64,
+) -> [f64; 2] {
+    let mut top = [f64::INFINITY; 2];
+    for d in [[3.0, 3.0], [3.0, -3.0], [-3.0, 3.0], [-3.0, -3.0]] {
+        let tau = model
+            .kinematics
+            .joint_torques(alpha, [d[0] * step_n, d[1] * step_n]);
+        for j in 0..2 {
+            if let Some((_, hi)) = model.capability(j, alpha[j]).stiffness_range(tau[j]) {
+                top[j] = top[j].min(hi / 1.02);
+            }
+        }
+    }
+    let ceiling_bar = STEP_HIGH_PRESSURE_SHARE * model.params.pressure.max_bar;
+    let unclamped = |k: [f64; 2]| {
+        (-3..=3).all(|a| {
+            (-3..=3).all(|b| {
+                let f = [a as f64 * step_n, b as f64 * step_n];
+                let c = model.force_command(alpha, f, k, false);
+                c.joints
+                    .iter()
+                    .all(|j| j.limited.0 == 0 && j.pressure_bar.iter().all(|&p| p <= ceiling_bar))
+            })
+        })
+    };
+    let mut l = level;
+    for _ in 0..20 {
+        let k = [0, 1].map(|j| {
+            let hi = if top[j].is_finite() {
+                top[j].max(lowest[j])
+            } else {
+                lowest[j]
+            };
+            lowest[j] + l * (hi - lowest[j])
+        });
+        if unclamped(k) {
+            return k;
+        }
+        l *= 0.8;
+    }
+    lowest
 }
 
 /// The stiffness that lets every level up to ±3 steps through unclamped, or `None`.

@@ -70,6 +70,10 @@ struct Rig {
     path: Option<OperatorPath>,
     currents: [f64; 4],
     holds: Vec<Hold>,
+    /// Step: the holds at the co-contraction the seed draws (the lowest that lets every
+    /// level through), which set a supply limit's ceiling: the supply does not change
+    /// with the co-contraction a trial asks for.
+    drawn_holds: Vec<Hold>,
     base: BTreeMap<String, f64>,
 }
 
@@ -137,6 +141,7 @@ fn draw_rig(
                 path: Some(path),
                 currents,
                 holds: Vec::new(),
+                drawn_holds: Vec::new(),
                 base,
             }
         }
@@ -144,7 +149,16 @@ fn draw_rig(
             let site = r.random_range(1..=9);
             let alpha0 = experiment::step_pose_rad(site);
             let duration_s = duration.unwrap_or_else(|| r.random_range(60.0..120.0f64).round());
-            let (holds, step_n, k) = experiment::step_schedule(model, alpha0, duration_s, &mut r);
+            let drawn_holds = stiffness_level.map(|_| {
+                experiment::step_schedule(model, alpha0, duration_s, &mut r.clone(), None).0
+            });
+            let (holds, step_n, k) =
+                experiment::step_schedule(model, alpha0, duration_s, &mut r, stiffness_level);
+            if let Some(l) = stiffness_level {
+                // 0 = the lowest co-contraction that lets every level through (the drawn
+                // trial's), 1 = the highest
+                base.insert("step_stiffness_level".into(), l.clamp(0.0, 1.0));
+            }
             base.insert("step_n".into(), step_n);
             base.insert("joint_stiffness_nm_per_rad_1".into(), k[0]);
             base.insert("joint_stiffness_nm_per_rad_2".into(), k[1]);
@@ -159,6 +173,7 @@ fn draw_rig(
                 site,
                 path: None,
                 currents: holds[0].currents_ma,
+                drawn_holds: drawn_holds.unwrap_or_else(|| holds.clone()),
                 holds,
                 base,
             }
@@ -271,7 +286,7 @@ fn apply_effect(
         }
         Effect::SupplyLimit => {
             let sp: Vec<f64> = rig
-                .holds
+                .drawn_holds
                 .iter()
                 .flat_map(|h| (0..4).map(|c| rig.regulators[c].setpoint_bar(h.currents_ma[c])))
                 .collect();
@@ -374,9 +389,11 @@ pub fn generate(spec: &CaseSpec, duration_s: Option<f64>) -> Result<Generated, P
     generate_with_level(spec, duration_s, None)
 }
 
-/// [`generate`] with a dynamic trial's stiffness level (0 = the point's K_low, 1 = its
-/// K_high) set instead of drawn: the same rig, operator and effect at another stiffness.
-/// Everything else is drawn from the seed as in [`generate`].
+/// [`generate`] with the trial's stiffness level set instead of drawn: the same rig,
+/// operator (or step schedule) and effect at another stiffness. A dynamic trial's level
+/// runs from the point's K_low (0) to its K_high (1); a step trial's from the lowest
+/// co-contraction that lets every level through unclamped (0, the one [`generate`] uses)
+/// to the highest that does (1). Everything else is drawn from the seed as in [`generate`].
 pub fn generate_at_stiffness(
     spec: &CaseSpec,
     duration_s: Option<f64>,

@@ -1,18 +1,23 @@
-//! `pam-physgen --out DIR --cases N --seed S [--controls M] [--duration-s D]`: writes N logs
-//! (M of them controls, a quarter by default) and their truth files, `DIR/physgen_SEED.csv`.
+//! `pam-physgen --out DIR --cases N --seed S [--controls M] [--duration-s D]
+//! [--stiffness-level L]`: writes N logs (M of them controls, a quarter by default) and their
+//! truth files, `DIR/physgen_SEED.csv`. `--stiffness-level` (0–1) makes every trial at that
+//! stiffness instead of the drawn one (`pam_physgen::generate_at_stiffness`): run it twice
+//! with the same seed for the pair of logs that separates friction from hysteresis (dynamic)
+//! or a supply limit from the converters' spread (step).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use pam_physgen::{generate, write_files, CaseSpec};
+use pam_physgen::{generate, generate_at_stiffness, write_files, CaseSpec};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-const USAGE: &str =
-    "usage: pam-physgen --out DIR --cases N --seed S [--controls M] [--duration-s D]";
+const USAGE: &str = "usage: pam-physgen --out DIR --cases N --seed S [--controls M] \
+     [--duration-s D] [--stiffness-level L]";
 
 fn run(args: &[String]) -> Result<(), String> {
     let (mut out, mut cases, mut seed, mut controls, mut duration) = (None, None, None, None, None);
+    let mut level = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || {
@@ -28,6 +33,13 @@ fn run(args: &[String]) -> Result<(), String> {
             "--controls" => controls = Some(num(value()?)? as usize),
             "--duration-s" => {
                 duration = Some(value()?.parse::<f64>().map_err(|e| format!("{a}: {e}"))?)
+            }
+            "--stiffness-level" => {
+                let l = value()?.parse::<f64>().map_err(|e| format!("{a}: {e}"))?;
+                if !(0.0..=1.0).contains(&l) {
+                    return Err(format!("{a}: {l} is not in 0–1\n{USAGE}"));
+                }
+                level = Some(l)
             }
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument `{other}`\n{USAGE}")),
@@ -53,8 +65,11 @@ fn run(args: &[String]) -> Result<(), String> {
         };
         let path = out.join(format!("physgen_{seed}.csv"));
         let start = std::time::Instant::now();
-        let g = generate(&spec, duration)
-            .map_err(|e| format!("seed {seed}: {e}\n  help: {}", e.help()))?;
+        let g = match level {
+            Some(l) => generate_at_stiffness(&spec, duration, l),
+            None => generate(&spec, duration),
+        }
+        .map_err(|e| format!("seed {seed}: {e}\n  help: {}", e.help()))?;
         write_files(&g, &path)
             .map_err(|e| format!("{}: {e}\n  help: {}", path.display(), e.help()))?;
         eprintln!(

@@ -67,3 +67,33 @@ fn the_tare_turns_with_the_handle_and_the_angles_are_encoder_counts() {
     assert!(g.truth.load_cell.tare_n.iter().any(|t| t.abs() > 0.0));
     assert!(g.truth.load_cell.pink_n > 0.0 && g.truth.load_cell.ar_n > 0.0);
 }
+
+#[test]
+fn a_step_trial_at_a_higher_co_contraction_keeps_its_schedule_and_its_supply() {
+    let s = spec(Experiment::Step, Effect::SupplyLimit, 21);
+    let low = generate(&s, Some(30.0)).unwrap();
+    let high = pam_physgen::generate_at_stiffness(&s, Some(30.0), 0.8).unwrap();
+    let read = |g: &pam_physgen::Generated| pam_log::read_str(&g.log_text, None).unwrap();
+    let (a, b) = (read(&low), read(&high));
+    // the same references, the same supply ceiling
+    for c in ["fx_ref_n", "fy_ref_n"] {
+        assert_eq!(a.column(c), b.column(c), "{c}");
+    }
+    assert_eq!(low.truth.params["cap_bar"], high.truth.params["cap_bar"]);
+    // every joint at least as stiff, one stiffer, so every channel's mean current higher
+    let k = |g: &pam_physgen::Generated, j: usize| {
+        g.truth.base[&format!("joint_stiffness_nm_per_rad_{j}")]
+    };
+    assert!((1..=2).all(|j| k(&high, j) >= k(&low, j)));
+    assert!((1..=2).any(|j| k(&high, j) > 1.05 * k(&low, j)));
+    let mean = |l: &pam_log::Log, c: &str| {
+        let v = l.column(c).unwrap();
+        v.iter().sum::<f64>() / v.len() as f64
+    };
+    let raised = ["i1_ma", "i2_ma", "i3_ma", "i4_ma"]
+        .iter()
+        .filter(|c| mean(&b, c) > mean(&a, c))
+        .count();
+    assert!(raised >= 2, "{raised} channels raised");
+    assert_eq!(high.truth.base["step_stiffness_level"], 0.8);
+}

@@ -9,6 +9,8 @@
 //! - step (§5.2): at each of the nine poses, joint mode brings the arm there, the handle is
 //!   blocked, then force mode steps the reference 0 → 27.3 → −27.3 → 0 N in 9.1 N steps along
 //!   X, then along Y (24 steps; `--repeats N` runs that staircase N times in the pose's log).
+//!   `--co-contraction high` runs it with the muscles co-contracted harder (`both`: a log at
+//!   each): the pair of logs that tells a supply's ceiling from the converters' spread.
 //!
 //! The stiffnesses and poses are pam-model's thesis protocols (`pam_model::protocols`, the
 //! same the twin runs), computed from the robot parameters the device reports, and the
@@ -23,7 +25,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use pam_control::{Mode, State};
 use pam_link::{fault_names, Client};
 use pam_model::protocols::{
-    static_points, step_levels, step_test_stiffness, trial_stiffness, StiffnessLevel,
+    static_points, step_levels, step_test_stiffness_at, trial_stiffness, StiffnessLevel,
 };
 use pam_model::thesis::{STEP_POSES_DEG, TABLE_4_1_POINTS_DEG};
 use pam_model::{RobotModel, Vec2};
@@ -101,6 +103,12 @@ pub enum ExperimentKind {
         /// would.
         #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
         repeats: u32,
+        /// The muscles' co-contraction: `low` is §5.2's (the least joint stiffness that holds
+        /// every step), `high` 80 % of the way to the most every step allows, `both` a log
+        /// at each. Where `pamctl model diagnose` cannot tell a family from the converters'
+        /// spread, give it the pose's two logs.
+        #[arg(long, value_enum, default_value_t = Level::Low)]
+        co_contraction: Level,
     },
 }
 
@@ -302,6 +310,7 @@ fn run_trials(
             hold_s,
             feed_forward,
             repeats,
+            co_contraction,
         } => {
             positive("--hold-s", *hold_s)?;
             let poses: Vec<usize> = if poses.is_empty() {
@@ -312,12 +321,27 @@ fn run_trials(
             if let Some(bad) = poses.iter().find(|&&i| i > 8) {
                 return Err(anyhow::anyhow!("--pose {bad}: the nine poses are 0–8"));
             }
-            for i in poses {
+            let trials = poses
+                .into_iter()
+                .flat_map(|i| levels(*co_contraction).into_iter().map(move |l| (i, l)));
+            for (i, co) in trials {
                 let pose_deg = STEP_POSES_DEG[i];
                 let alpha = pose_deg.map(f64::to_radians);
-                let k = step_test_stiffness(model, alpha);
+                let k = step_test_stiffness_at(model, alpha, co);
                 let stiffness = [k[0] as f32, k[1] as f32];
-                let label = format!("step pose {i} ({:+}°, {:+}°)", pose_deg[0], pose_deg[1]);
+                let (label, file) = match co {
+                    StiffnessLevel::Low => (
+                        format!("step pose {i} ({:+}°, {:+}°)", pose_deg[0], pose_deg[1]),
+                        format!("step_pose{i}.csv"),
+                    ),
+                    StiffnessLevel::High => (
+                        format!(
+                            "step pose {i} ({:+}°, {:+}°), high co-contraction",
+                            pose_deg[0], pose_deg[1]
+                        ),
+                        format!("step_pose{i}_high.csv"),
+                    ),
+                };
                 arm(s)?;
                 s.move_to(
                     alpha,
@@ -338,14 +362,9 @@ fn run_trials(
                     ("k_joint_nm_per_rad", format!("{:.3} {:.3}", k[0], k[1])),
                     ("feed_forward", feed_forward.to_string()),
                     ("repeats", repeats.to_string()),
+                    ("co_contraction", co.name().to_string()),
                 ];
-                let mut trial = open_trial(
-                    s.client,
-                    &args.out,
-                    &format!("step_pose{i}.csv"),
-                    true,
-                    &meta,
-                )?;
+                let mut trial = open_trial(s.client, &args.out, &file, true, &meta)?;
                 for axis in (0..*repeats).flat_map(|_| 0..2) {
                     for level in step_levels() {
                         let mut f = [0.0f32; 2];

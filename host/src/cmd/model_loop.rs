@@ -6,7 +6,7 @@ use pam_ident::{FilterSettings, Trial};
 use pam_model::RobotModel;
 use pam_model_loop::diagnose::{self, Settings, Verdict};
 use pam_model_loop::effects::{self, Experiment};
-use pam_model_loop::stiffness_pair;
+use pam_model_loop::{spread_pair, stiffness_pair};
 use pam_report as report;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -40,9 +40,11 @@ pub struct LoopArgs {
 pub struct DiagnoseArgs {
     #[command(flatten)]
     pub loop_args: LoopArgs,
-    /// A second log: the same dynamic trial at Table 4.1's other stiffness level. The
-    /// muscles' hysteresis grows with their pressure and friction does not, so the pair
-    /// tells the two apart where one log cannot.
+    /// A second log: the same trial at another stiffness. Dynamic: Table 4.1's other
+    /// level; the muscles' hysteresis grows with their pressure and friction does not, so
+    /// the pair tells the two apart where one log cannot. Step: the same pose at the other
+    /// co-contraction (`pamctl experiment step --co-contraction both`); a supply's ceiling
+    /// takes a larger share of the steps there and the converters' spread does not.
     pub other: Option<PathBuf>,
 }
 
@@ -129,7 +131,8 @@ fn with_progress<T>(work: impl FnOnce(&(dyn Fn(diagnose::Progress) + Sync)) -> T
 }
 
 /// `diagnose LOG [OTHER]`: one log's diagnosis, and with a second log of the same trial at
-/// the other stiffness level, friction or hysteresis decided from the pair.
+/// the other stiffness level, the pair's decision: friction or hysteresis (dynamic trials),
+/// a family or the converters' spread (step trials).
 pub fn diagnose(args: &DiagnoseArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let a = &args.loop_args;
     let Some(other) = &args.other else {
@@ -138,13 +141,19 @@ pub fn diagnose(args: &DiagnoseArgs, out: &mut impl Write) -> anyhow::Result<()>
     let model = RobotModel::<f64>::thesis();
     let (trial_a, log_a) = read_trial(&a.log)?;
     let (trial_b, log_b) = read_trial(other)?;
-    for (path, log, trial) in [(&a.log, &log_a, &trial_a), (other, &log_b, &trial_b)] {
-        if experiment_of(&a.experiment, log, trial)? != Experiment::Dynamic {
-            anyhow::bail!(
-                "{}: a pair of logs is compared for friction and hysteresis in dynamic trials only",
-                path.display()
-            );
-        }
+    let exp_a = experiment_of(&a.experiment, &log_a, &trial_a)?;
+    let exp_b = experiment_of(&a.experiment, &log_b, &trial_b)?;
+    if exp_a != exp_b {
+        anyhow::bail!(
+            "{} is a {} trial and {} a {} one: a pair is the same trial at two stiffness levels",
+            a.log.display(),
+            exp_a.name(),
+            other.display(),
+            exp_b.name()
+        );
+    }
+    if exp_a == Experiment::Step {
+        return diagnose_step_pair(a, other, [&trial_a, &trial_b], &model, out);
     }
     let pair = stiffness_pair::friction_or_hysteresis(&trial_a, &trial_b, &model, settings(a))?;
     if a.json {
@@ -176,6 +185,62 @@ pub fn diagnose(args: &DiagnoseArgs, out: &mut impl Write) -> anyhow::Result<()>
     }
     for w in &pair.warnings {
         writeln!(out, "warning: {w}")?;
+    }
+    Ok(())
+}
+
+/// Two step logs of the same pose at two co-contractions: a family the converters' spread
+/// hides in one log, decided from the pair (`pam_model_loop::spread_pair`).
+fn diagnose_step_pair(
+    a: &LoopArgs,
+    other: &Path,
+    trials: [&Trial; 2],
+    model: &RobotModel<f64>,
+    out: &mut impl Write,
+) -> anyhow::Result<()> {
+    let pair = spread_pair::saturation_or_spread(trials[0], trials[1], model, settings(a))?;
+    if a.json {
+        let mut d = Vec::new();
+        diagnose_one(
+            &LoopArgs {
+                json: true,
+                ..a.clone()
+            },
+            &mut d,
+        )?;
+        let mut v: serde_json::Value = serde_json::from_slice(&d)?;
+        v["family_or_spread"] = serde_json::to_value(&pair)?;
+        return json_out(out, &v);
+    }
+    writeln!(out, "{}:", a.log.display())?;
+    diagnose_one(a, out)?;
+    writeln!(out)?;
+    writeln!(
+        out,
+        "a family or the converters' spread, from {} and {}:",
+        a.log.display(),
+        other.display()
+    )?;
+    let named = match (pair.family, pair.decided) {
+        (Some(f), _) => f.name(),
+        (None, true) => "no family",
+        (None, false) => "cannot tell",
+    };
+    writeln!(out, "  {named}: {}", pair.evidence)?;
+    for (path, log) in [(a.log.as_path(), &pair.logs[0]), (other, &pair.logs[1])] {
+        let families: Vec<&str> = log.final_model.iter().map(|f| f.name()).collect();
+        let hidden: Vec<&str> = log.within_spread.iter().map(|w| w.family.name()).collect();
+        writeln!(
+            out,
+            "  {}: final model [{}], within the spread [{}], mean currents {:.2} {:.2} {:.2} {:.2} mA",
+            path.display(),
+            families.join(", "),
+            hidden.join(", "),
+            log.mean_current_ma[0],
+            log.mean_current_ma[1],
+            log.mean_current_ma[2],
+            log.mean_current_ma[3]
+        )?;
     }
     Ok(())
 }

@@ -89,6 +89,79 @@ pub fn step_test_stiffness(model: &RobotModel<f64>, alpha_rad: Vec2<f64>) -> Vec
     k
 }
 
+/// The share of the muscles' pressure range the step test's high co-contraction keeps every
+/// step's pressure under: a converter whose gain is a few per cent high would otherwise
+/// reach its own full scale at the largest steps, a ceiling the trial did not set out to
+/// look for.
+pub const STEP_HIGH_PRESSURE_SHARE: f64 = 0.9;
+
+/// The §5.2 step test at another co-contraction: per joint, `Low` is
+/// [`step_test_stiffness`] (the least that holds every step), `High` is 80 % of the way from
+/// it to the most that every step's torque still allows (as Table 4.1's K_high keeps a
+/// fifth of the range in hand), less where a step's pressure would pass
+/// [`STEP_HIGH_PRESSURE_SHARE`] of the range. The same steps at a higher co-contraction
+/// raise every muscle's pressure: a supply's ceiling is then crossed by more of them, while
+/// the converters' spread keeps its share, which is how the model loop tells the two apart.
+pub fn step_test_stiffness_at(
+    model: &RobotModel<f64>,
+    alpha_rad: Vec2<f64>,
+    level: StiffnessLevel,
+) -> Vec2<f64> {
+    let lo = step_test_stiffness(model, alpha_rad);
+    if level == StiffnessLevel::Low {
+        return lo;
+    }
+    let mut hi = [f64::INFINITY; 2];
+    for f in [
+        [STEP_MAX_N, 0.0],
+        [-STEP_MAX_N, 0.0],
+        [0.0, STEP_MAX_N],
+        [0.0, -STEP_MAX_N],
+    ] {
+        let tau = model.kinematics.joint_torques(alpha_rad, f);
+        for j in 0..2 {
+            if let Some((_, k)) = model.capability(j, alpha_rad[j]).stiffness_range(tau[j]) {
+                hi[j] = hi[j].min(k);
+            }
+        }
+    }
+    let top = [0, 1].map(|j| {
+        if hi[j].is_finite() {
+            hi[j].max(lo[j])
+        } else {
+            lo[j]
+        }
+    });
+    let at = |share: f64| [0, 1].map(|j| lo[j] + share * (top[j] - lo[j]));
+    let ceiling_bar = STEP_HIGH_PRESSURE_SHARE * model.params.pressure.max_bar;
+    let within = |k: Vec2<f64>| {
+        step_levels().iter().all(|&level| {
+            (0..2).all(|axis| {
+                let mut f = [0.0; 2];
+                f[axis] = level;
+                let c = model.force_command(alpha_rad, f, k, false);
+                c.joints
+                    .iter()
+                    .all(|j| j.limited.0 == 0 && j.pressure_bar.iter().all(|&p| p <= ceiling_bar))
+            })
+        })
+    };
+    // the share of the way, bisected down from 0.8 where a step would pass the ceiling
+    let (mut ok, mut bad) = (0.0, 0.8);
+    if within(at(bad)) {
+        return at(bad);
+    }
+    for _ in 0..20 {
+        let mid = 0.5 * (ok + bad);
+        if within(at(mid)) {
+            ok = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    at(ok)
+}
+
 /// §4.2's static trial: the centre and the eight points of a square of half-side
 /// `half_side_m` around it, in the order the handle visits them.
 pub fn static_points(centre: Vec2<f64>, half_side_m: f64) -> [Vec2<f64>; 9] {
@@ -145,5 +218,34 @@ mod tests {
         let p = static_points([0.1, 0.2], 0.04);
         assert_eq!(p[0], [0.1, 0.2]);
         assert_eq!(p[2], [0.14, 0.24000000000000002]);
+    }
+
+    #[test]
+    fn the_step_tests_high_co_contraction_is_higher_and_clamps_no_step() {
+        let model = RobotModel::<f64>::thesis();
+        for pose_deg in crate::thesis::STEP_POSES_DEG {
+            let alpha = pose_deg.map(f64::to_radians);
+            let lo = step_test_stiffness_at(&model, alpha, StiffnessLevel::Low);
+            let hi = step_test_stiffness_at(&model, alpha, StiffnessLevel::High);
+            assert_eq!(lo, step_test_stiffness(&model, alpha));
+            // each joint as stiff or stiffer, one at least a tenth stiffer
+            assert!(
+                (0..2).all(|j| hi[j] >= lo[j]) && (0..2).any(|j| hi[j] > 1.1 * lo[j]),
+                "{pose_deg:?}: {lo:?} → {hi:?}"
+            );
+            let ceiling_bar = STEP_HIGH_PRESSURE_SHARE * model.params.pressure.max_bar;
+            for axis in 0..2 {
+                for level in step_levels() {
+                    let mut f = [0.0; 2];
+                    f[axis] = level;
+                    let c = model.force_command(alpha, f, hi, false);
+                    assert!(
+                        c.joints.iter().all(|j| j.limited.0 == 0
+                            && j.pressure_bar.iter().all(|&p| p <= ceiling_bar + 1e-9)),
+                        "{pose_deg:?} {f:?} at {hi:?} is clamped or above {ceiling_bar} bar"
+                    );
+                }
+            }
+        }
     }
 }

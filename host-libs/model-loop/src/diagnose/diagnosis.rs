@@ -131,6 +131,19 @@ pub struct StepsToDecide {
     pub steps_needed: Option<usize>,
 }
 
+/// A step family that removes no more than the converters' spread does (a share of each
+/// axis's force in the other): one log at one co-contraction cannot tell it from that
+/// spread; the same trial at another co-contraction can
+/// ([`crate::spread_pair::saturation_or_spread`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct WithinSpread {
+    pub family: Family,
+    /// The share of the base's held-out error the family removes.
+    pub improvement: f64,
+    /// The share the converters' spread removes.
+    pub spread_improvement: f64,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct Diagnosis {
     pub experiment: Experiment,
@@ -166,5 +179,8 @@ pub struct Diagnosis {
     /// Step families the log has too few steps to decide on (each with a warning that
     /// says so in words).
     pub too_few_steps: Vec<StepsToDecide>,
+    /// Step families the log cannot tell from the converters' spread (each with a warning
+    /// that says so in words).
+    pub within_spread: Vec<WithinSpread>,
     pub warnings: Vec<Warning>,
 }

@@ -28,7 +28,8 @@ pub use compare::{compare, nrmse_pair, Bin, Comparison, Window};
 pub use cv::{FoldScores, FOLDS};
 pub use decide::{diagnose, diagnose_observed, diagnose_with, Progress};
 pub use diagnosis::{
-    BaseReport, Diagnosis, EffectReport, Refinement, ShapeScore, StepReport, StepsToDecide, Verdict,
+    BaseReport, Diagnosis, EffectReport, Refinement, ShapeScore, StepReport, StepsToDecide,
+    Verdict, WithinSpread,
 };
 pub use recording::{loop_without_spikes, sampling_warning, SpikeReport};
 pub use resolution::{encoder_floor, encoder_step_rad, EncoderFloor};

@@ -8,7 +8,7 @@ use std::fmt;
 use serde::{Serialize, Serializer};
 
 use super::SpikeReport;
-use super::StepsToDecide;
+use super::{StepsToDecide, WithinSpread};
 use crate::effects::Experiment;
 use crate::effects::Family;
 use pam_ident::msd::MassWarning;
@@ -141,6 +141,23 @@ impl Warning {
             _ => None,
         }
     }
+
+    /// A step family the log cannot tell from the converters' spread, as the diagnosis's
+    /// JSON lists it (`None` for every other warning).
+    pub fn within_spread(&self) -> Option<WithinSpread> {
+        match *self {
+            Warning::WithinConverterSpread {
+                family,
+                improvement,
+                spread_improvement,
+            } => Some(WithinSpread {
+                family,
+                improvement,
+                spread_improvement,
+            }),
+            _ => None,
+        }
+    }
 }
 
 impl fmt::Display for Warning {
@@ -241,10 +258,11 @@ impl fmt::Display for Warning {
                 spread_improvement,
             } => write!(
                 f,
-                "{} removes {:.1} % of the held-out error, but a share of each axis's force in the other (the four converters' spread, at one pose a linear change of the steps) removes {:.1} %: the log cannot tell the two apart, so it is not named. To tell them: step at a second co-contraction level or pose (the channels' levels then cross a saturation's ceiling or leave it, while the spread keeps its share)",
+                "{} removes {:.1} % of the held-out error, but a share of each axis's force in the other (the four converters' spread, at one pose a linear change of the steps) removes {:.1} %: the log cannot tell the two apart, so it is not named. To tell them: {} (the channels' pressures then cross a ceiling more often, while the spread keeps its share)",
                 family.name(),
                 100.0 * improvement,
-                100.0 * spread_improvement
+                100.0 * spread_improvement,
+                crate::spread_pair::SEPARATING_EXPERIMENT
             ),
             Warning::ForceLagsMotion {
                 delay_ms,

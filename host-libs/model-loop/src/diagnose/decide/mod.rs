@@ -152,6 +152,10 @@ pub fn diagnose_observed(
         .iter()
         .filter_map(Warning::steps_to_decide)
         .collect();
+    let within_spread = undecided
+        .iter()
+        .filter_map(Warning::within_spread)
+        .collect();
     warnings.extend(undecided);
     warnings.extend(structure.set_aside);
     if dynamic {
@@ -184,6 +188,7 @@ pub fn diagnose_observed(
             steps,
             refinements,
             too_few_steps,
+            within_spread,
             warnings,
         },
         fits,
