@@ -265,7 +265,8 @@ right but whose final model holds another; \
 tell apart, with the experiment that would (a joint's friction and the muscles' hysteresis at one \
 stiffness level: \"stiffness pairs run\" and \"strictly right after them\" are the final model \
 once that experiment was run and decided, as in the cross-generator section, where a step log \
-with too few steps to decide is followed by the longer trial its diagnosis asks for as well). The second table counts \
+with too few steps to decide is followed by the longer trial its diagnosis asks for, and one \
+with a family within the converters' spread by the same steps at a higher co-contraction, as well). The second table counts \
 the effect logs by their footprint, as the cross-generator section's does.",
         kind: Kind::Tables,
         runs: physgen_runs,
@@ -287,6 +288,11 @@ two left open. Where a step log has too few steps to decide and its diagnosis as
 (at most four times its own), the run makes the same trial that long (pam-physgen and pam-synth \
 can; the twin's step test is its fixed 24 steps) and scores that log's final model instead: \
 \"longer step trials run\" counts them, \"false alarms after them\" the controls then named. \
+Where a step log's diagnosis cannot tell a family from the converters' spread, the run makes the \
+same steps at a higher co-contraction (pam-physgen can: `pamctl experiment step --co-contraction \
+high`'s protocol; pam-synth and the twin have no co-contraction to set) and decides the pair as \
+`pamctl model diagnose A.csv B.csv` does (`pam_model_loop::spread_pair`): \"co-contraction pairs \
+run\" counts them, and a family the pair names comes first in the final model scored after them. \
 The second table counts the effect logs by their footprint: the RMS change the effect \
 makes in the force over the force's spread, both axes pooled (`pam_eval::footprint`; pam-physgen \
 and pam-synth report it, the twin's log is drawn again from the same seed without the effect). An \
