@@ -393,7 +393,9 @@ pub fn generate(spec: &CaseSpec, duration_s: Option<f64>) -> Result<Generated, P
 /// operator (or step schedule) and effect at another stiffness. A dynamic trial's level
 /// runs from the point's K_low (0) to its K_high (1); a step trial's from the lowest
 /// co-contraction that lets every level through unclamped (0, the one [`generate`] uses)
-/// to the highest that does (1). Everything else is drawn from the seed as in [`generate`].
+/// to the highest that does with every commanded pressure under
+/// `pam_model::protocols::STEP_HIGH_PRESSURE_SHARE` of the range (1). Everything else is
+/// drawn from the seed as in [`generate`].
 pub fn generate_at_stiffness(
     spec: &CaseSpec,
     duration_s: Option<f64>,
