@@ -488,38 +488,56 @@ fn ctrl_c_during_record_leaves_a_valid_csv_with_everything_received() {
     assert_eq!(seq_gaps(&log), 0);
 }
 
-#[test]
-fn force_step_experiment_writes_one_log_that_follows_the_reference() {
-    let _serial = exclusive();
+/// A `pamctl experiment step` at pose 0 on the emulator, each level held `hold_s`, with
+/// `extra` arguments, into a fresh directory named `name`: the serialising guard and the
+/// target (both held for the test), the directory and pamctl's output. `None` on a real
+/// board, where the operator must block the handle: run it by hand there.
+fn step_experiment(
+    name: &str,
+    hold_s: &str,
+    extra: &[&str],
+) -> Option<(
+    std::sync::MutexGuard<'static, ()>,
+    Target,
+    std::path::PathBuf,
+    String,
+)> {
+    let serial = exclusive();
     let target = Target::acquire(SIM);
     if !target.is_emulator() {
-        // on a real board the operator must block the handle: run it by hand
         eprintln!(
             "skipped on PAM_DEVICE: `pamctl experiment step` needs the handle blocked by hand"
         );
-        return;
+        return None;
     }
     target.prepare(1.0);
-    let dir = tmp("experiment");
+    let dir = tmp(name);
     let _ = std::fs::remove_dir_all(&dir);
-    let out = ok(
-        &target.address,
-        &[
-            "experiment",
-            "step",
-            "--pose",
-            "0",
-            "--hold-s",
-            "0.25",
-            "--settle-s",
-            "0.3",
-            "--repeats",
-            "2",
-            "--yes",
-            "--out",
-            dir.to_str().unwrap(),
-        ],
-    );
+    let mut args = vec![
+        "experiment",
+        "step",
+        "--pose",
+        "0",
+        "--hold-s",
+        hold_s,
+        "--settle-s",
+        "0.3",
+        "--yes",
+        "--out",
+        dir.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let out = ok(&target.address, &args);
+    Some((serial, target, dir, out))
+}
+
+#[test]
+fn force_step_experiment_writes_one_log_that_follows_the_reference() {
+    let Some((_serial, _target, dir, out)) =
+        step_experiment("experiment", "0.25", &["--repeats", "2"])
+    else {
+        return;
+    };
     assert!(out.contains("1 log(s)"), "{out}");
     let log = pam_log::read_path(dir.join("step_pose0.csv")).expect("a valid log");
     assert_eq!(log.meta("experiment"), Some("force_step"));
@@ -555,35 +573,14 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
 
 #[test]
 fn force_steps_at_both_co_contractions_make_the_pair_the_model_loop_decides() {
-    let _serial = exclusive();
-    let target = Target::acquire(SIM);
-    if !target.is_emulator() {
-        eprintln!(
-            "skipped on PAM_DEVICE: `pamctl experiment step` needs the handle blocked by hand"
-        );
+    // half-second holds: each log's 24 steps then last the 10 s the model loop needs
+    let Some((_serial, target, dir, out)) = step_experiment(
+        "experiment-co-contraction",
+        "0.5",
+        &["--co-contraction", "both"],
+    ) else {
         return;
-    }
-    target.prepare(1.0);
-    let dir = tmp("experiment-co-contraction");
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = ok(
-        &target.address,
-        &[
-            "experiment",
-            "step",
-            "--pose",
-            "0",
-            "--hold-s",
-            "0.5",
-            "--settle-s",
-            "0.3",
-            "--co-contraction",
-            "both",
-            "--yes",
-            "--out",
-            dir.to_str().unwrap(),
-        ],
-    );
+    };
     assert!(out.contains("2 log(s)"), "{out}");
     let (low_path, high_path) = (dir.join("step_pose0.csv"), dir.join("step_pose0_high.csv"));
     let low = pam_log::read_path(&low_path).expect("a valid log");

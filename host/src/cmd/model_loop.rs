@@ -157,27 +157,9 @@ pub fn diagnose(args: &DiagnoseArgs, out: &mut impl Write) -> anyhow::Result<()>
     }
     let pair = stiffness_pair::friction_or_hysteresis(&trial_a, &trial_b, &model, settings(a))?;
     if a.json {
-        let mut d = Vec::new();
-        diagnose_one(
-            &LoopArgs {
-                json: true,
-                ..a.clone()
-            },
-            &mut d,
-        )?;
-        let mut v: serde_json::Value = serde_json::from_slice(&d)?;
-        v["friction_or_hysteresis"] = serde_json::to_value(&pair)?;
-        return json_out(out, &v);
+        return first_log_json_with(a, "friction_or_hysteresis", &pair, out);
     }
-    writeln!(out, "{}:", a.log.display())?;
-    diagnose_one(a, out)?;
-    writeln!(out)?;
-    writeln!(
-        out,
-        "friction or hysteresis, from {} and {}:",
-        a.log.display(),
-        other.display()
-    )?;
+    first_log_then_pair(a, other, "friction or hysteresis", out)?;
     let named = pair.family.map_or("cannot tell", |f| f.name());
     writeln!(out, "  {named}: {}", pair.evidence)?;
     if let Some(x) = &pair.separating_experiment {
@@ -186,6 +168,45 @@ pub fn diagnose(args: &DiagnoseArgs, out: &mut impl Write) -> anyhow::Result<()>
     for w in &pair.warnings {
         writeln!(out, "warning: {w}")?;
     }
+    Ok(())
+}
+
+/// The first log's diagnosis as JSON, with a pair's decision added under `key`.
+fn first_log_json_with(
+    a: &LoopArgs,
+    key: &str,
+    pair: &impl serde::Serialize,
+    out: &mut impl Write,
+) -> anyhow::Result<()> {
+    let mut d = Vec::new();
+    diagnose_one(
+        &LoopArgs {
+            json: true,
+            ..a.clone()
+        },
+        &mut d,
+    )?;
+    let mut v: serde_json::Value = serde_json::from_slice(&d)?;
+    v[key] = serde_json::to_value(pair)?;
+    json_out(out, &v)
+}
+
+/// The first log's diagnosis in words, then the heading of the pair's decision.
+fn first_log_then_pair(
+    a: &LoopArgs,
+    other: &Path,
+    what: &str,
+    out: &mut impl Write,
+) -> anyhow::Result<()> {
+    writeln!(out, "{}:", a.log.display())?;
+    diagnose_one(a, out)?;
+    writeln!(out)?;
+    writeln!(
+        out,
+        "{what}, from {} and {}:",
+        a.log.display(),
+        other.display()
+    )?;
     Ok(())
 }
 
@@ -200,27 +221,9 @@ fn diagnose_step_pair(
 ) -> anyhow::Result<()> {
     let pair = spread_pair::saturation_or_spread(trials[0], trials[1], model, settings(a))?;
     if a.json {
-        let mut d = Vec::new();
-        diagnose_one(
-            &LoopArgs {
-                json: true,
-                ..a.clone()
-            },
-            &mut d,
-        )?;
-        let mut v: serde_json::Value = serde_json::from_slice(&d)?;
-        v["family_or_spread"] = serde_json::to_value(&pair)?;
-        return json_out(out, &v);
+        return first_log_json_with(a, "family_or_spread", &pair, out);
     }
-    writeln!(out, "{}:", a.log.display())?;
-    diagnose_one(a, out)?;
-    writeln!(out)?;
-    writeln!(
-        out,
-        "a family or the converters' spread, from {} and {}:",
-        a.log.display(),
-        other.display()
-    )?;
+    first_log_then_pair(a, other, "a family or the converters' spread", out)?;
     let named = match (pair.family, pair.decided) {
         (Some(f), _) => f.name(),
         (None, true) => "no family",
