@@ -20,7 +20,7 @@ use pam_ident::IdentError;
 use pam_model::RobotModel;
 use serde::Serialize;
 
-use crate::diagnose::{diagnose, Diagnosis, Settings, Verdict, WithinSpread};
+use crate::diagnose::{diagnose, Settings, Verdict, WithinSpread};
 use crate::effects::{Experiment, Family};
 
 /// The two logs' mean commanded currents must differ by at least this factor (RMS of the
@@ -56,24 +56,6 @@ pub struct SpreadPair {
     pub logs: [SpreadPairLog; 2],
 }
 
-fn final_model(d: &Diagnosis) -> Vec<Family> {
-    let Some(last) = d.steps.last() else {
-        return Vec::new();
-    };
-    let mut out: Vec<Family> = Vec::new();
-    for id in &last.effects {
-        let family = d
-            .effects
-            .iter()
-            .find(|e| e.effect == *id || e.other_shapes.iter().any(|s| s.effect == *id))
-            .and_then(|e| e.family);
-        if let Some(f) = family.filter(|f| !out.contains(f)) {
-            out.push(f);
-        }
-    }
-    out
-}
-
 fn mean_currents(t: &Trial) -> [f64; 4] {
     let Some(c) = &t.current_ma else {
         return [f64::NAN; 4];
@@ -90,7 +72,7 @@ fn log_of(
     let (d, _) = diagnose(t, model, Experiment::Step, settings)?;
     Ok(SpreadPairLog {
         verdict: d.verdict,
-        final_model: final_model(&d),
+        final_model: d.final_families(),
         within_spread: d.within_spread.clone(),
         mean_current_ma: mean_currents(t),
     })

@@ -213,17 +213,7 @@ fn towards_highest(
         }
     }
     let ceiling_bar = STEP_HIGH_PRESSURE_SHARE * model.params.pressure.max_bar;
-    let unclamped = |k: [f64; 2]| {
-        (-3..=3).all(|a| {
-            (-3..=3).all(|b| {
-                let f = [a as f64 * step_n, b as f64 * step_n];
-                let c = model.force_command(alpha, f, k, false);
-                c.joints
-                    .iter()
-                    .all(|j| j.limited.0 == 0 && j.pressure_bar.iter().all(|&p| p <= ceiling_bar))
-            })
-        })
-    };
+    let unclamped = |k: [f64; 2]| every_level_within(model, alpha, step_n, k, ceiling_bar);
     let mut l = level;
     for _ in 0..20 {
         let k = [0, 1].map(|j| {
@@ -254,13 +244,25 @@ fn feasible(model: &RobotModel<f64>, alpha: [f64; 2], step_n: f64) -> Option<[f6
         }
     }
     let k = k.map(|x| x * 1.02);
-    for a in -3..=3 {
-        for b in -3..=3 {
-            let c = model.force_command(alpha, [a as f64 * step_n, b as f64 * step_n], k, false);
-            if c.joints.iter().any(|j| j.limited.0 != 0) {
-                return None;
-            }
-        }
-    }
-    Some(k)
+    every_level_within(model, alpha, step_n, k, f64::INFINITY).then_some(k)
+}
+
+/// Whether every level up to ±3 steps on both axes is commanded at stiffness `k` unclamped,
+/// every muscle's pressure at or under `ceiling_bar`.
+fn every_level_within(
+    model: &RobotModel<f64>,
+    alpha: [f64; 2],
+    step_n: f64,
+    k: [f64; 2],
+    ceiling_bar: f64,
+) -> bool {
+    (-3..=3).all(|a| {
+        (-3..=3).all(|b| {
+            let f = [a as f64 * step_n, b as f64 * step_n];
+            let c = model.force_command(alpha, f, k, false);
+            c.joints
+                .iter()
+                .all(|j| j.limited.0 == 0 && j.pressure_bar.iter().all(|&p| p <= ceiling_bar))
+        })
+    })
 }

@@ -70,10 +70,10 @@ struct Rig {
     path: Option<OperatorPath>,
     currents: [f64; 4],
     holds: Vec<Hold>,
-    /// Step: the holds at the co-contraction the seed draws (the lowest that lets every
-    /// level through), which set a supply limit's ceiling: the supply does not change
-    /// with the co-contraction a trial asks for.
-    drawn_holds: Vec<Hold>,
+    /// Step at a co-contraction set instead of drawn: the holds at the drawn one (the
+    /// lowest that lets every level through), which set a supply limit's ceiling: the
+    /// supply does not change with the co-contraction a trial asks for. `None`: `holds`.
+    drawn_holds: Option<Vec<Hold>>,
     base: BTreeMap<String, f64>,
 }
 
@@ -141,7 +141,7 @@ fn draw_rig(
                 path: Some(path),
                 currents,
                 holds: Vec::new(),
-                drawn_holds: Vec::new(),
+                drawn_holds: None,
                 base,
             }
         }
@@ -173,7 +173,7 @@ fn draw_rig(
                 site,
                 path: None,
                 currents: holds[0].currents_ma,
-                drawn_holds: drawn_holds.unwrap_or_else(|| holds.clone()),
+                drawn_holds,
                 holds,
                 base,
             }
@@ -287,6 +287,8 @@ fn apply_effect(
         Effect::SupplyLimit => {
             let sp: Vec<f64> = rig
                 .drawn_holds
+                .as_ref()
+                .unwrap_or(&rig.holds)
                 .iter()
                 .flat_map(|h| (0..4).map(|c| rig.regulators[c].setpoint_bar(h.currents_ma[c])))
                 .collect();

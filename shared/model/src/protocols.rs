@@ -65,17 +65,20 @@ pub fn trial_stiffness(
     k
 }
 
+/// The §5.2 step test's largest forces, ±27.3 N along X and along Y: the torques every
+/// co-contraction of the test must hold.
+const STEP_EXTREMES_N: [Vec2<f64>; 4] = [
+    [STEP_MAX_N, 0.0],
+    [-STEP_MAX_N, 0.0],
+    [0.0, STEP_MAX_N],
+    [0.0, -STEP_MAX_N],
+];
+
 /// §5.2: per joint, the minimum stiffness at the torques of ±27.3 N along X and along Y; the
 /// highest of those.
 pub fn step_test_stiffness(model: &RobotModel<f64>, alpha_rad: Vec2<f64>) -> Vec2<f64> {
     let mut k = [0.0f64; 2];
-    let forces = [
-        [STEP_MAX_N, 0.0],
-        [-STEP_MAX_N, 0.0],
-        [0.0, STEP_MAX_N],
-        [0.0, -STEP_MAX_N],
-    ];
-    for f in forces {
+    for f in STEP_EXTREMES_N {
         let tau = model.kinematics.joint_torques(alpha_rad, f);
         for j in 0..2 {
             let cap = model.capability(j, alpha_rad[j]);
@@ -112,12 +115,7 @@ pub fn step_test_stiffness_at(
         return lo;
     }
     let mut hi = [f64::INFINITY; 2];
-    for f in [
-        [STEP_MAX_N, 0.0],
-        [-STEP_MAX_N, 0.0],
-        [0.0, STEP_MAX_N],
-        [0.0, -STEP_MAX_N],
-    ] {
+    for f in STEP_EXTREMES_N {
         let tau = model.kinematics.joint_torques(alpha_rad, f);
         for j in 0..2 {
             if let Some((_, k)) = model.capability(j, alpha_rad[j]).stiffness_range(tau[j]) {

@@ -184,3 +184,25 @@ pub struct Diagnosis {
     pub within_spread: Vec<WithinSpread>,
     pub warnings: Vec<Warning>,
 }
+
+impl Diagnosis {
+    /// The families of the final model (the last step's effects), in the order they
+    /// entered, each once.
+    pub fn final_families(&self) -> Vec<Family> {
+        let Some(last) = self.steps.last() else {
+            return Vec::new();
+        };
+        let mut out: Vec<Family> = Vec::new();
+        for id in &last.effects {
+            let family = self
+                .effects
+                .iter()
+                .find(|e| e.effect == *id || e.other_shapes.iter().any(|s| s.effect == *id))
+                .and_then(|e| e.family);
+            if let Some(f) = family.filter(|f| !out.contains(f)) {
+                out.push(f);
+            }
+        }
+        out
+    }
+}
