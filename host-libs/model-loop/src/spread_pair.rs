@@ -3,11 +3,12 @@
 //! At one pose and one co-contraction, the force steps of a step trial are a linear map of
 //! the commanded currents: the four converters' spread (each channel's own gain and offset)
 //! is then a share of each axis's force in the other, and a supply limit whose ceiling only
-//! the largest steps reach can look the same, so a diagnosis refuses such a family as
-//! within the spread ([`WithinSpread`]). Raising the co-contraction raises every channel's
-//! pressure: the spread keeps its share of the steps, while a ceiling the supply sets is
-//! crossed by more of them and takes a larger share of the force, beyond what the spread
-//! can take up. So the same schedule at another co-contraction (`pamctl experiment step
+//! the largest steps reach can look the same; steps that settle a little apart by level
+//! and direction, which the spread leaves too, are fitted in part by a muscle hysteresis
+//! or a slew. A diagnosis refuses such a family as within the spread ([`WithinSpread`]).
+//! Raising the co-contraction raises every channel's pressure: the spread keeps its share
+//! of the steps, while a ceiling the supply sets is crossed by more of them and the
+//! muscles' hysteresis grows, beyond what the spread can take up. So the same schedule at another co-contraction (`pamctl experiment step
 //! --co-contraction high`) tells them apart: a family the spread hides in a log that names
 //! nothing else, and that the other log names alone, is the log's; where neither log names
 //! it beyond the spread, the spread explains the steps at both, and no family is named.
@@ -146,7 +147,7 @@ pub fn decide(logs: [SpreadPairLog; 2]) -> SpreadPair {
         [(f, at)] => (
             Some(*f),
             format!(
-                "{} is within the converters' spread in log {} and named beyond it in log {} (currents ×{ratio:.2}): a ceiling the spread cannot keep up with",
+                "{} is within the converters' spread in log {} and named beyond it in log {} (currents ×{ratio:.2}): an effect that grows with the channels' levels, which the spread does not",
                 f.name(),
                 if *at == 0 { "B" } else { "A" },
                 if *at == 0 { "A" } else { "B" },
@@ -186,6 +187,7 @@ mod tests {
                     family,
                     improvement: 0.02,
                     spread_improvement: 0.03,
+                    beyond_spread: 0.0,
                 })
                 .collect(),
             mean_current_ma: [current_ma; 4],

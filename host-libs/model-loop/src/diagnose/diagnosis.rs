@@ -131,9 +131,10 @@ pub struct StepsToDecide {
     pub steps_needed: Option<usize>,
 }
 
-/// A step family that removes no more than the converters' spread does (a share of each
-/// axis's force in the other): one log at one co-contraction cannot tell it from that
-/// spread; the same trial at another co-contraction can
+/// A step family the converters' spread (a share of each axis's force in the other)
+/// explains as well: a saturation that removes no more than the spread does, another
+/// family that removes nothing material beyond it. One log at one co-contraction cannot
+/// tell it from that spread; the same trial at another co-contraction can
 /// ([`crate::spread_pair::saturation_or_spread`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct WithinSpread {
@@ -142,6 +143,8 @@ pub struct WithinSpread {
     pub improvement: f64,
     /// The share the converters' spread removes.
     pub spread_improvement: f64,
+    /// The share of the error the spread leaves that the family removes on top of it.
+    pub beyond_spread: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]

@@ -87,15 +87,18 @@ pub enum Warning {
         /// `None`: its gain is not positive across the held-out blocks on average.
         steps_needed: Option<usize>,
     },
-    /// A step trial: a family removes no more of the held-out error than a share of each
-    /// axis's force in the other (the four converters' spread at one pose) does: the log
-    /// cannot tell it from that spread.
+    /// A step trial: a share of each axis's force in the other (the four converters'
+    /// spread at one pose) explains what a family does: a saturation removes no more of
+    /// the held-out error than the spread, another family nothing material beyond it. The
+    /// log cannot tell the family from that spread.
     WithinConverterSpread {
         family: Family,
         /// The share of the base's held-out error it removes.
         improvement: f64,
         /// The share the converters' spread removes.
         spread_improvement: f64,
+        /// The share of the error the spread leaves that the family removes on top of it.
+        beyond_spread: f64,
     },
     /// An axis's reference does not step in the held-out part (a step trial).
     ReferenceStill { axis: usize },
@@ -150,10 +153,12 @@ impl Warning {
                 family,
                 improvement,
                 spread_improvement,
+                beyond_spread,
             } => Some(WithinSpread {
                 family,
                 improvement,
                 spread_improvement,
+                beyond_spread,
             }),
             _ => None,
         }
@@ -256,14 +261,37 @@ impl fmt::Display for Warning {
                 family,
                 improvement,
                 spread_improvement,
-            } => write!(
-                f,
-                "{} removes {:.1} % of the held-out error, but a share of each axis's force in the other (the four converters' spread, at one pose a linear change of the steps) removes {:.1} %: the log cannot tell the two apart, so it is not named. To tell them: {} (the channels' pressures then cross a ceiling more often, while the spread keeps its share)",
-                family.name(),
-                100.0 * improvement,
-                100.0 * spread_improvement,
-                crate::spread_pair::SEPARATING_EXPERIMENT
-            ),
+                beyond_spread,
+            } => {
+                let spread = "a share of each axis's force in the other (the four converters' spread, at one pose a linear change of the steps)";
+                if *family == Family::Saturation {
+                    write!(
+                        f,
+                        "{} removes {:.1} % of the held-out error, but {spread} removes {:.1} %",
+                        family.name(),
+                        100.0 * improvement,
+                        100.0 * spread_improvement,
+                    )?;
+                } else {
+                    let beyond = if *beyond_spread > 0.0 {
+                        format!("{:.1} %", 100.0 * beyond_spread)
+                    } else {
+                        "nothing".to_string()
+                    };
+                    write!(
+                        f,
+                        "{} removes {:.1} % of the held-out error, but {spread} removes {:.1} %, and with the spread in the base it removes {beyond} of what is left",
+                        family.name(),
+                        100.0 * improvement,
+                        100.0 * spread_improvement,
+                    )?;
+                }
+                write!(
+                    f,
+                    ": the log cannot tell the two apart, so it is not named. To tell them: {} (the channels' pressures then change: a ceiling is crossed more often and the muscles' hysteresis grows, while the spread keeps its share)",
+                    crate::spread_pair::SEPARATING_EXPERIMENT
+                )
+            }
             Warning::ForceLagsMotion {
                 delay_ms,
                 improvement,

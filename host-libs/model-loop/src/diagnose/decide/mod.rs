@@ -344,9 +344,9 @@ impl<'l, 'a> Judge<'l, 'a> {
             None
         };
         let accepted = accepted && colour.is_none();
-        // nor a saturation within the converters' spread
+        // nor a step family the converters' spread explains as well
         let spread = if accepted {
-            self.within_spread(e, improvement)
+            self.within_spread(e, &f, improvement)
         } else {
             None
         };
@@ -400,11 +400,12 @@ impl<'l, 'a> Judge<'l, 'a> {
             })
             .flatten()
             .or_else(|| {
-                let spread_improvement = spread?;
+                let share = spread?;
                 Some(Warning::WithinConverterSpread {
                     family: e.family()?,
                     improvement,
-                    spread_improvement,
+                    spread_improvement: share.spread,
+                    beyond_spread: share.beyond,
                 })
             });
         let accepted = accepted && decisive;
@@ -443,8 +444,9 @@ impl<'l, 'a> Judge<'l, 'a> {
         }
         if let Some(s) = spread {
             evidence.push_str(&format!(
-                "; a share of each axis's force in the other (the converters' spread) removes {:.1} %, as much or more: the log cannot tell it from that spread",
-                100.0 * s
+                "; a share of each axis's force in the other (the converters' spread) removes {:.1} %, and with the spread in the base the effect removes {:.1} % of what is left: the log cannot tell it from that spread",
+                100.0 * s.spread,
+                100.0 * s.beyond.max(0.0)
             ));
         }
         if let Some((change, bound, exponent)) = colour {

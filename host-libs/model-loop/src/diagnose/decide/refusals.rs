@@ -107,22 +107,41 @@ impl Judge<'_, '_> {
         worst
     }
 
-    /// A saturation in a step trial that removes no more of the held-out error than the
-    /// converters' spread does cannot be told from it: the spread's share when so. (No margin:
-    /// with `Settings::min_family_gain` the twin's saturations at a pose off the centre,
-    /// whose knee and maximum the fit recovers, would be refused; a saturation ahead of the
-    /// spread by less than 3 % can still be the log's.)
-    /// The four converters each have their own gain, so at one pose each axis's force
-    /// holds a share of the other's; and a channel a saturation holds at its ceiling over
-    /// every level changes the steps linearly as well. Both are a 2 × 2 gain on the
-    /// base's force at one pose; only steps that move the channels' levels across the
-    /// ceiling (another co-contraction level or pose) tell a saturation from the spread.
-    pub(super) fn within_spread(&self, e: &dyn ModelEffect, improvement: f64) -> Option<f64> {
-        if self.dynamic || e.family() != Some(Family::Saturation) {
+    /// A step family the converters' spread explains as well: the spread's share and what
+    /// the family removes beyond it, when so. The four converters each have their own
+    /// gain, so at one pose each axis's force holds a share of the other's: a 2 × 2 gain on
+    /// the base's force. Only steps that move the channels' levels (another co-contraction
+    /// level or pose) tell an effect that grows with them from that spread.
+    /// - A saturation that holds a channel at its ceiling over every level changes the
+    ///   steps linearly as well: it is within the spread when it removes no more of the
+    ///   held-out error than the spread does. (No margin: with `Settings::min_family_gain`
+    ///   the twin's saturations at a pose off the centre, whose knee and maximum the fit
+    ///   recovers, would be refused; a saturation ahead of the spread by less than 3 % can
+    ///   still be the log's.)
+    /// - Any other family is judged against a base that holds the spread: it is within the
+    ///   spread when, with the spread refitted on its own prediction, it removes no more
+    ///   than `Settings::min_significant_improvement` of the error the spread leaves. (A
+    ///   rig whose converters differ leaves steps that settle a little apart by direction
+    ///   and level, which a muscle hysteresis or a slew fits in part; the family that is
+    ///   there keeps its gain once the spread is in the base.)
+    pub(super) fn within_spread(
+        &self,
+        e: &dyn ModelEffect,
+        f: &ModelFit,
+        improvement: f64,
+    ) -> Option<SpreadShare> {
+        if self.dynamic {
             return None;
         }
         let spread = *self.spread.get_or_init(|| spread_improvement(self.base));
-        (improvement <= spread).then_some(spread)
+        let with_spread = 1.0 - (1.0 - spread_improvement(f)) * (1.0 - improvement);
+        let beyond = 1.0 - (1.0 - with_spread) / (1.0 - spread).max(1e-300);
+        let within = if e.family() == Some(Family::Saturation) {
+            improvement <= spread
+        } else {
+            beyond <= self.settings.min_significant_improvement
+        };
+        within.then_some(SpreadShare { spread, beyond })
     }
 
     /// What a step effect's evidence adds when the log has too few steps to decide on it:
@@ -203,6 +222,15 @@ impl Judge<'_, '_> {
             steps_needed,
         })
     }
+}
+
+/// What the converters' spread explains of a step trial, with a family it hides.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SpreadShare {
+    /// The share of the base's held-out error the spread removes.
+    pub spread: f64,
+    /// The share of the error the spread leaves that the family removes on top of it.
+    pub beyond: f64,
 }
 
 /// The share of a step trial's held-out base error that the converters' spread removes:
