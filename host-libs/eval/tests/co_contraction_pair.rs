@@ -11,13 +11,24 @@ use pam_model_loop::diagnose::{diagnose, Settings};
 use pam_model_loop::effects::{Experiment, Family};
 use pam_model_loop::spread_pair::{saturation_or_spread, SpreadPair};
 
+/// The step trial of a case's log.
+fn trial(c: &Case) -> Trial {
+    Trial::from_log(c.log.as_ref().expect("the generator makes the log")).expect("trial")
+}
+
+/// A case's step log's final model, as the diagnosis JSON gives it.
+fn first_log(c: &Case) -> FinalModel {
+    let model = RobotModel::<f64>::thesis();
+    let (d, _) =
+        diagnose(&trial(c), &model, Experiment::Step, Settings::default()).expect("diagnose");
+    strict::read(&serde_json::to_value(&d).expect("json"))
+}
+
 /// The first log's final model and the pair's decision.
 fn paired(c: &Case) -> (FinalModel, SpreadPair) {
     let model = RobotModel::<f64>::thesis();
-    let log = c.log.as_ref().expect("the generator makes the log");
-    let a = Trial::from_log(log).expect("trial");
-    let (d, _) = diagnose(&a, &model, Experiment::Step, Settings::default()).expect("diagnose");
-    let first = strict::read(&serde_json::to_value(&d).expect("json"));
+    let a = trial(c);
+    let first = first_log(c);
     let b = c
         .other_stiffness
         .as_ref()
@@ -61,18 +72,33 @@ fn a_supply_limit_the_spread_hides_is_named_by_the_pair() {
     }
 }
 
+/// A step control whose first log names nothing, with `hidden` among the families within
+/// the spread (any family, if `None`), and whose pair names none: the spread explains the
+/// steps at both co-contractions.
+fn assert_the_spread_stays(c: &Case, hidden: Option<&str>) {
+    assert_eq!(c.family, "none", "{}", c.label);
+    assert_eq!(c.experiment, Experiment::Step, "{}", c.label);
+    let (first, pair) = paired(c);
+    eprintln!("{}: {first:?}; {}", c.label, pair.evidence);
+    assert!(first.families.is_empty(), "{}: {first:?}", c.label);
+    let within = |f: &String| hidden.is_none_or(|h| f == h);
+    assert!(
+        first.within_spread.iter().any(within),
+        "{}: {first:?}",
+        c.label
+    );
+    assert!(pair.decided, "{}: {}", c.label, pair.evidence);
+    assert_eq!(pair.family, None, "{}: {}", c.label, pair.evidence);
+}
+
 /// A control of the same plan (760028, measured: `none`, a family within the spread) stays
 /// `none`: at the higher co-contraction the spread still explains the steps.
 #[test]
 fn a_controls_spread_stays_the_spread_at_the_higher_co_contraction() {
-    let c = case("physgen", 150, 760_000, 28, Some(Experiment::Step));
-    assert_eq!(c.family, "none", "{}", c.label);
-    let (first, pair) = paired(&c);
-    eprintln!("{}: {first:?}; {}", c.label, pair.evidence);
-    assert!(first.families.is_empty(), "{}: {first:?}", c.label);
-    assert!(!first.within_spread.is_empty(), "{}: {first:?}", c.label);
-    assert!(pair.decided, "{}", pair.evidence);
-    assert_eq!(pair.family, None, "{}", pair.evidence);
+    assert_the_spread_stays(
+        &case("physgen", 150, 760_000, 28, Some(Experiment::Step)),
+        None,
+    );
 }
 
 /// A step control whose four converters differ enough that their spread removes most of
@@ -81,19 +107,7 @@ fn a_controls_spread_stays_the_spread_at_the_higher_co_contraction() {
 /// names nothing: the hysteresis is within the spread, and the pair leaves it there.
 #[test]
 fn a_controls_hysteresis_the_spread_explains_is_not_named() {
-    let c = case("physgen", 400, 720_000, 7, None);
-    assert_eq!(c.family, "none", "{}", c.label);
-    assert_eq!(c.experiment, Experiment::Step, "{}", c.label);
-    let (first, pair) = paired(&c);
-    eprintln!("{}: {first:?}; {}", c.label, pair.evidence);
-    assert!(first.families.is_empty(), "{}: {first:?}", c.label);
-    assert!(
-        first.within_spread.iter().any(|f| f == "hysteresis"),
-        "{}: {first:?}",
-        c.label
-    );
-    assert!(pair.decided, "{}", pair.evidence);
-    assert_eq!(pair.family, None, "{}", pair.evidence);
+    assert_the_spread_stays(&case("physgen", 400, 720_000, 7, None), Some("hysteresis"));
 }
 
 /// A muscle hysteresis of the same plan (720034, Bouc–Wen, footprint 5 %) keeps its name:
@@ -103,11 +117,7 @@ fn a_muscle_hysteresis_keeps_its_gain_beyond_the_spread() {
     let c = case("physgen", 400, 720_000, 34, None);
     assert_eq!(c.family, "hysteresis", "{}", c.label);
     assert_eq!(c.experiment, Experiment::Step, "{}", c.label);
-    let model = RobotModel::<f64>::thesis();
-    let trial =
-        Trial::from_log(c.log.as_ref().expect("the generator makes the log")).expect("trial");
-    let (d, _) = diagnose(&trial, &model, Experiment::Step, Settings::default()).expect("diagnose");
-    let says = strict::read(&serde_json::to_value(&d).expect("json"));
+    let says = first_log(&c);
     eprintln!("{}: {says:?}", c.label);
     assert_eq!(says.families, ["hysteresis"], "{}: {says:?}", c.label);
     assert!(
