@@ -202,12 +202,9 @@ fn towards_highest(
     level: f64,
 ) -> [f64; 2] {
     let mut top = [f64::INFINITY; 2];
-    for d in [[3.0, 3.0], [3.0, -3.0], [-3.0, 3.0], [-3.0, -3.0]] {
-        let tau = model
-            .kinematics
-            .joint_torques(alpha, [d[0] * step_n, d[1] * step_n]);
+    for ranges in corner_ranges(model, alpha, step_n) {
         for j in 0..2 {
-            if let Some((_, hi)) = model.capability(j, alpha[j]).stiffness_range(tau[j]) {
+            if let Some((_, hi)) = ranges[j] {
                 top[j] = top[j].min(hi / 1.02);
             }
         }
@@ -235,16 +232,29 @@ fn towards_highest(
 /// The stiffness that lets every level up to ±3 steps through unclamped, or `None`.
 fn feasible(model: &RobotModel<f64>, alpha: [f64; 2], step_n: f64) -> Option<[f64; 2]> {
     let mut k = [0.0f64; 2];
-    for d in [[3.0, 3.0], [3.0, -3.0], [-3.0, 3.0], [-3.0, -3.0]] {
-        let f = [d[0] * step_n, d[1] * step_n];
-        let tau = model.kinematics.joint_torques(alpha, f);
+    for ranges in corner_ranges(model, alpha, step_n) {
         for j in 0..2 {
-            let (lo, _) = model.capability(j, alpha[j]).stiffness_range(tau[j])?;
+            let (lo, _) = ranges[j]?;
             k[j] = k[j].max(lo);
         }
     }
     let k = k.map(|x| x * 1.02);
     every_level_within(model, alpha, step_n, k, f64::INFINITY).then_some(k)
+}
+
+/// Each joint's stiffness range (`None`: no stiffness holds the torque) at the four corners
+/// of the levels, ±3 steps on both axes.
+fn corner_ranges(
+    model: &RobotModel<f64>,
+    alpha: [f64; 2],
+    step_n: f64,
+) -> [[Option<(f64, f64)>; 2]; 4] {
+    [[3.0, 3.0], [3.0, -3.0], [-3.0, 3.0], [-3.0, -3.0]].map(|d: [f64; 2]| {
+        let tau = model
+            .kinematics
+            .joint_torques(alpha, [d[0] * step_n, d[1] * step_n]);
+        [0, 1].map(|j| model.capability(j, alpha[j]).stiffness_range(tau[j]))
+    })
 }
 
 /// Whether every level up to ±3 steps on both axes is commanded at stiffness `k` unclamped,
