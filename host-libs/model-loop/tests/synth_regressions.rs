@@ -200,11 +200,19 @@ fn a_material_hysteresis_in_a_noisy_log_is_named() {
     assert_eq!(d["effects"][0]["family"], "hysteresis", "{d:#}");
 }
 
+/// A Stribeck friction that removes 0.6 % of the cross-validated error, at t = 1.2 with
+/// eight folds of ten won. The exact signed-rank test, which counts the ten overlapping
+/// folds as independent, passed it (p ≤ 0.05); with its null widened as the t-test's is
+/// (p = 0.10) the log does not decide it, and friction leads the families tried.
 #[test]
-fn a_small_stribeck_friction_is_named_at_the_calibrated_level() {
+fn a_small_stribeck_friction_the_overlapping_folds_cannot_confirm_leads_but_is_not_named() {
     let (d, _) = dynamic_case_70000(245, Family::Friction, Shape::Stribeck);
-    assert_eq!(d["verdict"], "effect", "{d:#}");
-    assert_eq!(d["effects"][0]["family"], "friction", "{d:#}");
+    assert_eq!(d["verdict"], "none", "{d:#}");
+    let top = &d["effects"][0];
+    assert_eq!(top["family"], "friction", "{d:#}");
+    assert_eq!(top["folds"]["wins"], 8, "{top:#}");
+    let rank_p = top["folds"]["rank_p"].as_f64().unwrap();
+    assert!(rank_p > 0.05 && rank_p < 0.2, "{top:#}");
 }
 
 #[test]
