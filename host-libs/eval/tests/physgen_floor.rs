@@ -487,7 +487,12 @@ fn the_arms_own_inertia_is_not_a_pose_dependence() {
 /// play, a negative slip rate, 1.5 % and 2.8 % of the cross-validated error).
 #[test]
 fn a_creep_that_winds_the_torque_up_is_not_a_cable_slip() {
-    for (k, seed) in [(36, 740_075), (56, 740_115)] {
+    controls_name_nothing(&[(36, 740_075), (56, 740_115)]);
+}
+
+/// Each control (`CaseSpec::control(k, seed)`, at its full length) is `none`.
+fn controls_name_nothing(controls: &[(usize, u64)]) {
+    for &(k, seed) in controls {
         let (d, _) = diagnosed(&CaseSpec::control(k, seed), None);
         let v = serde_json::to_value(&d).expect("json");
         let families = strict::read(&v).families;
@@ -503,10 +508,5 @@ fn a_creep_that_winds_the_torque_up_is_not_a_cable_slip() {
 /// null widened as the t-test's is, each is `none`.
 #[test]
 fn folds_that_share_their_training_rows_do_not_name_a_control() {
-    for seed in [720_151, 720_219, 720_239, 720_307, 720_371] {
-        let (d, _) = diagnosed(&CaseSpec::control(0, seed), None);
-        let v = serde_json::to_value(&d).expect("json");
-        let families = strict::read(&v).families;
-        assert_eq!(d.verdict, Verdict::None, "{seed}: {families:?}");
-    }
+    controls_name_nothing(&[720_151, 720_219, 720_239, 720_307, 720_371].map(|seed| (0, seed)));
 }

@@ -98,9 +98,9 @@ pub fn signed_rank_p(values: &[f64]) -> f64 {
 /// The signed-rank test on the gains of cross-validated folds. Every two folds share most
 /// of their training rows, so their gains are positively correlated and the exact test,
 /// which takes them as independent, would count one fit's luck once per fold. W⁺'s
-/// variance under the null is widened by the same factor as the t-test's
-/// (`fold_test`'s correction: 1 + n/(n − 1)), in the normal approximation with a
-/// continuity correction.
+/// variance under the null is widened by the t-test's correction
+/// ([`mean_variance_factor`] over its value for independent gains, 1 + n/(n − 1)), in the
+/// normal approximation with a continuity correction.
 pub fn signed_rank_p_cross_validated(values: &[f64]) -> f64 {
     let (w_plus, rank2) = doubled_ranks(values);
     let n = rank2.len();
@@ -110,10 +110,31 @@ pub fn signed_rank_p_cross_validated(values: &[f64]) -> f64 {
     // in half ranks: each rank adds r/2 with probability ½
     let mean = rank2.iter().sum::<usize>() as f64 / 2.0;
     let variance = rank2.iter().map(|&r| (r * r) as f64).sum::<f64>() / 4.0;
-    let widened = variance * (1.0 + n as f64 / (n - 1) as f64);
+    let widened = variance * n as f64 * mean_variance_factor(n, true);
     // one half rank step (doubled units: 1) as the continuity correction
     let z = (w_plus as f64 - mean - 1.0) / widened.sqrt();
     Normal::standard().sf(z)
+}
+
+/// The signed-rank test's p on fold gains: widened on cross-validated folds, exact on
+/// held-out blocks of one fit.
+fn rank_p(values: &[f64], cross_validated: bool) -> f64 {
+    if cross_validated {
+        signed_rank_p_cross_validated(values)
+    } else {
+        signed_rank_p(values)
+    }
+}
+
+/// The variance of the mean of `n` fold gains over one gain's: 1/n for independent folds,
+/// Nadeau and Bengio's 1/n + 1/(n − 1) for cross-validated folds (their training sets
+/// overlap; n_test/n_train = 1/(n − 1) for n equal folds).
+fn mean_variance_factor(n: usize, cross_validated: bool) -> f64 {
+    if cross_validated && n > 1 {
+        1.0 / n as f64 + 1.0 / (n - 1) as f64
+    } else {
+        1.0 / n.max(1) as f64
+    }
 }
 
 /// P(X ≥ wins) for X ~ Binomial(n, ½).
@@ -155,12 +176,7 @@ pub fn fold_test(without: &FoldScores, with: &FoldScores, cross_validated: bool)
     } else {
         f64::INFINITY
     };
-    let factor = if cross_validated && n > 1 {
-        1.0 / n as f64 + 1.0 / (n - 1) as f64
-    } else {
-        1.0 / n.max(1) as f64
-    };
-    let se = (var * factor).sqrt();
+    let se = (var * mean_variance_factor(n, cross_validated)).sqrt();
     let (sw, sb): (f64, f64) = (with.sse[..k].iter().sum(), without.sse[..k].iter().sum());
     let wins = gains.iter().filter(|g| **g > 0.0).count();
     let best = (0..k)
@@ -169,11 +185,7 @@ pub fn fold_test(without: &FoldScores, with: &FoldScores, cross_validated: bool)
     FoldTest {
         wins,
         sign_p: sign_test_p(wins, n),
-        rank_p: if cross_validated {
-            signed_rank_p_cross_validated(&gains)
-        } else {
-            signed_rank_p(&gains)
-        },
+        rank_p: rank_p(&gains, cross_validated),
         gains: gains.clone(),
         improvement: if sb > 0.0 { 1.0 - sw / sb } else { 0.0 },
         improvement_without_best: if k > 1 && sb_rest > 0.0 {
@@ -223,21 +235,12 @@ pub fn paired_test(base: &FoldScores, a: &FoldScores, b: &FoldScores, cv: bool) 
     }
     let mean = diffs.iter().sum::<f64>() / n as f64;
     let var = diffs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-    let factor = if cv {
-        1.0 / n as f64 + 1.0 / (n - 1) as f64
-    } else {
-        1.0 / n as f64
-    };
-    let se = (var * factor).sqrt();
+    let se = (var * mean_variance_factor(n, cv)).sqrt();
     let wins = diffs.iter().filter(|d| **d > 0.0).count();
     FoldTest {
         wins,
         sign_p: sign_test_p(wins, n),
-        rank_p: if cv {
-            signed_rank_p_cross_validated(&diffs)
-        } else {
-            signed_rank_p(&diffs)
-        },
+        rank_p: rank_p(&diffs, cv),
         gains: diffs.clone(),
         improvement: mean,
         improvement_without_best: mean,
