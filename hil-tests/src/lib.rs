@@ -12,6 +12,7 @@ use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::mpsc::{channel, Receiver};
 use std::sync::{Mutex, MutexGuard};
 use std::time::Duration;
+use tempfile::TempDir;
 
 /// The tests need the device's 1 kHz loop and the host's attention: one at a time.
 pub fn exclusive() -> MutexGuard<'static, ()> {
@@ -209,11 +210,13 @@ pub fn vent(c: &Client) -> (f32, f32) {
     }
 }
 
-/// A fresh temporary path for a test's files.
-pub fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pam-hil-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir.join(name)
+/// A fresh directory for a test's files; keep the guard for the whole test: it is removed
+/// when the test ends, pass or fail.
+pub fn tmp_dir() -> TempDir {
+    tempfile::Builder::new()
+        .prefix("pam-hil-")
+        .tempdir()
+        .expect("temp dir")
 }
 
 /// Telemetry `seq` steps other than +1.

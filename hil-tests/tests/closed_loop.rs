@@ -2,7 +2,7 @@
 //! emulator with a blocked handle (on a board: block the handle first).
 
 use pam_control::{Faults, Mode, State, MAX_GAIN_SCALE};
-use pam_hil_tests::{column, exclusive, mean_of_last, ok, pamctl, tmp, Target};
+use pam_hil_tests::{column, exclusive, mean_of_last, ok, pamctl, tmp_dir, Target};
 use pam_log::col;
 use pam_protocol::{ModeKind, RequestBody};
 use std::time::{Duration, Instant};
@@ -11,7 +11,8 @@ const SIM: &[&str] = &["--handle", "blocked"];
 
 /// `pamctl record` for `seconds` into a temporary `NAME.csv`, read back.
 fn record(device: &str, name: &str, seconds: &str) -> pam_log::Log {
-    let file = tmp(&format!("{name}.csv"));
+    let dir = tmp_dir();
+    let file = dir.path().join(format!("{name}.csv"));
     let path = file.to_str().expect("a UTF-8 temporary path");
     ok(
         device,

@@ -3,7 +3,8 @@
 //! name and the change that fixes it, and no step drives the arm beyond its bounds.
 //! Serialised: each needs the 1 kHz loop undisturbed.
 
-use pam_hil_tests::{exclusive, pamctl, tmp, Target};
+use pam_hil_tests::{exclusive, pamctl, tmp_dir, Target};
+use tempfile::TempDir;
 
 /// Runs the commissioning on an emulator wired with `miswire` (none: wired right), the
 /// handle blocked whenever the device is in force mode: first with the handle free (step 1),
@@ -16,10 +17,10 @@ fn commission(miswire: Option<&str>) -> (i32, String, String) {
     // a loaded test machine can hold the client back beyond the firmware's 0.1 s
     target.prepare(1.0);
     let name = miswire.unwrap_or("right").replace([':', ',', '='], "_");
-    let state = tmp(&format!("commission-{name}.json"));
-    let report = tmp(&format!("commission-{name}.md"));
-    let html = tmp(&format!("commission-{name}.html"));
-    let _ = std::fs::remove_file(&state);
+    let dir = tmp_dir();
+    let state = dir.path().join(format!("commission-{name}.json"));
+    let report = dir.path().join(format!("commission-{name}.md"));
+    let html = dir.path().join(format!("commission-{name}.html"));
     let run = |handle: &str, restart: bool| {
         let mut args = vec![
             "commission",
@@ -53,6 +54,8 @@ fn commission(miswire: Option<&str>) -> (i32, String, String) {
 struct Resumable {
     target: Target,
     state: std::path::PathBuf,
+    /// Holds `state`; removed when the test ends, pass or fail.
+    _dir: TempDir,
 }
 
 impl Resumable {
@@ -61,9 +64,13 @@ impl Resumable {
         sim.extend_from_slice(miswire);
         let target = Target::acquire(&sim);
         target.prepare(1.0);
-        let state = tmp(state_name);
-        let _ = std::fs::remove_file(&state);
-        Self { target, state }
+        let dir = tmp_dir();
+        let state = dir.path().join(state_name);
+        Self {
+            target,
+            state,
+            _dir: dir,
+        }
     }
 
     /// `pamctl commission --state … args`: its exit code and its output.

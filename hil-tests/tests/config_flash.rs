@@ -3,7 +3,7 @@
 //! restore and erase. The restarts need the emulator (`pamctl sim --config-flash FILE`):
 //! against a board (`PAM_DEVICE`) these tests do nothing and say so.
 
-use pam_hil_tests::{exclusive, ok, pamctl, tmp, Target};
+use pam_hil_tests::{exclusive, ok, pamctl, tmp_dir, Target};
 
 /// An emulator over the flash file `flash`.
 fn emulator(flash: &std::path::Path) -> Option<Target> {
@@ -66,8 +66,8 @@ fn set_and_persist(t: &Target) {
 #[test]
 fn a_persisted_configuration_is_back_after_a_restart() {
     let _g = exclusive();
-    let flash = tmp("persist.flash");
-    let _ = std::fs::remove_file(&flash);
+    let dir = tmp_dir();
+    let flash = dir.path().join("persist.flash");
     {
         let Some(t) = emulator(&flash) else { return };
         let s = status(&t);
@@ -110,8 +110,8 @@ fn a_persisted_configuration_is_back_after_a_restart() {
 #[test]
 fn a_corrupt_record_boots_the_defaults_with_the_self_check_fault() {
     let _g = exclusive();
-    let flash = tmp("corrupt.flash");
-    let _ = std::fs::remove_file(&flash);
+    let dir = tmp_dir();
+    let flash = dir.path().join("corrupt.flash");
     {
         let Some(t) = emulator(&flash) else { return };
         set_and_persist(&t);

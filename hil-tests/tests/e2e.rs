@@ -5,7 +5,7 @@
 //! (`pamctl sim --handle blocked`); on a real board block the handle before running.
 
 use pam_control::{Faults, Mode, State};
-use pam_hil_tests::{column, exclusive, mean_of_last, ok, pamctl, seq_gaps, tmp, Target};
+use pam_hil_tests::{column, exclusive, mean_of_last, ok, pamctl, seq_gaps, tmp_dir, Target};
 use pam_link::{Client, LinkError};
 use pam_log::col;
 use pam_protocol::{
@@ -13,6 +13,7 @@ use pam_protocol::{
 };
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+use tempfile::TempDir;
 
 const SIM: &[&str] = &["--handle", "blocked"];
 
@@ -80,11 +81,12 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     target.prepare(1.0);
     let (vent_bar, vent_ma) = pam_hil_tests::vent(&target.client());
     let d = target.address.as_str();
+    let dir = tmp_dir();
     ok(d, &["arm"]);
 
     // idle: vented (the I/P converters' floor, commanded by its loop current)
     ok(d, &["set", "idle"]);
-    let (_, log) = record(d, &tmp("idle.csv"), "0.5", &[]);
+    let (_, log) = record(d, &dir.path().join("idle.csv"), "0.5", &[]);
     assert_physical(&log, 0.0, "idle");
     for (i, p) in col::CURRENTS_MA.iter().zip(col::PRESSURES_CMD_BAR) {
         assert!(
@@ -104,7 +106,7 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     // force, first, at the neutral pose: the handle is blocked there and the measured force
     // follows the reference
     ok(d, &["set", "force", "--force-n", "10,0"]);
-    let (_, log) = record(d, &tmp("force.csv"), "1.5", &[]);
+    let (_, log) = record(d, &dir.path().join("force.csv"), "1.5", &[]);
     assert_physical(&log, 3.0, "force");
     assert!(column(&log, col::FX_REF_N).iter().all(|&f| f == 10.0));
     let fx = mean_of_last(column(&log, col::FX_N), 500);
@@ -121,7 +123,7 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     // interlock goes on from idle
     ok(d, &["set", "idle"]);
     ok(d, &["set", "pressures", "1.0,2.0,3.0,2.5", "--service"]);
-    let (_, log) = record(d, &tmp("pressures.csv"), "2", &[]);
+    let (_, log) = record(d, &dir.path().join("pressures.csv"), "2", &[]);
     assert_physical(&log, 1.0, "pressures");
     for (name, want) in col::PRESSURES_CMD_BAR.iter().zip([1.0, 2.0, 3.0, 2.5]) {
         let p = mean_of_last(column(&log, name), 300);
@@ -144,7 +146,7 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     // pressures mode above leaves the arm wherever its imbalance pushed it, and the joint
     // target is shaped at 0.15 rad/s from there: 4 s cover the joints' range
     ok(d, &["set", "joint", "--alpha-deg", "5,-5"]);
-    let (_, log) = record(d, &tmp("joint.csv"), "4", &[]);
+    let (_, log) = record(d, &dir.path().join("joint.csv"), "4", &[]);
     assert_physical(&log, 2.0, "joint");
     let a1 = mean_of_last(column(&log, col::ALPHA1_RAD), 300).to_degrees();
     let a2 = mean_of_last(column(&log, col::ALPHA2_RAD), 300).to_degrees();
@@ -161,7 +163,7 @@ fn each_mode_then_ten_seconds_at_1khz_without_gaps() {
     }
 
     // ten seconds at 1 kHz, with the link throughput
-    let file = tmp("ten_seconds.csv");
+    let file = dir.path().join("ten_seconds.csv");
     let (out, log) = record(d, &file, "10", &["--stats"]);
     assert!(
         (9_999..=10_001).contains(&log.len()),
@@ -448,8 +450,8 @@ fn ctrl_c_during_record_leaves_a_valid_csv_with_everything_received() {
     let _serial = exclusive();
     let target = Target::acquire(SIM);
     target.prepare(1.0);
-    let file = tmp("interrupted.csv");
-    let _ = std::fs::remove_file(&file);
+    let dir = tmp_dir();
+    let file = dir.path().join("interrupted.csv");
     let child = Command::new(pam_hil_tests::pamctl_bin())
         .args([
             "--device",
@@ -489,19 +491,14 @@ fn ctrl_c_during_record_leaves_a_valid_csv_with_everything_received() {
 }
 
 /// A `pamctl experiment step` at pose 0 on the emulator, each level held `hold_s`, with
-/// `extra` arguments, into a fresh directory named `name`: the serialising guard and the
-/// target (both held for the test), the directory and pamctl's output. `None` on a real
-/// board, where the operator must block the handle: run it by hand there.
+/// `extra` arguments, into a fresh directory: the serialising guard, the target and the
+/// directory (all held for the test; the directory is removed when it ends, pass or fail)
+/// and pamctl's output. `None` on a real board, where the operator must block the handle:
+/// run it by hand there.
 fn step_experiment(
-    name: &str,
     hold_s: &str,
     extra: &[&str],
-) -> Option<(
-    std::sync::MutexGuard<'static, ()>,
-    Target,
-    std::path::PathBuf,
-    String,
-)> {
+) -> Option<(std::sync::MutexGuard<'static, ()>, Target, TempDir, String)> {
     let serial = exclusive();
     let target = Target::acquire(SIM);
     if !target.is_emulator() {
@@ -511,8 +508,7 @@ fn step_experiment(
         return None;
     }
     target.prepare(1.0);
-    let dir = tmp(name);
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = tmp_dir();
     let mut args = vec![
         "experiment",
         "step",
@@ -524,7 +520,7 @@ fn step_experiment(
         "0.3",
         "--yes",
         "--out",
-        dir.to_str().unwrap(),
+        dir.path().to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
     let out = ok(&target.address, &args);
@@ -533,13 +529,11 @@ fn step_experiment(
 
 #[test]
 fn force_step_experiment_writes_one_log_that_follows_the_reference() {
-    let Some((_serial, _target, dir, out)) =
-        step_experiment("experiment", "0.25", &["--repeats", "2"])
-    else {
+    let Some((_serial, _target, dir, out)) = step_experiment("0.25", &["--repeats", "2"]) else {
         return;
     };
     assert!(out.contains("1 log(s)"), "{out}");
-    let log = pam_log::read_path(dir.join("step_pose0.csv")).expect("a valid log");
+    let log = pam_log::read_path(dir.path().join("step_pose0.csv")).expect("a valid log");
     assert_eq!(log.meta("experiment"), Some("force_step"));
     assert_eq!(log.meta("repeats"), Some("2"));
     assert_eq!(log.meta("pose_deg"), Some("0 0"));
@@ -574,15 +568,15 @@ fn force_step_experiment_writes_one_log_that_follows_the_reference() {
 #[test]
 fn force_steps_at_both_co_contractions_make_the_pair_the_model_loop_decides() {
     // half-second holds: each log's 24 steps then last the 10 s the model loop needs
-    let Some((_serial, target, dir, out)) = step_experiment(
-        "experiment-co-contraction",
-        "0.5",
-        &["--co-contraction", "both"],
-    ) else {
+    let Some((_serial, target, dir, out)) = step_experiment("0.5", &["--co-contraction", "both"])
+    else {
         return;
     };
     assert!(out.contains("2 log(s)"), "{out}");
-    let (low_path, high_path) = (dir.join("step_pose0.csv"), dir.join("step_pose0_high.csv"));
+    let (low_path, high_path) = (
+        dir.path().join("step_pose0.csv"),
+        dir.path().join("step_pose0_high.csv"),
+    );
     let low = pam_log::read_path(&low_path).expect("a valid log");
     let high = pam_log::read_path(&high_path).expect("a valid log");
     assert_eq!(low.meta("co_contraction"), Some("low"));

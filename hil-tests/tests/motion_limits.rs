@@ -1,7 +1,7 @@
 //! Motion limits through the pamctl binary, as `./run.sh` drives the emulator: a joint
 //! target is shaped in firmware, so the arm reaches it without swinging past it.
 
-use pam_hil_tests::{column, exclusive, ok, tmp, Target};
+use pam_hil_tests::{column, exclusive, ok, tmp_dir, Target};
 use pam_log::col;
 
 /// `./run.sh`'s move: from home to Table 4.1's point 4 (10°, 6.5°) at 95, 40 N·m/rad. The
@@ -24,7 +24,8 @@ fn the_run_sh_joint_move_does_not_overshoot_by_a_degree() {
             "95,40",
         ],
     );
-    let file = tmp("joint_move.csv");
+    let dir = tmp_dir();
+    let file = dir.path().join("joint_move.csv");
     ok(
         d,
         &[

@@ -4,7 +4,7 @@
 //! nested numeric fields the layout in docs/plotjuggler.xml plots — at the asked rate.
 //! A UDP listener in the test stands in for PlotJuggler.
 
-use pam_hil_tests::{column, exclusive, ok, pamctl_bin, seq_gaps, tmp, Target};
+use pam_hil_tests::{column, exclusive, ok, pamctl_bin, seq_gaps, tmp_dir, Target};
 use serde_json::Value;
 use std::net::UdpSocket;
 use std::process::{Command, Stdio};
@@ -184,7 +184,8 @@ fn watch_and_record_stream_plotjuggler_json_at_the_asked_rate() {
     let last_watch_ts = messages.last().unwrap()["timestamp"].as_f64().unwrap();
 
     // record: 1 s at 50 Hz; the log keeps every sample
-    let file = tmp("plotjuggler_record.csv");
+    let dir = tmp_dir();
+    let file = dir.path().join("plotjuggler_record.csv");
     ok(
         d,
         &[
@@ -232,8 +233,8 @@ fn ctrl_c_during_a_streamed_record_keeps_every_sample_received() {
     let target = Target::acquire(&[]);
     target.prepare(1.0);
     let (addr, rx) = listen();
-    let file = tmp("plotjuggler_interrupted.csv");
-    let _ = std::fs::remove_file(&file);
+    let dir = tmp_dir();
+    let file = dir.path().join("plotjuggler_interrupted.csv");
     let child = Command::new(pamctl_bin())
         .args([
             "--device",

@@ -8,6 +8,7 @@ use pam_protocol::{ErrorCode, ReplyData, RequestBody};
 use std::process::{Command, Output};
 use std::time::Duration;
 use support::{Options, TestDevice};
+use tempfile::TempDir;
 
 fn pamctl(device: &str, args: &[&str]) -> (i32, String, String) {
     let out: Output = Command::new(env!("CARGO_BIN_EXE_pamctl"))
@@ -37,10 +38,13 @@ fn fails(device: &str, args: &[&str]) -> String {
     err
 }
 
-fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("pamctl-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A fresh directory for a test's files; keep the guard for the whole test: it is removed
+/// when the test ends, pass or fail.
+fn tmp_dir() -> TempDir {
+    tempfile::Builder::new()
+        .prefix("pamctl-test-")
+        .tempdir()
+        .unwrap()
 }
 
 #[test]
@@ -313,7 +317,8 @@ fn config_get_set_save_load() {
         "{out}"
     );
     assert!(!out.contains("[robot]"));
-    let saved = tmp("saved.toml");
+    let dir = tmp_dir();
+    let saved = dir.path().join("saved.toml");
     ok(&d.address, &["config", "save", saved.to_str().unwrap()]);
     let text = std::fs::read_to_string(&saved).unwrap();
     assert!(
@@ -370,7 +375,7 @@ fn config_get_set_save_load() {
     let out = ok(&d.address, &["config", "get", "all"]);
     assert_eq!(out, text);
 
-    let bad = tmp("bad.toml");
+    let bad = dir.path().join("bad.toml");
     std::fs::write(&bad, "[limits]\ncommand_timeout_s = \"soon\"\n").unwrap();
     let err = fails(&d.address, &["config", "load", bad.to_str().unwrap()]);
     assert!(
@@ -387,7 +392,8 @@ fn seq_gaps(log: &pam_log::Log) -> usize {
 #[test]
 fn record_for_a_duration_writes_a_valid_log_without_gaps() {
     let d = TestDevice::start(Options::default());
-    let file = tmp("rec.csv");
+    let dir = tmp_dir();
+    let file = dir.path().join("rec.csv");
     let out = ok(
         &d.address,
         &[
@@ -423,7 +429,8 @@ fn record_for_a_duration_writes_a_valid_log_without_gaps() {
 fn record_in_force_mode_has_the_force_reference() {
     let d = TestDevice::start(Options::default());
     ok(&d.address, &["set", "force", "--force-n", "5,-2"]);
-    let file = tmp("force.csv");
+    let dir = tmp_dir();
+    let file = dir.path().join("force.csv");
     ok(
         &d.address,
         &[
@@ -446,7 +453,8 @@ fn record_in_force_mode_has_the_force_reference() {
 #[test]
 fn ctrl_c_ends_a_recording_with_a_valid_file() {
     let d = TestDevice::start(Options::default());
-    let file = tmp("ctrlc.csv");
+    let dir = tmp_dir();
+    let file = dir.path().join("ctrlc.csv");
     let child = Command::new(env!("CARGO_BIN_EXE_pamctl"))
         .args(["--device", &d.address, "record", file.to_str().unwrap()])
         .stdout(std::process::Stdio::piped())

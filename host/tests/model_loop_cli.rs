@@ -14,7 +14,8 @@ fn json(s: &str) -> serde_json::Value {
 
 #[test]
 fn diagnose_json_follows_the_schema_and_names_the_hidden_effect() {
-    let d = tmpdir("diag");
+    let dir = tmpdir("diag");
+    let d = dir.path();
     let log = d.join("friction.csv");
     write_log(
         &log,
@@ -73,7 +74,8 @@ fn diagnose_json_follows_the_schema_and_names_the_hidden_effect() {
 
 #[test]
 fn fit_and_compare_report_errors_before_and_after() {
-    let d = tmpdir("fit");
+    let dir = tmpdir("fit");
+    let d = dir.path();
     let log = d.join("v2.csv");
     write_log(
         &log,
@@ -132,7 +134,8 @@ fn fit_and_compare_report_errors_before_and_after() {
 
 #[test]
 fn ident_commands_reproduce_the_simulated_matrices() {
-    let d = tmpdir("ident");
+    let dir = tmpdir("ident");
+    let d = dir.path();
     let log = d.join("dyn.csv");
     write_log(
         &log,
@@ -191,7 +194,8 @@ fn ident_commands_reproduce_the_simulated_matrices() {
 
 #[test]
 fn malformed_logs_give_file_line_column_errors_not_panics() {
-    let d = tmpdir("bad");
+    let dir = tmpdir("bad");
+    let d = dir.path();
     let head = "t_s,alpha1_rad,alpha2_rad,fx_n,fy_n,i1_ma,i2_ma,i3_ma,i4_ma\n";
     let good_row = |t: f64| format!("{t},0,0,0.1,0.2,12,12,12,12\n");
     let cases: Vec<(&str, String, &str)> = vec![

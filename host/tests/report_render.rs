@@ -42,8 +42,12 @@ fn chromium() -> PathBuf {
 
 #[test]
 fn diagnose_report_renders_in_headless_chromium() {
-    let dir = std::env::temp_dir().join(format!("pamctl-report-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    // removed when the test ends, pass or fail, after Chromium has exited
+    let tmp = tempfile::Builder::new()
+        .prefix("pamctl-report-")
+        .tempdir()
+        .unwrap();
+    let dir = tmp.path();
     let log = dir.join("friction.csv");
     write_log(
         &log,

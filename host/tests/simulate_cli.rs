@@ -36,7 +36,8 @@ fn simulate(out: &Path, seed: &str) -> String {
 
 #[test]
 fn a_seeded_trial_with_a_hidden_effect_is_a_log_and_is_reproducible() {
-    let d = tmpdir("simulate");
+    let dir = tmpdir("simulate");
+    let d = dir.path();
     let (a, b, c) = (d.join("a.csv"), d.join("b.csv"), d.join("c.csv"));
     let said = simulate(&a, "5");
     simulate(&b, "5");
@@ -80,12 +81,12 @@ fn a_seeded_trial_with_a_hidden_effect_is_a_log_and_is_reproducible() {
     spec.effects = vec![EFFECT.into()];
     spec.seed = 5;
     assert_eq!(text(&a), run_trial(&spec).unwrap().to_csv_string());
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
 fn bad_values_are_clear_errors() {
-    let out = tmpdir("simulate-bad").join("x.csv");
+    let dir = tmpdir("simulate-bad");
+    let out = dir.path().join("x.csv");
     let out = out.to_str().unwrap();
     // refused by the parser (exit 2), naming the flag and the value
     let (code, _, err) = pamctl(&["simulate", "--experiment", "sideways", "--out", out]);
@@ -174,7 +175,8 @@ fn help_and_effect_list() {
 
 #[test]
 fn closed_loop_force_step_is_a_log_that_meets_the_step_goals() {
-    let d = tmpdir("simulate_cl");
+    let dir = tmpdir("simulate_cl");
+    let d = dir.path();
     let out = d.join("step_cl.csv");
     let (code, _, err) = pamctl(&[
         "simulate",
@@ -202,7 +204,8 @@ fn closed_loop_force_step_is_a_log_that_meets_the_step_goals() {
 
 #[test]
 fn impedance_trial_then_ident_dynamic_finds_the_commanded_k() {
-    let d = tmpdir("simulate_imp");
+    let dir = tmpdir("simulate_imp");
+    let d = dir.path();
     let out = d.join("imp.csv");
     let path = out.to_str().unwrap();
     let (code, _, err) = pamctl(&[

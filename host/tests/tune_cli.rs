@@ -18,7 +18,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// than the designed one on this rig.
 #[test]
 fn tune_proposes_a_gain_whose_predicted_settling_the_twin_shows() {
-    let d = tmpdir("tune");
+    let dir = tmpdir("tune");
+    let d = dir.path();
     let open = d.join("open.csv");
     let sim = |extra: &[&str], out: &std::path::Path| {
         let mut args = vec![

@@ -400,6 +400,7 @@ pub fn assert_explicit_imports(src: impl AsRef<Path>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tempfile::TempDir;
 
     fn write(dir: &Path, files: &[(&str, &str)]) {
         for (p, t) in files {
@@ -409,17 +410,21 @@ mod tests {
         }
     }
 
-    fn tmp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("pam-modgraph-{name}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&d);
-        d
+    /// A fresh directory; keep the guard for the whole test: it is removed when the test
+    /// ends, pass or fail.
+    fn tmp(name: &str) -> TempDir {
+        tempfile::Builder::new()
+            .prefix(&format!("pam-modgraph-{name}-"))
+            .tempdir()
+            .unwrap()
     }
 
     #[test]
     fn finds_a_circle_through_siblings_and_inline_paths() {
-        let d = tmp("circle");
+        let dir = tmp("circle");
+        let d = dir.path();
         write(
-            &d,
+            d,
             &[
                 ("lib.rs", "mod a;\nmod b;\n"),
                 ("a/mod.rs", "mod x;\nmod y;\n"),
@@ -428,7 +433,7 @@ mod tests {
                 ("b.rs", "use crate::a::{x::k, self};\n"),
             ],
         );
-        let cycles = Graph::read(&d).cycles();
+        let cycles = Graph::read(d).cycles();
         assert_eq!(cycles.len(), 1, "{cycles:?}");
         assert_eq!(cycles[0].first(), cycles[0].last());
         assert_eq!(cycles[0].len(), 4, "{cycles:?}");
@@ -436,9 +441,10 @@ mod tests {
 
     #[test]
     fn a_child_may_use_its_parent_and_tests_do_not_count() {
-        let d = tmp("layers");
+        let dir = tmp("layers");
+        let d = dir.path();
         write(
-            &d,
+            d,
             &[
                 ("lib.rs", "mod a;\nmod b;\nmod c;\npub use a::Thing;\n"),
                 ("c.rs", "pub fn k() {}\n"),
@@ -447,7 +453,7 @@ mod tests {
                 ("b.rs", "#[cfg(test)]\nmod t;\npub fn g() {}\n#[cfg(test)]\nmod tests {\n use crate::a::x::f;\n}\nfn h() { crate::c::k() }\n"),
             ],
         );
-        let g = Graph::read(&d);
+        let g = Graph::read(d);
         assert!(g.cycles().is_empty(), "{:?}", g.cycles());
         assert!(g.globs.is_empty());
         assert!(g.edges["a::x"].contains("b"));
@@ -461,14 +467,15 @@ mod tests {
 
     #[test]
     fn refuses_glob_imports() {
-        let d = tmp("globs");
+        let dir = tmp("globs");
+        let d = dir.path();
         write(
-            &d,
+            d,
             &[
                 ("lib.rs", "mod a;\npub use a::*;\n"),
                 ("a.rs", "use super::*;\n"),
             ],
         );
-        assert_eq!(Graph::read(&d).globs.len(), 2);
+        assert_eq!(Graph::read(d).globs.len(), 2);
     }
 }

@@ -3,8 +3,9 @@
 #![allow(dead_code)] // each test file uses its own part
 
 use pam_ident::Trial;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
+use tempfile::TempDir;
 
 /// Runs pamctl; (exit code, stdout, stderr).
 pub fn pamctl(args: &[&str]) -> (i32, String, String) {
@@ -19,10 +20,13 @@ pub fn pamctl(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-pub fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pamctl-loop-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh directory for a test's files; keep the guard for the whole test: it is removed
+/// when the test ends, pass or fail.
+pub fn tmpdir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("pamctl-loop-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// Writes a trial as a format-v1 log (currents at a constant pretension).
