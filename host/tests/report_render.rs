@@ -7,7 +7,7 @@ mod cli;
 #[path = "../../host-libs/model-loop/tests/common/mod.rs"]
 mod common;
 
-use cli::write_log;
+use cli::{tmpdir, write_log};
 use common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -43,10 +43,7 @@ fn chromium() -> PathBuf {
 #[test]
 fn diagnose_report_renders_in_headless_chromium() {
     // removed when the test ends, pass or fail, after Chromium has exited
-    let tmp = tempfile::Builder::new()
-        .prefix("pamctl-report-")
-        .tempdir()
-        .unwrap();
+    let tmp = tmpdir("report");
     let dir = tmp.path();
     let log = dir.join("friction.csv");
     write_log(
