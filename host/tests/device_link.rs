@@ -1,14 +1,15 @@
 //! pamctl against an in-process test device (pam-device over TCP, fake plant): every
 //! device subcommand, the link client, error messages and exit codes.
 
+mod cli;
 mod support;
 
+use cli::tmpdir;
 use pam_link::{Client, DropCounter, LinkError};
 use pam_protocol::{ErrorCode, ReplyData, RequestBody};
 use std::process::{Command, Output};
 use std::time::Duration;
 use support::{Options, TestDevice};
-use tempfile::TempDir;
 
 fn pamctl(device: &str, args: &[&str]) -> (i32, String, String) {
     let out: Output = Command::new(env!("CARGO_BIN_EXE_pamctl"))
@@ -36,15 +37,6 @@ fn fails(device: &str, args: &[&str]) -> String {
     assert_eq!(code, 1, "pamctl {args:?} should fail");
     assert!(err.starts_with("error: "), "{err}");
     err
-}
-
-/// A fresh directory for a test's files; keep the guard for the whole test: it is removed
-/// when the test ends, pass or fail.
-fn tmp_dir() -> TempDir {
-    tempfile::Builder::new()
-        .prefix("pamctl-test-")
-        .tempdir()
-        .unwrap()
 }
 
 #[test]
@@ -317,7 +309,7 @@ fn config_get_set_save_load() {
         "{out}"
     );
     assert!(!out.contains("[robot]"));
-    let dir = tmp_dir();
+    let dir = tmpdir("config");
     let saved = dir.path().join("saved.toml");
     ok(&d.address, &["config", "save", saved.to_str().unwrap()]);
     let text = std::fs::read_to_string(&saved).unwrap();
@@ -392,7 +384,7 @@ fn seq_gaps(log: &pam_log::Log) -> usize {
 #[test]
 fn record_for_a_duration_writes_a_valid_log_without_gaps() {
     let d = TestDevice::start(Options::default());
-    let dir = tmp_dir();
+    let dir = tmpdir("record");
     let file = dir.path().join("rec.csv");
     let out = ok(
         &d.address,
@@ -429,7 +421,7 @@ fn record_for_a_duration_writes_a_valid_log_without_gaps() {
 fn record_in_force_mode_has_the_force_reference() {
     let d = TestDevice::start(Options::default());
     ok(&d.address, &["set", "force", "--force-n", "5,-2"]);
-    let dir = tmp_dir();
+    let dir = tmpdir("force");
     let file = dir.path().join("force.csv");
     ok(
         &d.address,
@@ -453,7 +445,7 @@ fn record_in_force_mode_has_the_force_reference() {
 #[test]
 fn ctrl_c_ends_a_recording_with_a_valid_file() {
     let d = TestDevice::start(Options::default());
-    let dir = tmp_dir();
+    let dir = tmpdir("ctrl-c");
     let file = dir.path().join("ctrlc.csv");
     let child = Command::new(env!("CARGO_BIN_EXE_pamctl"))
         .args(["--device", &d.address, "record", file.to_str().unwrap()])

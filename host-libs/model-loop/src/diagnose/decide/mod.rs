@@ -368,8 +368,9 @@ impl<'l, 'a> Judge<'l, 'a> {
         // by a fit of the folds that never saw it. The steps of one fold share that fit and
         // every two folds share most of their training steps, so the gains are not
         // independent: the t-test takes `fold_test`'s correction for cross-validated folds
-        // (about twice the variance of independent gains), and the signed-rank test, which
-        // would count the steps independent, does not decide here
+        // (about twice the variance of independent gains). The signed-rank test, its null
+        // widened by the same factor, does not decide here: over the steps a family must
+        // pass on its mean gain
         let cv = if accepted && !held_decisive {
             self.lp.step_cv(&[e]).map(|(b, w)| fold_test(&b, &w, true))
         } else {
